@@ -1,0 +1,278 @@
+"""Discrete Dynamic Movement Primitives, one per Cartesian axis (paper Eqs. 6-13, 15, 18-21).
+
+Pure numpy; nothing here needs Drake. Each paper equation lives in exactly one function
+below, named in its docstring. The Drake DMP source system calls `transformation_rates`
+and `canonical_phase_rate`; the offline rollout integrates the very same functions.
+
+Defaults (the paper leaves them open):
+- alpha = 25, beta = alpha / 4 (critically damped transformation system),
+- alpha_s = 4, so the phase has decayed to exp(-4) ~ 0.018 at t = tau,
+- N = 30 basis functions, centres equally spaced in *time* over [0, tau] and mapped
+  through s(t) = exp(-alpha_s t / tau), widths h_n = 2 / (c_{n+1} - c_n)^2 so that
+  neighbouring kernels cross at exp(-1) of their peak.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+# Axes with |g - p0| below this fraction of the demonstration's range are "g ~ p0" axes
+# (SPEC section 2): their Eq. 13 amplitude would vanish, so the range is used instead.
+DEGENERATE_GOAL_FRACTION = 0.1
+
+
+@dataclass(frozen=True)
+class DmpSettings:
+    """Shape parameters of the DMP and of the shared phase basis.
+
+    n_basis: N, the number of radial basis functions per axis.
+    alpha, beta: gains of the transformation system (Eq. 15); beta defaults to alpha/4.
+    alpha_s: decay rate of the canonical system (Eq. 8).
+    smoothing_s: std-dev (seconds) of the zero-phase Gaussian smoothing applied to a
+        demonstration before differentiation; 0 turns smoothing off.
+    """
+
+    n_basis: int = 30
+    alpha: float = 25.0
+    beta: float | None = None
+    alpha_s: float = 4.0
+    smoothing_s: float = 0.01
+
+    def __post_init__(self):
+        if self.n_basis < 2:
+            raise ValueError(f"n_basis must be at least 2, got {self.n_basis}")
+        if self.alpha <= 0 or self.alpha_s <= 0:
+            raise ValueError("alpha and alpha_s must be positive")
+        if self.beta is None:
+            object.__setattr__(self, "beta", self.alpha / 4.0)
+        if self.beta <= 0:
+            raise ValueError("beta must be positive")
+        if self.smoothing_s < 0:
+            raise ValueError("smoothing_s must be >= 0")
+
+
+# --------------------------------------------------------------------------------------
+# Canonical system and basis
+# --------------------------------------------------------------------------------------
+
+
+def canonical_phase_rate(s, tau, alpha_s):
+    """Eq. 8: tau * ds/dt = -alpha_s * s; returns ds/dt."""
+    return -alpha_s * s / tau
+
+
+def phase_at(t, tau, alpha_s):
+    """The closed-form solution s(t) = exp(-alpha_s t / tau) of Eq. 8 with s(0) = 1."""
+    return np.exp(-alpha_s * np.asarray(t, dtype=float) / tau)
+
+
+def basis_centers_and_widths(n_basis, alpha_s):
+    """Centres c_n equally spaced in time, mapped through s(t); widths from the spacing."""
+    centers = phase_at(np.linspace(0.0, 1.0, n_basis), 1.0, alpha_s)
+    spacing = np.abs(np.diff(centers))
+    spacing = np.append(spacing, spacing[-1])
+    widths = 2.0 / spacing**2
+    return centers, widths
+
+
+def rbf_activations(s, centers, widths):
+    """Eq. 10: omega_n(s) = exp(-0.5 h_n (s - c_n)^2). s scalar -> (N,), s (T,) -> (T, N)."""
+    s = np.asarray(s, dtype=float)
+    return np.exp(-0.5 * widths * (s[..., None] - centers) ** 2)
+
+
+def normalized_basis(s, centers, widths):
+    """Eq. 16: [g(s)]_n = omega_n(s) / sum_k omega_k(s), the compliant-profile basis."""
+    omega = rbf_activations(s, centers, widths)
+    return omega / np.sum(omega, axis=-1, keepdims=True)
+
+
+def forcing_basis(s, centers, widths, amplitude):
+    """Eq. 13: [g_p(s)]_n = omega_n(s) s (g - p0) / sum_k omega_k(s).
+
+    `amplitude` is (g - p0) per axis, or the documented substitute on a g ~ p0 axis
+    (see `Dmp.amplitude`). Shapes: s scalar and amplitude (M,) -> (M, N).
+    """
+    g = normalized_basis(s, centers, widths)
+    s = np.asarray(s, dtype=float)
+    return (g * s[..., None])[..., None, :] * np.asarray(amplitude, dtype=float)[:, None]
+
+
+# --------------------------------------------------------------------------------------
+# Transformation system
+# --------------------------------------------------------------------------------------
+
+
+def transformation_rates(p, z, forcing, goal, tau, alpha, beta):
+    """Eqs. 15 and 7: tau z' = alpha (beta (g - p) - z) + f,  tau p' = z.
+
+    `forcing` is f = theta_p . g_p(s) per axis. Returns (dp/dt, dz/dt).
+    """
+    zdot = (alpha * (beta * (goal - p) - z) + forcing) / tau
+    pdot = z / tau
+    return pdot, zdot
+
+
+def forcing_target(p, pdot, pddot, goal, tau, alpha, beta):
+    """Eq. 19: f_target = tau^2 p'' + alpha tau p' - alpha beta (g - p)."""
+    return tau**2 * pddot + alpha * tau * pdot - alpha * beta * (goal - p)
+
+
+def fit_forcing_weights(features, targets, ridge=1e-9):
+    """Eq. 21: theta_p = argmin ||f_target - theta_p . g_p||^2, one axis.
+
+    Solved as regularized least squares over all samples at once (not per-kernel LWR):
+    the ridge term is relative to the feature energy and only guards against kernels that
+    see almost no samples. features: (T, N); targets: (T,). Returns (N,).
+    """
+    gram = features.T @ features
+    reg = ridge * np.trace(gram) / gram.shape[0]
+    return np.linalg.solve(gram + reg * np.eye(gram.shape[0]), features.T @ targets)
+
+
+# --------------------------------------------------------------------------------------
+# Demonstration preprocessing
+# --------------------------------------------------------------------------------------
+
+
+def _smooth(values, sigma_samples):
+    """Zero-phase Gaussian smoothing with odd reflection at both ends.
+
+    Odd reflection (2 p_0 - p_k) keeps the end values and end slopes, so the start and goal
+    of a demonstration are not pulled inward as plain zero/even padding would.
+    """
+    if sigma_samples <= 0 or len(values) < 3:
+        return values
+    half = min(int(np.ceil(4 * sigma_samples)), len(values) - 1)
+    kernel = np.exp(-0.5 * (np.arange(-half, half + 1) / sigma_samples) ** 2)
+    kernel /= kernel.sum()
+    head = 2 * values[0] - values[half:0:-1]
+    tail = 2 * values[-1] - values[-2 : -half - 2 : -1]
+    return np.convolve(np.concatenate([head, values, tail]), kernel, mode="valid")
+
+
+def resample_and_differentiate(t, positions, smoothing_s, dt=None):
+    """Uniform resampling, smoothing and derivatives of a (possibly uneven, noisy) demo.
+
+    1. Linear interpolation onto a uniform grid with the demonstration's median spacing
+       (capped at 10 ms), starting at t[0].
+    2. Zero-phase Gaussian smoothing of the positions (std-dev `smoothing_s`).
+    3. Central differences (np.gradient) for velocity and acceleration.
+    Returns (t_uniform - t[0], p, pdot, pddot), p of shape (T, M).
+    """
+    t = np.asarray(t, dtype=float)
+    positions = np.asarray(positions, dtype=float).reshape(len(t), -1)
+    if dt is None:
+        dt = min(float(np.median(np.diff(t))), 0.01)
+    n = int(round((t[-1] - t[0]) / dt)) + 1
+    grid = np.linspace(t[0], t[-1], n)
+    dt = grid[1] - grid[0]
+    p = np.column_stack([np.interp(grid, t, positions[:, m]) for m in range(positions.shape[1])])
+    p = np.column_stack([_smooth(p[:, m], smoothing_s / dt) for m in range(p.shape[1])])
+    pdot = np.gradient(p, dt, axis=0)
+    pddot = np.gradient(pdot, dt, axis=0)
+    return grid - grid[0], p, pdot, pddot
+
+
+# --------------------------------------------------------------------------------------
+# The DMP of a whole demonstration
+# --------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Dmp:
+    """A fitted per-axis DMP.
+
+    theta_p: (M, N) forcing weights. amplitude: (M,) the Eq. 13 amplitude used in the fit.
+    goal_scaled: (M,) bool; True where the amplitude is (g - p0) and scales with a new
+    goal, False on a g ~ p0 axis, where the amplitude is the demonstration's range on that
+    axis and stays fixed (Hoffmann/Pastor-style; a new goal then shifts the end point but
+    does not rescale the shape).
+    """
+
+    settings: DmpSettings
+    tau: float
+    start: np.ndarray
+    goal: np.ndarray
+    theta_p: np.ndarray
+    amplitude: np.ndarray
+    goal_scaled: np.ndarray
+    axis_names: tuple[str, ...]
+
+    @property
+    def n_axes(self):
+        return len(self.axis_names)
+
+    @property
+    def basis(self):
+        return basis_centers_and_widths(self.settings.n_basis, self.settings.alpha_s)
+
+    @classmethod
+    def fit(cls, t, positions, axis_names, settings=DmpSettings()):
+        """Table I step II: fit theta_p to a demonstration (Eqs. 18-21), tau = its duration."""
+        t_u, p, pdot, pddot = resample_and_differentiate(t, positions, settings.smoothing_s)
+        tau = float(t_u[-1])
+        start, goal = p[0].copy(), p[-1].copy()
+        span = np.ptp(p, axis=0)
+        goal_scaled = np.abs(goal - start) >= DEGENERATE_GOAL_FRACTION * np.maximum(span, 1e-12)
+        amplitude = np.where(goal_scaled, goal - start, np.maximum(span, 1e-12))
+        centers, widths = basis_centers_and_widths(settings.n_basis, settings.alpha_s)
+        s = phase_at(t_u, tau, settings.alpha_s)
+        theta_p = np.zeros((p.shape[1], settings.n_basis))
+        for m in range(p.shape[1]):
+            features = forcing_basis(s, centers, widths, amplitude[m : m + 1])[:, 0, :]
+            target = forcing_target(p[:, m], pdot[:, m], pddot[:, m], goal[m], tau,
+                                    settings.alpha, settings.beta)
+            theta_p[m] = fit_forcing_weights(features, target)
+        return cls(settings, tau, start, goal, theta_p, amplitude, goal_scaled, tuple(axis_names))
+
+    def with_goal(self, goal):
+        """The same skill aimed at a new goal (amplitudes of goal-scaled axes follow it)."""
+        goal = np.asarray(goal, dtype=float).reshape(self.n_axes)
+        return dataclasses.replace(self, goal=goal)
+
+    def current_amplitude(self):
+        """Eq. 13 amplitude for the present goal: g - p0, or the fixed range on g ~ p0 axes."""
+        return np.where(self.goal_scaled, self.goal - self.start, self.amplitude)
+
+    def rates(self, p, z, s, tau=None):
+        """Time derivatives (p', z', s') of the DMP state, Eqs. 7, 8, 13, 15."""
+        tau = self.tau if tau is None else tau
+        centers, widths = self.basis
+        forcing = np.sum(self.theta_p * forcing_basis(s, centers, widths, self.current_amplitude()), axis=1)
+        pdot, zdot = transformation_rates(p, z, forcing, self.goal, tau,
+                                          self.settings.alpha, self.settings.beta)
+        return pdot, zdot, canonical_phase_rate(s, tau, self.settings.alpha_s)
+
+    def rollout(self, duration=None, dt=0.001, tau=None):
+        """Integrate the DMP (classic RK4) from its start; returns t, p, pdot, pddot, s.
+
+        tau defaults to the demonstration's duration; another tau is temporal scaling.
+        duration defaults to tau.
+        """
+        tau = self.tau if tau is None else float(tau)
+        duration = tau if duration is None else float(duration)
+        n = int(round(duration / dt)) + 1
+        p, z, s = self.start.astype(float).copy(), np.zeros(self.n_axes), 1.0
+        out_p = np.empty((n, self.n_axes))
+        out_v = np.empty((n, self.n_axes))
+        out_a = np.empty((n, self.n_axes))
+        out_s = np.empty(n)
+
+        def f(state):
+            return self.rates(state[0], state[1], state[2], tau)
+
+        for k in range(n):
+            pdot, zdot, sdot = f((p, z, s))
+            out_p[k], out_v[k], out_a[k], out_s[k] = p, pdot, zdot / tau, s
+            k1 = (pdot, zdot, sdot)
+            k2 = f((p + 0.5 * dt * k1[0], z + 0.5 * dt * k1[1], s + 0.5 * dt * k1[2]))
+            k3 = f((p + 0.5 * dt * k2[0], z + 0.5 * dt * k2[1], s + 0.5 * dt * k2[2]))
+            k4 = f((p + dt * k3[0], z + dt * k3[1], s + dt * k3[2]))
+            p = p + dt / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
+            z = z + dt / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
+            s = s + dt / 6 * (k1[2] + 2 * k2[2] + 2 * k3[2] + k4[2])
+        return np.arange(n) * dt, out_p, out_v, out_a, out_s

@@ -1,0 +1,224 @@
+"""Typed scenario configuration, loaded from YAML with `pydrake.common.yaml`.
+
+A scenario reuses Drake's own config structs where one exists (MultibodyPlantConfig,
+SimulatorConfig, ModelDirective) and adds only what is this project's own: the task,
+the reference motion, the phase basis and the controllers to compare. Controllers are a
+name -> tagged config map, e.g. ``hlcmp: !HlcmpConfig {q_k: [2000], ...}``.
+"""
+
+
+import dataclasses as dc
+import math
+import re
+from pathlib import Path
+from typing import Union
+
+from pydrake.common.yaml import yaml_load_typed
+from pydrake.multibody.parsing import ModelDirective
+from pydrake.multibody.plant import MultibodyPlantConfig
+from pydrake.systems.analysis import SimulatorConfig
+
+from hlcmp_drake.errors import InputError
+from hlcmp_drake.paths import DIAGRAMS_DIR, bundled_scenarios
+
+
+@dc.dataclass
+class BasisConfig:
+    """The phase basis shared by the DMP (Eq. 13) and the compliant profiles (Eq. 16)."""
+
+    n_basis: int = 10
+    alpha_s: float = 4.0
+
+
+@dc.dataclass
+class StepReferenceConfig:
+    """Piecewise-constant set-points: positions_m[k] holds from times_s[k] on."""
+
+    times_s: list[float] = dc.field(default_factory=lambda: [0.0])
+    positions_m: list[list[float]] = dc.field(default_factory=lambda: [[0.0]])
+
+
+@dc.dataclass
+class HlcmpConfig:
+    """The Hl-CMP learner: learning rates Q per axis (Eq. 31), pi (Eq. 29), L (Eq. 34),
+    and the initial value of every weight of theta_k, theta_d, theta_v."""
+
+    q_k: list[float] = dc.field(default_factory=list)
+    q_d: list[float] = dc.field(default_factory=list)
+    q_v: list[float] = dc.field(default_factory=list)
+    pi: float = 5.0
+    gain_l: list[float] = dc.field(default_factory=list)
+    theta_k0: float = 0.0
+    theta_d0: float = 0.0
+    theta_v0: float = 0.0
+
+
+@dc.dataclass
+class ConstantImpedanceConfig:
+    """Fixed diagonal stiffness/damping in the same structure (Eqs. 33-34 with v = 0)."""
+
+    stiffness_N_per_m: list[float] = dc.field(default_factory=list)
+    damping_Ns_per_m: list[float] = dc.field(default_factory=list)
+    pi: float = 5.0
+    gain_l: list[float] = dc.field(default_factory=list)
+
+
+@dc.dataclass
+class VariableImpedanceConfig:
+    """Duan et al. 2018 force-tracking variable impedance (the paper's ref. [21]).
+
+    desired_force_N is the desired reaction force per axis while the task asks for force
+    (the reference segments listed in `force_segments`); elsewhere f_d = 0."""
+
+    desired_force_N: list[float] = dc.field(default_factory=list)
+    force_segments: list[int] = dc.field(default_factory=lambda: [0])
+    mass_kg: list[float] = dc.field(default_factory=list)
+    damping_Ns_per_m: list[float] = dc.field(default_factory=list)
+    free_stiffness_N_per_m: list[float] = dc.field(default_factory=list)
+    sigma: float = 0.002
+    sample_period_s: float = 0.001
+    kp: list[float] = dc.field(default_factory=list)
+    kv: list[float] = dc.field(default_factory=list)
+
+
+ControllerConfig = Union[HlcmpConfig, ConstantImpedanceConfig, VariableImpedanceConfig]
+
+
+@dc.dataclass
+class SliderTask:
+    """A single-joint world (the 1-DOF experiment): the task space is the joint's body
+    position along `axis`; the elastic object is a unilateral spring at the surface."""
+
+    body: str = "body"
+    axis: int = 0
+    environment_stiffness_N_per_m: float = 10.0
+    surface_position_m: float = 0.0
+
+
+@dc.dataclass
+class Scenario:
+    name: str = ""
+    duration_s: float = 1.0
+    log_period_s: float = 0.01
+    directives: list[ModelDirective] = dc.field(default_factory=list)
+    plant_config: MultibodyPlantConfig = dc.field(default_factory=MultibodyPlantConfig)
+    simulator_config: SimulatorConfig = dc.field(default_factory=SimulatorConfig)
+    task: Union[SliderTask] = dc.field(default_factory=SliderTask)
+    reference: Union[StepReferenceConfig] = dc.field(default_factory=StepReferenceConfig)
+    basis: BasisConfig = dc.field(default_factory=BasisConfig)
+    controllers: dict[str, ControllerConfig] = dc.field(default_factory=dict)
+    max_abs_position_m: float = 10.0
+
+    @property
+    def n_axes(self):
+        return len(self.reference.positions_m[0])
+
+
+def resolve_scenario_path(name_or_path) -> Path:
+    """A bundled scenario name (diagrams/NAME.yaml) or a path to a YAML file."""
+    path = Path(name_or_path)
+    if path.suffix in (".yaml", ".yml"):
+        if not path.is_file():
+            raise InputError(f"{path}: no such scenario file")
+        return path
+    bundled = DIAGRAMS_DIR / f"{name_or_path}.yaml"
+    if bundled.is_file():
+        return bundled
+    raise InputError(f"{name_or_path}: not a bundled scenario ({', '.join(bundled_scenarios())}) "
+                     "nor a .yaml file")
+
+
+def _line_of(text, key):
+    """1-based line where `key:` first appears in the YAML text, or None."""
+    for number, line in enumerate(text.splitlines(), start=1):
+        if re.match(rf"\s*(- )?{re.escape(key)}\s*:", line):
+            return number
+    return None
+
+
+def _yaml_error(path, text, error):
+    message = " ".join(str(error).split())
+    line = None
+    mark = re.search(r"line (\d+), column (\d+)", message)
+    if mark:
+        line = int(mark.group(1))
+        message = message.split(" in \"<unicode string>\"")[0]
+    else:
+        field = re.search(r"\['([^']+)'|for '([^']+)'|options for '([^']+)'", message)
+        if field:
+            line = _line_of(text, next(g for g in field.groups() if g))
+    return InputError(f"{path}:{line}: {message}" if line else f"{path}: {message}")
+
+
+def load_scenario(name_or_path):
+    """Load and validate a scenario; any problem is an InputError naming file and line."""
+    path = resolve_scenario_path(name_or_path)
+    text = path.read_text()
+    try:
+        scenario = yaml_load_typed(schema=Scenario, data=text)
+    except Exception as error:  # yaml errors come as several exception types
+        raise _yaml_error(path, text, error) from None
+    validate_scenario(scenario, path, text)
+    return scenario, path
+
+
+def validate_scenario(scenario: Scenario, path, text=""):
+    """Semantic checks that the YAML schema cannot express."""
+
+    def fail(key, problem):
+        line = _line_of(text, key) if text else None
+        raise InputError(f"{path}:{line}: {key}: {problem}" if line else f"{path}: {key}: {problem}")
+
+    if not scenario.name:
+        fail("name", "must be given")
+    for key in ("duration_s", "log_period_s"):
+        value = getattr(scenario, key)
+        if not (math.isfinite(value) and value > 0):
+            fail(key, f"must be a positive number, got {value}")
+    if scenario.basis.n_basis < 2:
+        fail("n_basis", f"must be at least 2, got {scenario.basis.n_basis}")
+    if not scenario.basis.alpha_s > 0:
+        fail("alpha_s", "must be positive")
+    reference = scenario.reference
+    if isinstance(reference, StepReferenceConfig):
+        if len(reference.times_s) != len(reference.positions_m) or not reference.times_s:
+            fail("times_s", "needs one entry per row of positions_m")
+        if reference.times_s[0] != 0 or any(b <= a for a, b in zip(reference.times_s, reference.times_s[1:])):
+            fail("times_s", "must start at 0 and increase")
+        if len({len(row) for row in reference.positions_m}) != 1:
+            fail("positions_m", "every row needs the same number of axes")
+    m = scenario.n_axes
+    if not scenario.controllers:
+        fail("controllers", "at least one controller is needed")
+    for name, config in scenario.controllers.items():
+        _validate_controller(name, config, m, fail)
+
+
+def _validate_controller(name, config, m, fail):
+    def per_axis(key, nonnegative=True, positive=False):
+        values = getattr(config, key)
+        if len(values) != m:
+            fail(key, f"controller '{name}' needs {m} value(s), one per axis, got {len(values)}")
+        for value in values:
+            if not math.isfinite(value) or (nonnegative and value < 0) or (positive and value <= 0):
+                kind = "positive" if positive else "non-negative"
+                fail(key, f"controller '{name}': every value must be {kind} and finite, got {value}")
+
+    if isinstance(config, (HlcmpConfig, ConstantImpedanceConfig)):
+        if not config.pi > 0:
+            fail("pi", f"controller '{name}': pi must be > 0 (Eq. 29), got {config.pi}")
+        per_axis("gain_l")
+    if isinstance(config, HlcmpConfig):
+        for key in ("q_k", "q_d", "q_v"):
+            per_axis(key)
+    elif isinstance(config, ConstantImpedanceConfig):
+        per_axis("stiffness_N_per_m")
+        per_axis("damping_Ns_per_m")
+    elif isinstance(config, VariableImpedanceConfig):
+        per_axis("desired_force_N", nonnegative=False)
+        per_axis("mass_kg", positive=True)
+        per_axis("damping_Ns_per_m", positive=True)
+        for key in ("free_stiffness_N_per_m", "kp", "kv"):
+            per_axis(key)
+        if not (config.sigma >= 0 and config.sample_period_s > 0):
+            fail("sigma", f"controller '{name}': sigma >= 0 and sample_period_s > 0 are required")

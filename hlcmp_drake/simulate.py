@@ -1,0 +1,65 @@
+"""Run one built diagram and read its loggers back as arrays."""
+
+from __future__ import annotations
+
+import dataclasses as dc
+
+import numpy as np
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
+from pydrake.systems.framework import EventStatus
+
+
+@dc.dataclass
+class RunResult:
+    """One controller's run: logged series on a common time base, and how it ended."""
+
+    controller: str
+    t: np.ndarray
+    series: dict           # name -> (T, M) array
+    status: str = "ok"     # "ok" | "unstable"
+    reason: str = ""
+    stop_time: float | None = None
+
+
+def simulate(built, scenario, controller_name, monitor_extra=None) -> RunResult:
+    """Simulate `built` (a BuiltDiagram) for scenario.duration_s.
+
+    A monitor checks every step that the plant state is finite and the task-space
+    position stays within scenario.max_abs_position_m; otherwise the run stops at once
+    with status "unstable", and the logs up to that moment are kept.
+    """
+    simulator = Simulator(built.diagram)
+    ApplySimulatorConfig(scenario.simulator_config, simulator)
+    context = simulator.get_mutable_context()
+    plant_context = built.plant.GetMyContextFromRoot(context)
+    trouble = {}
+
+    def monitor(root_context):
+        state = built.plant.GetPositionsAndVelocities(plant_context)
+        problem = None
+        if not np.all(np.isfinite(state)):
+            problem = "plant state is not finite"
+        elif np.max(np.abs(state[: built.plant.num_positions()])) > scenario.max_abs_position_m:
+            problem = f"position beyond {scenario.max_abs_position_m} m/rad"
+        elif monitor_extra is not None:
+            problem = monitor_extra(root_context)
+        if problem:
+            trouble.update(reason=problem, time=root_context.get_time())
+            return EventStatus.ReachedTermination(built.diagram, problem)
+        return EventStatus.DidNothing()
+
+    simulator.set_monitor(monitor)
+    simulator.Initialize()
+    try:
+        simulator.AdvanceTo(scenario.duration_s)
+    except RuntimeError as error:  # e.g. the integrator failing on a diverging state
+        trouble.setdefault("reason", " ".join(str(error).split())[:300])
+        trouble.setdefault("time", context.get_time())
+    series, t = {}, None
+    for name, logger in built.loggers.items():
+        log = logger.FindLog(context)
+        t = log.sample_times() if t is None else t
+        series[name] = log.data().T.copy()
+    if trouble:
+        return RunResult(controller_name, t, series, "unstable", trouble["reason"], trouble["time"])
+    return RunResult(controller_name, t, series)

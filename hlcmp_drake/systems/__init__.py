@@ -1,0 +1,1 @@
+"""Drake LeafSystems: references, controllers and the task-space plumbing around the plant."""

@@ -1,0 +1,103 @@
+"""Baseline controllers as Drake systems: constant impedance and the variable-impedance
+controller of Duan et al. 2018 standing in for the paper's ref. [21] (see
+`hlcmp_drake.baselines` for its equations and citation)."""
+
+import numpy as np
+from pydrake.systems.framework import BasicVector, LeafSystem
+
+from hlcmp_drake.baselines import (duan_adaptation_step, duan_admittance_acceleration,
+                                   duan_force_error, inner_position_loop)
+from hlcmp_drake.control_law import (commanded_force, impedance_force, nominal_force,
+                                     reference_motion, sliding_error, tracking_errors)
+from hlcmp_drake.systems.ports import declare_task_space_inputs
+
+
+class ConstantImpedanceController(LeafSystem):
+    """The Hl-CMP control structure with fixed profiles: f_c = f_0 - K_s e - K_d e'
+    (Eqs. 33-34 with v = 0 and constant diagonal K_s, K_d), so that a comparison with
+    the Hl-CMP differs only in whether the impedance is learned."""
+
+    def __init__(self, stiffness, damping, pi, gain_l):
+        super().__init__()
+        self._k_s = np.asarray(stiffness, dtype=float)
+        self._k_d = np.asarray(damping, dtype=float)
+        self._pi, self._gain_l = float(pi), np.asarray(gain_l, dtype=float)
+        m = len(self._k_s)
+        self._m = m
+        self.inputs = declare_task_space_inputs(self, m)
+        self.DeclareVectorOutputPort("force", m, self._calc_force, {self.all_input_ports_ticket()})
+
+    def _calc_force(self, context, output):
+        x, xdot, xd, xd_dot, xd_ddot = self.inputs.errors_and_reference(context)
+        inertia, coriolis, gravity = self.inputs.dynamics(context, self._m)
+        e, edot = tracking_errors(x, xdot, xd, xd_dot)
+        eps = sliding_error(e, edot, self._pi)
+        xe_dot, xe_ddot = reference_motion(xd_dot, xd_ddot, e, edot, self._pi)
+        f0 = nominal_force(inertia, coriolis, gravity, xe_dot, xe_ddot, self._gain_l, eps)
+        output.SetFromVector(commanded_force(f0, impedance_force(self._k_s, self._k_d, e, edot),
+                                             np.zeros(self._m)))
+
+
+class VariableImpedanceController(LeafSystem):
+    """Force-tracking adaptive variable impedance (Duan et al. 2018), position based.
+
+    Continuous state: the commanded position x_c and velocity x_c' (M each), integrated
+    from the target impedance. Discrete state: Phi (M), updated every `sample_period`
+    (lambda) by Phi(t) = Phi(t - lambda) + sigma Delta_f(t - lambda) / b.
+    Extra input `external_force` (the wrist sensor's reaction force, M); desired force
+    per reference segment: `desired_force(t)` returns f_d (M), and segments with f_d = 0
+    use the plain impedance with `free_stiffness` and Phi held at zero.
+    """
+
+    def __init__(self, mass, damping, free_stiffness, sigma, sample_period, kp, kv,
+                 desired_force, initial_position):
+        super().__init__()
+        self._mass, self._damping = np.asarray(mass, float), np.asarray(damping, float)
+        self._free_stiffness, self._sigma = np.asarray(free_stiffness, float), float(sigma)
+        self._kp, self._kv = np.asarray(kp, float), np.asarray(kv, float)
+        self._desired_force = desired_force
+        m = len(self._mass)
+        self._m = m
+        self.inputs = declare_task_space_inputs(self, m)
+        self.external_force = self.DeclareVectorInputPort("external_force", BasicVector(m))
+        self.DeclareContinuousState(
+            BasicVector(np.concatenate([initial_position, np.zeros(m)])), 0, 0, 2 * m)
+        self._phi = self.DeclareDiscreteState(m)
+        self.DeclarePeriodicDiscreteUpdateEvent(sample_period, 0.0, self._update_phi)
+        self.DeclareVectorOutputPort("force", m, self._calc_force,
+                                     {self.all_input_ports_ticket(), self.all_state_ticket(),
+                                      self.time_ticket()})
+
+    def _admittance(self, context):
+        """(x_c, x_c', x_c'', Delta_f, f_d) at this context."""
+        xc_all = context.get_continuous_state_vector().CopyToVector()
+        xc, xc_dot = xc_all[: self._m], xc_all[self._m :]
+        _, _, xr, xr_dot, xr_ddot = self.inputs.errors_and_reference(context)
+        f_d = self._desired_force(context.get_time())
+        delta_f = duan_force_error(f_d, self.external_force.Eval(context))
+        tracking_force = f_d != 0
+        phi = np.where(tracking_force, context.get_discrete_state(self._phi).get_value(), 0.0)
+        stiffness = np.where(tracking_force, 0.0, self._free_stiffness)
+        delta_f = np.where(tracking_force, delta_f, 0.0)
+        e_c, e_c_dot = tracking_errors(xc, xc_dot, xr, xr_dot)
+        ec_ddot = duan_admittance_acceleration(e_c, e_c_dot, phi, delta_f, self._mass,
+                                               self._damping, stiffness)
+        return xc, xc_dot, xr_ddot + ec_ddot, delta_f, f_d
+
+    def _update_phi(self, context, discrete_state):
+        _, _, _, delta_f, f_d = self._admittance(context)
+        phi = context.get_discrete_state(self._phi).get_value()
+        new_phi = np.where(f_d != 0, duan_adaptation_step(phi, delta_f, self._sigma, self._damping), 0.0)
+        discrete_state.get_mutable_vector(self._phi).SetFromVector(new_phi)
+
+    def DoCalcTimeDerivatives(self, context, derivatives):
+        _, xc_dot, xc_ddot, _, _ = self._admittance(context)
+        derivatives.get_mutable_vector().SetFromVector(np.concatenate([xc_dot, xc_ddot]))
+
+    def _calc_force(self, context, output):
+        xc, xc_dot, xc_ddot, _, _ = self._admittance(context)
+        x, xdot = self.inputs.position.Eval(context), self.inputs.velocity.Eval(context)
+        inertia, coriolis, gravity = self.inputs.dynamics(context, self._m)
+        output.SetFromVector(inner_position_loop(
+            inertia, coriolis, gravity, xc_ddot, xc_dot, xc, x, xdot, self._kp, self._kv,
+            self.external_force.Eval(context)))

@@ -1,0 +1,31 @@
+"""Environments that are not contact geometry: the paper's 1-DOF elastic object."""
+
+import numpy as np
+from pydrake.systems.framework import BasicVector, LeafSystem
+
+
+def unilateral_spring_force(x, surface, stiffness):
+    """Reaction of an elastic object occupying x < surface: k (surface - x) when the body
+    has penetrated it, zero otherwise (the object pulls nothing). 1-DOF experiment, Fig. 13."""
+    return np.where(x < surface, stiffness * (surface - x), 0.0)
+
+
+class UnilateralSpring(LeafSystem):
+    """The 1-DOF experiment's object as a generalized force on a single-joint plant.
+
+    Input `plant_state` [q, v]; outputs `generalized_force` (to the plant's
+    applied_generalized_force port) and `reaction_force` (what a force sensor between the
+    body and the object reads, logged as f_ext).
+    """
+
+    def __init__(self, surface, stiffness):
+        super().__init__()
+        self._surface, self._stiffness = float(surface), float(stiffness)
+        self.plant_state = self.DeclareVectorInputPort("plant_state", BasicVector(2))
+        prereq = {self.all_input_ports_ticket()}
+        self.DeclareVectorOutputPort("generalized_force", 1, self._calc, prereq)
+        self.DeclareVectorOutputPort("reaction_force", 1, self._calc, prereq)
+
+    def _calc(self, context, output):
+        q = self.plant_state.Eval(context)[0]
+        output.SetFromVector([unilateral_spring_force(q, self._surface, self._stiffness)])

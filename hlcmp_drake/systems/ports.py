@@ -1,0 +1,55 @@
+"""The port layout shared by every task-space controller, so they are interchangeable."""
+
+from dataclasses import dataclass
+
+from pydrake.systems.framework import BasicVector, InputPort, LeafSystem
+
+
+@dataclass(frozen=True)
+class TaskSpaceInputs:
+    """Input ports of a task-space controller (all sizes in task-space axes M)."""
+
+    position: InputPort
+    velocity: InputPort
+    desired_position: InputPort
+    desired_velocity: InputPort
+    desired_acceleration: InputPort
+    phase: InputPort
+    inertia: InputPort
+    coriolis: InputPort
+    gravity: InputPort
+
+    def errors_and_reference(self, context):
+        """Evaluate the measured and desired motion: (x, x', x_d, x_d', x_d'')."""
+        return (self.position.Eval(context), self.velocity.Eval(context),
+                self.desired_position.Eval(context), self.desired_velocity.Eval(context),
+                self.desired_acceleration.Eval(context))
+
+    def dynamics(self, context, n_axes):
+        """Evaluate the task-space M (M x M), C (M x M) and G (M,) supplied by Drake."""
+        return (self.inertia.Eval(context).reshape(n_axes, n_axes),
+                self.coriolis.Eval(context).reshape(n_axes, n_axes),
+                self.gravity.Eval(context))
+
+
+def declare_task_space_inputs(system: LeafSystem, n_axes: int) -> TaskSpaceInputs:
+    """Declare the standard controller inputs on `system`.
+
+    position, velocity: measured task-space x, x'. desired_*: x_d, x_d', x_d'' from the
+    reference (DMP source). phase: the canonical phase s. inertia, coriolis: row-major
+    M x M task-space matrices, gravity: the task-space G, all from TaskSpaceDynamics.
+    """
+    def vec(name, size):
+        return system.DeclareVectorInputPort(name, BasicVector(size))
+
+    return TaskSpaceInputs(
+        position=vec("position", n_axes),
+        velocity=vec("velocity", n_axes),
+        desired_position=vec("desired_position", n_axes),
+        desired_velocity=vec("desired_velocity", n_axes),
+        desired_acceleration=vec("desired_acceleration", n_axes),
+        phase=vec("phase", 1),
+        inertia=vec("task_inertia", n_axes * n_axes),
+        coriolis=vec("task_coriolis", n_axes * n_axes),
+        gravity=vec("task_gravity", n_axes),
+    )
