@@ -111,11 +111,11 @@ def log(builder, loggers, name, port, period):
     loggers[name] = logger
 
 
-def build_slider_diagram(scenario: Scenario, controller_name: str, meshcat=None) -> BuiltDiagram:
+def build_slider_diagram(scenario: Scenario, controller_name: str) -> BuiltDiagram:
     """The 1-DOF experiment: one prismatic joint, the unilateral spring, one controller."""
     task: SliderTask = scenario.task
     builder = DiagramBuilder()
-    plant, scene_graph = add_plant(builder, scenario)
+    plant, _ = add_plant(builder, scenario)
     frame = plant.GetBodyByName(task.body).body_frame()
     task_space = builder.AddSystem(TaskSpaceDynamics(plant, frame, axes=[task.axis]))
     task_space.set_name("task_space")
@@ -139,15 +139,13 @@ def build_slider_diagram(scenario: Scenario, controller_name: str, meshcat=None)
     builder.Connect(controller.GetOutputPort("force"), torque_map.force)
     builder.Connect(task_space.GetOutputPort("jacobian"), torque_map.jacobian)
     builder.Connect(torque_map.get_output_port(), plant.get_actuation_input_port())
-    if meshcat is not None:
-        from pydrake.geometry import MeshcatVisualizer
-        MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat)
     loggers = {}
     period = scenario.log_period_s
     log(builder, loggers, "x", task_space.GetOutputPort("position"), period)
     log(builder, loggers, "xd", reference.GetOutputPort("desired_position"), period)
     log(builder, loggers, "f_ext", spring.GetOutputPort("reaction_force"), period)
     log(builder, loggers, "fc", controller.GetOutputPort("force"), period)
+    log(builder, loggers, "plant_state", plant.get_state_output_port(), period)
     if isinstance(controller, HlcmpController):
         for name, port in [("Ks", "stiffness"), ("Kd", "damping"), ("v", "feedforward"),
                            ("eps", "sliding_error")]:

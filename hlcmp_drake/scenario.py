@@ -137,16 +137,20 @@ def _line_of(text, key):
 
 
 def _yaml_error(path, text, error):
+    """One line `file:line: problem` for whatever the YAML parser or the schema raised."""
+    mark = getattr(error, "problem_mark", None) or getattr(error, "context_mark", None)
+    if mark is not None:  # a YAML syntax error: PyYAML knows the line
+        problem = " ".join(filter(None, [getattr(error, "context", None), getattr(error, "problem", None)]))
+        return InputError(f"{path}:{mark.line + 1}: {problem}")
     message = " ".join(str(error).split())
     line = None
-    mark = re.search(r"line (\d+), column (\d+)", message)
-    if mark:
-        line = int(mark.group(1))
-        message = message.split(" in \"<unicode string>\"")[0]
-    else:
-        field = re.search(r"\['([^']+)'|for '([^']+)'|options for '([^']+)'", message)
-        if field:
-            line = _line_of(text, next(g for g in field.groups() if g))
+    field = re.search(r"\['([^']+)'|for '([^']+)'|options for '([^']+)'", message)
+    value = re.search(r": '([^']*)'$", message)
+    if field:
+        line = _line_of(text, next(g for g in field.groups() if g))
+    elif value:  # a value of the wrong type: find the line that holds it
+        line = next((n for n, row in enumerate(text.splitlines(), 1)
+                     if re.search(rf":\s*{re.escape(value.group(1))}\s*(#.*)?$", row)), None)
     return InputError(f"{path}:{line}: {message}" if line else f"{path}: {message}")
 
 

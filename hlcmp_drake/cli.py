@@ -1,0 +1,150 @@
+"""The `hlcmp` command line.
+
+    hlcmp run SCENARIO [--out DIR]           run a bundled scenario or a YAML file
+    hlcmp fit DEMO.csv --out SKILL.npz       fit the DMP of a demonstration
+    hlcmp rollout SKILL.npz --out TRAJ.csv   roll a skill's DMP out
+
+Exit codes: 0 success, 2 bad input (one line on stderr; --debug shows the traceback),
+3 a simulation went unstable (metrics.json says where and why).
+"""
+
+import argparse
+import sys
+
+import numpy as np
+
+from hlcmp_drake.errors import InputError
+
+EXIT_BAD_INPUT = 2
+EXIT_UNSTABLE = 3
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports a usage problem in one line, like every other bad input."""
+
+    def error(self, message):
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see --help)\n")
+
+
+def _floats(text, what):
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise InputError(f"{what}: expected comma-separated numbers, got '{text}'") from None
+    if not all(np.isfinite(values)):
+        raise InputError(f"{what}: values must be finite, got '{text}'")
+    return values
+
+
+def _positive(text):
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got '{text}'") from None
+    if not (np.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a positive number, got '{text}'")
+    return value
+
+
+def _basis_count(text):
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got '{text}'") from None
+    if value < 2:
+        raise argparse.ArgumentTypeError(f"needs at least 2 basis functions, got {value}")
+    return value
+
+
+def cmd_run(args):
+    from hlcmp_drake.runner import print_summary, run_scenario
+
+    def progress(message):
+        if not args.quiet:
+            print(message, file=sys.stderr, flush=True)
+
+    metrics, out_dir, table = run_scenario(args.scenario, args.out, progress)
+    print_summary(metrics, out_dir, table)
+    return EXIT_UNSTABLE if metrics["status"] != "ok" else 0
+
+
+def cmd_fit(args):
+    from hlcmp_drake.demos import read_demonstration
+    from hlcmp_drake.dmp import Dmp, DmpSettings
+    from hlcmp_drake.skill import Skill, save_skill
+
+    t, positions, axes = read_demonstration(args.demo)
+    dmp = Dmp.fit(t, positions, axes, DmpSettings(n_basis=args.basis))
+    save_skill(args.out, Skill.untrained(dmp))
+    flat = [a for a, scaled in zip(axes, dmp.goal_scaled) if not scaled]
+    print(f"fitted {len(axes)} axis DMP ({','.join(axes)}), N = {args.basis}, tau = {dmp.tau:.3f} s"
+          + (f"; g ~ p0 on {','.join(flat)}: amplitude = demonstration range" if flat else "")
+          + f" -> {args.out}")
+    return 0
+
+
+def cmd_rollout(args):
+    from hlcmp_drake.demos import write_trajectory
+    from hlcmp_drake.skill import load_skill
+
+    dmp = load_skill(args.skill).dmp
+    if args.goal is not None:
+        goal = _floats(args.goal, "--goal")
+        if len(goal) != dmp.n_axes:
+            raise InputError(f"--goal: the skill has {dmp.n_axes} axes ({','.join(dmp.axis_names)}), "
+                             f"got {len(goal)} value(s)")
+        dmp = dmp.with_goal(goal)
+    tau = args.duration or dmp.tau
+    if tau / args.dt > 2_000_000:
+        raise InputError(f"--dt {args.dt} s over {tau} s would write more than 2,000,000 samples")
+    t, p, v, _, _ = dmp.rollout(dt=args.dt, tau=tau)
+    write_trajectory(args.out, t, p, dmp.axis_names, v)
+    print(f"rolled out {len(t)} samples over {t[-1]:.3f} s -> {args.out}")
+    return 0
+
+
+def build_parser():
+    parser = _Parser(prog="hlcmp", description="Hl-CMPs: learn human-like compliant skills on Drake.")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks of errors")
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    run = sub.add_parser("run", help="run a scenario (bundled name or YAML path)")
+    run.add_argument("scenario", help="one_dof, or a path to a scenario .yaml")
+    run.add_argument("--out", help="output folder (default out/SCENARIO)")
+    run.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    run.set_defaults(func=cmd_run)
+
+    fit = sub.add_parser("fit", help="fit the DMP of a demonstration CSV (t,x,y,z)")
+    fit.add_argument("demo")
+    fit.add_argument("--out", required=True, help="skill file to write (.npz)")
+    fit.add_argument("--basis", type=_basis_count, default=30, help="basis functions N (default 30)")
+    fit.set_defaults(func=cmd_fit)
+
+    rollout = sub.add_parser("rollout", help="roll a skill's DMP out into a trajectory CSV")
+    rollout.add_argument("skill")
+    rollout.add_argument("--out", required=True, help="trajectory CSV to write")
+    rollout.add_argument("--duration", type=_positive, help="new duration tau in s (temporal scaling)")
+    rollout.add_argument("--goal", help="new goal, comma-separated, one value per axis")
+    rollout.add_argument("--dt", type=_positive, default=0.01, help="sample period in s (default 0.01)")
+    rollout.set_defaults(func=cmd_rollout)
+    return parser
+
+
+def main(argv=None):
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except InputError as error:
+        if args.debug:
+            raise
+        print(f"hlcmp: error: {error}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("hlcmp: interrupted; files already in the output folder were left as they were",
+              file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""Per-experiment evaluation: metrics, the paper's claims and figures from a set of runs."""

@@ -1,0 +1,91 @@
+"""Run every controller of a scenario and write metrics, time series and figures."""
+
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from hlcmp_drake import outputs
+from hlcmp_drake.builders import build_slider_diagram
+from hlcmp_drake.experiments import one_dof
+from hlcmp_drake.recording import record_runs
+from hlcmp_drake.scenario import SliderTask, load_scenario
+from hlcmp_drake.simulate import simulate
+
+
+def _experiment(scenario):
+    """(diagram builder, evaluation module) for the scenario's kind of world."""
+    if isinstance(scenario.task, SliderTask):
+        return build_slider_diagram, one_dof
+    raise TypeError(f"unsupported task {type(scenario.task).__name__}")  # pragma: no cover
+
+
+def run_controllers(scenario, progress=None):
+    """Build and simulate one diagram per controller; returns {name: RunResult}."""
+    build, _ = _experiment(scenario)
+    runs = {}
+    for name in scenario.controllers:
+        start = time.perf_counter()
+        runs[name] = simulate(build(scenario, name), scenario, name)
+        if progress:
+            wall = time.perf_counter() - start
+            progress(f"{name}: {runs[name].t[-1]:.2f} s simulated in {wall:.1f} s "
+                     f"({runs[name].t[-1] / wall:.2f}x real time), {runs[name].status}")
+    return runs
+
+
+def timeseries_arrays(runs):
+    """The timeseries.npz contract: `t`, and `CTRL/NAME` arrays (T x M), NaN-padded where
+    a run stopped early."""
+    longest = max(runs.values(), key=lambda r: len(r.t))
+    arrays = {"t": longest.t}
+    for name, run in runs.items():
+        for key, values in run.series.items():
+            padded = np.full((len(longest.t), values.shape[1]), np.nan)
+            padded[: len(values)] = values
+            arrays[f"{name}/{key}"] = padded
+    return arrays
+
+
+def evaluate(runs, scenario):
+    _, experiment = _experiment(scenario)
+    unstable = {n: r for n, r in runs.items() if r.status != "ok"}
+    metrics = {
+        "scenario": scenario.name,
+        "status": "unstable" if unstable else "ok",
+        "controllers": {n: experiment.controller_metrics(r, scenario) for n, r in runs.items()},
+    }
+    if unstable:
+        metrics["instability"] = {n: {"reason": r.reason, "time_s": r.stop_time}
+                                  for n, r in unstable.items()}
+        metrics["claims"] = {}
+    else:
+        metrics["claims"] = experiment.claims(metrics["controllers"], scenario)
+    return metrics
+
+
+def run_scenario(name_or_path, out_dir=None, progress=None):
+    """Load, run, evaluate and write one scenario. Returns (metrics, out_dir, table text)."""
+    scenario, _ = load_scenario(name_or_path)
+    out_dir = Path(out_dir or Path("out") / scenario.name)
+    runs = run_controllers(scenario, progress)
+    metrics = evaluate(runs, scenario)
+    _, experiment = _experiment(scenario)
+    outputs.write_npz(out_dir / "timeseries.npz", timeseries_arrays(runs))
+    if metrics["status"] == "ok":
+        for file_name, figure in experiment.figures(runs, scenario).items():
+            outputs.save_figure(out_dir / "figures" / file_name, figure)
+    if progress:
+        progress("recording the runs for the offline 3-D viewer")
+    outputs.write_text(out_dir / "recording.html", record_runs(scenario, runs))
+    outputs.write_json(out_dir / "metrics.json", metrics)
+    return metrics, out_dir, experiment.table(metrics["controllers"])
+
+
+def print_summary(metrics, out_dir, table, stream=sys.stdout):
+    print(table, file=stream)
+    for claim, result in metrics.get("claims", {}).items():
+        print(f"{claim}: {'reproduced' if result['holds'] else 'NOT reproduced'} -- {result['evidence']}",
+              file=stream)
+    print(f"status: {metrics['status']}; results in {out_dir}", file=stream)

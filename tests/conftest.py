@@ -1,0 +1,17 @@
+import numpy as np
+import pytest
+
+
+def minimum_jerk(u):
+    return 10 * u**3 - 15 * u**4 + 6 * u**5
+
+
+@pytest.fixture
+def smooth_demo():
+    """A rest-to-rest 3-axis demonstration, 2 s at 200 Hz: (t, positions (T, 3))."""
+    t = np.linspace(0.0, 2.0, 401)
+    u = t / 2.0
+    x = 0.3 * minimum_jerk(u)
+    y = 0.1 * np.sin(np.pi * u) ** 2 - 0.05 * minimum_jerk(u)
+    z = 0.2 * np.sin(np.pi * u) ** 2 * np.cos(np.pi * u) + 0.05 * minimum_jerk(u)
+    return t, np.column_stack([x, y, z])

@@ -1,0 +1,100 @@
+"""The command line: fit/rollout work, and every bad input ends with exit 2 and one line."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from hlcmp_drake.demos import read_demonstration
+
+
+def hlcmp(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "hlcmp_drake.cli", *map(str, args)],
+                          capture_output=True, text=True, cwd=cwd, timeout=120)
+
+
+def write_demo(path, t, positions, header="t,x,y,z"):
+    rows = [",".join(f"{v:.9g}" for v in [ti, *p]) for ti, p in zip(t, positions)]
+    path.write_text(header + "\n" + "\n".join(rows) + "\n")
+    return path
+
+
+def test_fit_then_rollout_with_new_goal_and_duration(tmp_path, smooth_demo):
+    demo = write_demo(tmp_path / "demo.csv", *smooth_demo)
+    fit = hlcmp("fit", demo, "--out", tmp_path / "skill.npz", "--basis", 25)
+    assert fit.returncode == 0, fit.stderr
+    out = tmp_path / "traj.csv"
+    roll = hlcmp("rollout", tmp_path / "skill.npz", "--out", out, "--duration", 4, "--goal",
+                 "0.35,-0.1,0.1", "--dt", 0.01)
+    assert roll.returncode == 0, roll.stderr
+    t, positions, axes = read_demonstration(out)
+    assert axes == ("x", "y", "z")
+    assert t[-1] == pytest.approx(4.0)
+    assert out.read_text().splitlines()[0] == "t,x,y,z,vx,vy,vz"
+    np.testing.assert_allclose(positions[-1], [0.35, -0.1, 0.1], atol=0.01)
+
+
+GOOD = "t,x\n" + "".join(f"{k * 0.1:.1f},{k * 0.01:.2f}\n" for k in range(12))
+
+
+@pytest.mark.parametrize("content, expected", [
+    (None, "no such file"),
+    ("", "the file is empty"),
+    ("x,y\n1,2\n", ":1: the first column must be 't'"),
+    ("t\n" + "".join(f"{k},\n" for k in range(12)), ":1: no position column"),
+    ("t,x,w\n0,1,2\n", ":1: unknown column 'w'"),
+    ("t,z,x\n0,1,2\n", ":1: position columns must be in the order x, y, z"),
+    (GOOD.replace("0.3,0.03", "0.3,abc"), ":5: column 'x' is not a number: 'abc'"),
+    (GOOD.replace("0.3,0.03", "0.3,nan"), ":5: column 'x' is not finite"),
+    (GOOD.replace("0.3,0.03", "0.3,inf"), ":5: column 'x' is not finite"),
+    (GOOD.replace("0.3,0.03", "0.1,0.03"), ":5: time must increase strictly"),
+    (GOOD.replace("0.3,0.03", "0.3"), ":5: expected 2 values (t,x), found 1"),
+    ("t,x\n" + "".join(f"{k},{k}\n" for k in range(5)), "5 samples; a demonstration needs at least 10"),
+])
+def test_bad_demonstrations_exit_2_with_one_line(tmp_path, content, expected):
+    demo = tmp_path / "demo.csv"
+    if content is not None:
+        demo.write_text(content)
+    result = hlcmp("fit", demo, "--out", tmp_path / "skill.npz")
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1, result.stderr
+    assert expected in lines[0]
+    assert str(demo) in lines[0] and "Traceback" not in result.stderr
+    assert not (tmp_path / "skill.npz").exists()
+
+
+def test_good_one_axis_demo_is_accepted(tmp_path):
+    demo = tmp_path / "demo.csv"
+    demo.write_text(GOOD)
+    assert hlcmp("fit", demo, "--out", tmp_path / "s.npz").returncode == 0
+
+
+@pytest.mark.parametrize("args, expected", [
+    (["rollout", "SKILL", "--out", "T", "--goal", "1,2"], "--goal: the skill has 3 axes"),
+    (["rollout", "SKILL", "--out", "T", "--goal", "a,b,c"], "--goal: expected comma-separated numbers"),
+    (["rollout", "SKILL", "--out", "T", "--dt", "-1"], "must be a positive number"),
+    (["fit", "DEMO", "--out", "S", "--basis", "1"], "needs at least 2 basis functions"),
+    (["rollout", "NOSKILL", "--out", "T"], "no such file"),
+    (["run", "no_such_scenario"], "not a bundled scenario"),
+    (["frobnicate"], "invalid choice"),
+])
+def test_bad_arguments_exit_2_with_one_line(tmp_path, smooth_demo, args, expected):
+    demo = write_demo(tmp_path / "demo.csv", *smooth_demo)
+    assert hlcmp("fit", demo, "--out", tmp_path / "skill.npz").returncode == 0
+    names = {"SKILL": tmp_path / "skill.npz", "T": tmp_path / "t.csv", "DEMO": demo,
+             "S": tmp_path / "s2.npz", "NOSKILL": tmp_path / "missing.npz"}
+    result = hlcmp(*[names.get(a, a) for a in args])
+    assert result.returncode == 2
+    assert len(result.stderr.strip().splitlines()) == 1, result.stderr
+    assert expected in result.stderr
+
+
+def test_existing_output_survives_a_failed_run(tmp_path):
+    out = tmp_path / "skill.npz"
+    out.write_bytes(b"previous result")
+    bad = tmp_path / "bad.csv"
+    bad.write_text("t,x\n0,abc\n")
+    assert hlcmp("fit", bad, "--out", out).returncode == 2
+    assert out.read_bytes() == b"previous result"

@@ -1,0 +1,116 @@
+import numpy as np
+import pytest
+
+from hlcmp_drake.dmp import (Dmp, DmpSettings, basis_centers_and_widths, forcing_basis,
+                             forcing_target, normalized_basis, phase_at, rbf_activations,
+                             resample_and_differentiate, transformation_rates)
+
+
+def _interp(t_new, t, positions):
+    return np.column_stack([np.interp(t_new, t, positions[:, m]) for m in range(positions.shape[1])])
+
+
+def test_normalized_basis_is_a_partition_of_unity():
+    centers, widths = basis_centers_and_widths(20, 4.0)
+    s = phase_at(np.linspace(0, 1.2, 50), 1.0, 4.0)
+    g = normalized_basis(s, centers, widths)
+    assert g.shape == (50, 20)
+    np.testing.assert_allclose(g.sum(axis=1), 1.0)
+    # Eq. 10 directly
+    np.testing.assert_allclose(rbf_activations(0.5, centers, widths),
+                               np.exp(-0.5 * widths * (0.5 - centers) ** 2))
+
+
+def test_forcing_basis_scales_with_phase_and_amplitude():
+    centers, widths = basis_centers_and_widths(5, 4.0)
+    gp = forcing_basis(0.4, centers, widths, np.array([2.0, -1.0]))
+    g = normalized_basis(0.4, centers, widths)
+    np.testing.assert_allclose(gp, np.vstack([g * 0.4 * 2.0, g * 0.4 * -1.0]))
+
+
+def test_forcing_target_inverts_the_transformation_system():
+    # With f = f_target(p, p', p''), Eq. 15 must give back p'' (Eq. 19 is Eq. 15 solved for f).
+    p, pdot, pddot, goal, tau, alpha, beta = 0.2, -0.3, 1.7, 0.5, 2.0, 25.0, 6.25
+    f = forcing_target(p, pdot, pddot, goal, tau, alpha, beta)
+    _, zdot = transformation_rates(p, tau * pdot, f, goal, tau, alpha, beta)
+    assert zdot / tau == pytest.approx(pddot)
+
+
+def test_reproduces_a_smooth_demonstration_within_one_percent_of_its_range(smooth_demo):
+    t, positions = smooth_demo
+    dmp = Dmp.fit(t, positions, "xyz")
+    t_r, p, *_ = dmp.rollout(dt=0.002)
+    error = np.abs(p - _interp(t_r, t, positions)).max(axis=0) / np.ptp(positions, axis=0)
+    assert np.all(error < 0.01), error
+
+
+def test_converges_to_a_new_goal_and_keeps_start(smooth_demo):
+    t, positions = smooth_demo
+    dmp = Dmp.fit(t, positions, "xyz")
+    new_goal = dmp.goal + np.array([0.1, -0.05, 0.08])
+    t_r, p, v, *_ = dmp.with_goal(new_goal).rollout(duration=3 * dmp.tau, dt=0.002)
+    np.testing.assert_allclose(p[0], dmp.start)
+    np.testing.assert_allclose(p[-1], new_goal, atol=1e-3)
+    assert np.abs(v[-1]).max() < 1e-2
+
+
+def test_temporal_scaling_keeps_the_shape(smooth_demo):
+    t, positions = smooth_demo
+    dmp = Dmp.fit(t, positions, "xyz")
+    _, p1, v1, *_ = dmp.rollout(dt=0.002)
+    _, p2, v2, *_ = dmp.rollout(dt=0.004, tau=2 * dmp.tau)  # twice as slow, same number of steps
+    assert p2.shape == p1.shape
+    np.testing.assert_allclose(p2, p1, atol=1e-6)
+    np.testing.assert_allclose(v2, v1 / 2, atol=1e-6)
+
+
+def test_goal_equal_to_start_axis_is_reproduced():
+    # Reach down, hold, come back up: z ends where it started (SPEC section 2).
+    t = np.linspace(0, 3, 601)
+    z = 0.4 - 0.1 * np.sin(np.pi * t / 3) ** 2
+    x = 0.5 + 0.2 * (10 * (t / 3) ** 3 - 15 * (t / 3) ** 4 + 6 * (t / 3) ** 5)
+    positions = np.column_stack([x, z])
+    dmp = Dmp.fit(t, positions, ("x", "z"))
+    assert list(dmp.goal_scaled) == [True, False]
+    t_r, p, *_ = dmp.rollout(dt=0.002)
+    error = np.abs(p - _interp(t_r, t, positions)).max(axis=0) / np.ptp(positions, axis=0)
+    assert np.all(error < 0.01), error
+    assert p[:, 1].min() == pytest.approx(0.3, abs=0.002)   # it does go down
+    assert p[-1, 1] == pytest.approx(0.4, abs=0.002)        # and comes back up
+
+
+def test_without_the_substitute_amplitude_the_flat_axis_is_lost():
+    # The reason for the substitute: with amplitude g - p0 ~ 0 the forcing term vanishes.
+    t = np.linspace(0, 3, 601)
+    z = 0.4 - 0.1 * np.sin(np.pi * t / 3) ** 2
+    dmp = Dmp.fit(t, z[:, None], ("z",))
+    broken = Dmp(dmp.settings, dmp.tau, dmp.start, dmp.goal, dmp.theta_p,
+                 np.array([dmp.goal[0] - dmp.start[0]]), np.array([True]), ("z",))
+    _, p, *_ = broken.rollout(dt=0.002)
+    assert p[:, 0].min() > 0.39
+
+
+def test_noisy_unevenly_sampled_demonstration(smooth_demo):
+    t, positions = smooth_demo
+    rng = np.random.default_rng(7)
+    t_uneven = np.sort(np.concatenate([[0.0, 2.0], rng.uniform(0, 2, 600)]))
+    t_uneven = np.unique(t_uneven)
+    noisy = _interp(t_uneven, t, positions) + rng.normal(0, 2e-4, (len(t_uneven), 3))
+    dmp = Dmp.fit(t_uneven, noisy, "xyz")
+    t_r, p, *_ = dmp.rollout(dt=0.002)
+    error = np.abs(p - _interp(t_r, t, positions)).max(axis=0) / np.ptp(positions, axis=0)
+    assert np.all(error < 0.02), error
+
+
+def test_resampling_gives_a_uniform_grid_and_smooth_derivatives():
+    t = np.array([0, 0.1, 0.15, 0.4, 0.5, 0.8, 1.0])
+    t_u, p, pdot, pddot = resample_and_differentiate(t, 2 * t, smoothing_s=0.0)
+    assert np.allclose(np.diff(t_u), t_u[1] - t_u[0])
+    np.testing.assert_allclose(pdot, 2.0, atol=1e-9)
+    np.testing.assert_allclose(pddot, 0.0, atol=1e-6)
+
+
+def test_settings_validation():
+    with pytest.raises(ValueError):
+        DmpSettings(n_basis=1)
+    assert DmpSettings(alpha=40).beta == 10

@@ -1,0 +1,68 @@
+"""End to end: `hlcmp run one_dof` (the full 20 s scenario, about 25 s of wall time)."""
+
+import json
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from hlcmp_drake.cli import main
+from hlcmp_drake.experiments import one_dof
+from hlcmp_drake.scenario import load_scenario
+
+CONTROLLERS = ["hlcmp", "vic_fd_0.5", "vic_fd_1.5", "vic_fd_5.0"]
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory):
+    out = tmp_path_factory.mktemp("one_dof")
+    assert main(["run", "one_dof", "--out", str(out), "--quiet"]) == 0
+    return out
+
+
+def test_outputs_follow_the_contract(run_dir):
+    metrics = json.loads((run_dir / "metrics.json").read_text())
+    assert metrics["scenario"] == "one_dof" and metrics["status"] == "ok"
+    assert list(metrics["controllers"]) == CONTROLLERS
+    for values in metrics["controllers"].values():
+        assert set(values) == {"position_at_10s_m", "final_position_m", "reach_time_s", "return_time_s"}
+    c5 = metrics["claims"]["C5"]
+    assert isinstance(c5["holds"], bool) and "x(10 s)" in c5["evidence"]
+    data = np.load(run_dir / "timeseries.npz")
+    T = len(data["t"])
+    assert data["t"][-1] == pytest.approx(20.0)
+    for name in CONTROLLERS:
+        for key in ("x", "xd", "f_ext", "fc"):
+            assert data[f"{name}/{key}"].shape == (T, 1)
+    for key in ("Ks", "Kd", "v"):
+        assert data[f"hlcmp/{key}"].shape == (T, 1)
+    assert (run_dir / "figures" / "one_dof.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_metrics_agree_with_the_time_series(run_dir):
+    metrics = json.loads((run_dir / "metrics.json").read_text())
+    data = np.load(run_dir / "timeseries.npz")
+    scenario, _ = load_scenario("one_dof")
+    for name in CONTROLLERS:
+        run = SimpleNamespace(t=data["t"], series={"x": data[f"{name}/x"]})
+        assert one_dof.controller_metrics(run, scenario) == metrics["controllers"][name]
+    assert one_dof.claims(metrics["controllers"], scenario) == metrics["claims"]
+
+
+def test_physics_of_the_runs(run_dir):
+    data = np.load(run_dir / "timeseries.npz")
+    t = data["t"]
+    before_return = (t > 8.0) & (t < 10.0)
+    # The environment pushes back only inside the object, with 10 N/m.
+    x, f = data["hlcmp/x"][:, 0], data["hlcmp/f_ext"][:, 0]
+    np.testing.assert_allclose(f, np.where(x < 0, -10.0 * x, 0.0), atol=1e-9)
+    # The force-tracking baseline settles at its desired force, so at depth f_d / 10 N/m.
+    for fd in (0.5, 1.5, 5.0):
+        np.testing.assert_allclose(data[f"vic_fd_{fd}/f_ext"][before_return, 0][-1], fd, rtol=0.05)
+    # The Hl-CMP learns stiffness while the error is large (theta(t0) = 0).
+    assert data["hlcmp/Ks"][0, 0] == 0.0 and data["hlcmp/Ks"][:, 0].max() > 10.0
+    # Q_v = 0: the feed-forward force stays at zero.
+    np.testing.assert_array_equal(data["hlcmp/v"], 0.0)
+    # Everyone is back home at the end.
+    for name in CONTROLLERS:
+        assert abs(data[f"{name}/x"][-1, 0]) < 0.005

@@ -1,0 +1,56 @@
+import re
+
+import pytest
+
+from hlcmp_drake.errors import InputError
+from hlcmp_drake.paths import DIAGRAMS_DIR
+from hlcmp_drake.scenario import HlcmpConfig, VariableImpedanceConfig, load_scenario
+
+ONE_DOF = (DIAGRAMS_DIR / "one_dof.yaml").read_text()
+
+
+def test_bundled_one_dof_loads_into_typed_configs():
+    scenario, path = load_scenario("one_dof")
+    assert path.name == "one_dof.yaml"
+    assert list(scenario.controllers) == ["hlcmp", "vic_fd_0.5", "vic_fd_1.5", "vic_fd_5.0"]
+    hl = scenario.controllers["hlcmp"]
+    assert isinstance(hl, HlcmpConfig)
+    assert (hl.q_k, hl.q_d, hl.q_v) == ([2000.0], [500.0], [0.0])
+    assert isinstance(scenario.controllers["vic_fd_5.0"], VariableImpedanceConfig)
+    assert scenario.controllers["vic_fd_5.0"].desired_force_N == [5.0]
+    assert scenario.plant_config.time_step == 0.001
+    assert scenario.simulator_config.integration_scheme == "runge_kutta3"
+
+
+def _line_of(text, needle):
+    return next(n for n, line in enumerate(text.splitlines(), 1) if needle in line)
+
+
+@pytest.mark.parametrize("old, new, expected", [
+    ("duration_s: 20.0", "duration_s: 20.0\nspeed: 3", "speed"),
+    ("duration_s: 20.0", "duration_s: fast", "could not convert string to float"),
+    ("q_k: [2000.0]", "q_k: [-2000.0]", "q_k: controller 'hlcmp': every value must be non-negative"),
+    ("pi: 5.0 ", "pi: 0.0 ", "pi: controller 'hlcmp': pi must be > 0"),
+    ("q_d: [500.0]", "q_d: [500.0, 1.0]", "q_d: controller 'hlcmp' needs 1 value(s)"),
+    ("hlcmp: !HlcmpConfig", "hlcmp: !Hlcmp", "did not match any of the allowed type options"),
+    ("times_s: [0.0, 10.0]", "times_s: [0.0, 10.0", "expected ',' or ']'"),
+])
+def test_bad_scenarios_name_file_and_line(tmp_path, old, new, expected):
+    assert old in ONE_DOF
+    path = tmp_path / "bad.yaml"
+    path.write_text(ONE_DOF.replace(old, new, 1))
+    with pytest.raises(InputError) as error:
+        load_scenario(path)
+    message = str(error.value)
+    assert "\n" not in message
+    assert message.startswith(f"{path}:")
+    assert expected in message
+    assert re.match(rf"{re.escape(str(path))}:\d+: ", message), message
+
+
+def test_unknown_key_points_at_its_line(tmp_path):
+    path = tmp_path / "bad.yaml"
+    text = ONE_DOF.replace("log_period_s: 0.01", "log_period_s: 0.01\nlog_rate: 3")
+    path.write_text(text)
+    with pytest.raises(InputError, match=rf":{_line_of(text, 'log_rate')}: .*log_rate"):
+        load_scenario(path)

@@ -1,0 +1,60 @@
+import numpy as np
+import pytest
+
+from hlcmp_drake.dmp import Dmp
+from hlcmp_drake.errors import InputError
+from hlcmp_drake.skill import FORMAT_VERSION, Skill, load_skill, save_skill
+
+
+@pytest.fixture
+def skill(smooth_demo):
+    t, positions = smooth_demo
+    dmp = Dmp.fit(t, positions, "xyz")
+    rng = np.random.default_rng(0)
+    return Skill(dmp, *(rng.uniform(0, 100, dmp.theta_p.shape) for _ in range(3)))
+
+
+def test_round_trip(tmp_path, skill):
+    path = save_skill(tmp_path / "skill.npz", skill)
+    loaded = load_skill(path)
+    for key in ("theta_k", "theta_d", "theta_v"):
+        np.testing.assert_array_equal(getattr(loaded, key), getattr(skill, key))
+    for key in ("theta_p", "start", "goal", "amplitude", "goal_scaled"):
+        np.testing.assert_array_equal(getattr(loaded.dmp, key), getattr(skill.dmp, key))
+    assert loaded.dmp.settings == skill.dmp.settings
+    assert loaded.dmp.axis_names == ("x", "y", "z")
+    assert loaded.dmp.tau == skill.dmp.tau
+
+
+def _rewrite(path, **changes):
+    with np.load(path) as data:
+        arrays = {k: data[k] for k in data.files}
+    arrays.update(changes)
+    for key in [k for k, v in changes.items() if v is None]:
+        del arrays[key]
+    np.savez(path, **arrays)
+
+
+@pytest.mark.parametrize("changes, message", [
+    ({"format_version": np.array(FORMAT_VERSION + 1)}, "format_version 2 is not supported"),
+    ({"theta_k": np.zeros((3, 7))}, "field 'theta_k' has shape (3, 7), expected (3, 30)"),
+    ({"goal": np.zeros(2)}, "field 'goal' has shape (2,)"),
+    ({"theta_v": None}, "missing field(s): theta_v"),
+    ({"theta_d": np.full((3, 30), np.nan)}, "NaN"),
+])
+def test_bad_skill_files(tmp_path, skill, changes, message):
+    path = save_skill(tmp_path / "skill.npz", skill)
+    _rewrite(path, **changes)
+    with pytest.raises(InputError, match=None) as error:
+        load_skill(path)
+    assert message in str(error.value)
+    assert str(error.value).startswith(str(path))
+
+
+def test_truncated_and_missing_files(tmp_path, skill):
+    path = save_skill(tmp_path / "skill.npz", skill)
+    path.write_bytes(path.read_bytes()[:200])
+    with pytest.raises(InputError, match="not a readable skill file"):
+        load_skill(path)
+    with pytest.raises(InputError, match="no such file"):
+        load_skill(tmp_path / "none.npz")
