@@ -51,6 +51,9 @@ def record_runs(scenario, runs, spacing_m=0.6, frames_per_second=30.0):
             context.SetTime(t)
             plant.SetPositions(plant_context, state[:nq])
             diagram.ForcedPublish(context)
+    # Look at the row of copies from the front, slightly from above.
+    middle = 0.5 * (len(runs) - 1) * spacing_m
+    meshcat.SetCameraPose(np.array([1.6, middle - 1.8, 1.2]), np.array([0.0, middle, 0.2]))
     meshcat.StopRecording()
     meshcat.PublishRecording()
     return meshcat.StaticHtml()

@@ -15,3 +15,13 @@ def smooth_demo():
     y = 0.1 * np.sin(np.pi * u) ** 2 - 0.05 * minimum_jerk(u)
     z = 0.2 * np.sin(np.pi * u) ** 2 * np.cos(np.pi * u) + 0.05 * minimum_jerk(u)
     return t, np.column_stack([x, y, z])
+
+
+@pytest.fixture(scope="session")
+def one_dof_run(tmp_path_factory):
+    """`hlcmp run one_dof` once for the whole test session (about 25 s)."""
+    from hlcmp_drake.cli import main
+
+    out = tmp_path_factory.mktemp("one_dof")
+    assert main(["run", "one_dof", "--out", str(out), "--quiet"]) == 0
+    return out

@@ -6,18 +6,17 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from hlcmp_drake.cli import main
 from hlcmp_drake.experiments import one_dof
+from hlcmp_drake.paths import REPO_ROOT
+from hlcmp_drake.report import one_dof_markdown
 from hlcmp_drake.scenario import load_scenario
 
 CONTROLLERS = ["hlcmp", "vic_fd_0.5", "vic_fd_1.5", "vic_fd_5.0"]
 
 
-@pytest.fixture(scope="module")
-def run_dir(tmp_path_factory):
-    out = tmp_path_factory.mktemp("one_dof")
-    assert main(["run", "one_dof", "--out", str(out), "--quiet"]) == 0
-    return out
+@pytest.fixture
+def run_dir(one_dof_run):
+    return one_dof_run
 
 
 def test_outputs_follow_the_contract(run_dir):
@@ -66,3 +65,11 @@ def test_physics_of_the_runs(run_dir):
     # Everyone is back home at the end.
     for name in CONTROLLERS:
         assert abs(data[f"{name}/x"][-1, 0]) < 0.005
+
+
+def test_readme_results_come_from_this_run(run_dir):
+    """The README's 1-DOF table is what scripts/update_readme.py makes of a fresh run."""
+    metrics = json.loads((run_dir / "metrics.json").read_text())
+    readme = (REPO_ROOT / "README.md").read_text()
+    block = readme.split("<!-- BEGIN one_dof results -->\n")[1].split("<!-- END one_dof results -->")[0]
+    assert block == one_dof_markdown(metrics)

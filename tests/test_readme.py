@@ -1,0 +1,25 @@
+"""The README's promises that a test can check."""
+
+import re
+
+from hlcmp_drake.paths import REPO_ROOT
+
+README = (REPO_ROOT / "README.md").read_text()
+
+
+def _quick_start_commands():
+    section = README.split("## Quick start", 1)[1].split("\n## ", 1)[0]
+    return re.findall(r"```bash\n(.*?)\n```", section, flags=re.S)
+
+
+def test_quick_start_is_two_commands_and_ci_runs_the_test_command():
+    main_job, tests = _quick_start_commands()
+    assert "\n" not in main_job and "\n" not in tests
+    assert "hlcmp run" in main_job and "pytest" in tests
+    assert tests in (REPO_ROOT / ".ci" / "run").read_text().splitlines()
+
+
+def test_every_linked_file_exists():
+    for target in re.findall(r"\]\(([^)#]+)\)", README):
+        if not target.startswith("http"):
+            assert (REPO_ROOT / target).exists(), target
