@@ -12,19 +12,26 @@ from __future__ import annotations
 import dataclasses as dc
 
 import numpy as np
+from pydrake.math import RotationMatrix
+from pydrake.multibody.inverse_kinematics import InverseKinematics
 from pydrake.multibody.parsing import ModelDirectives, Parser, ProcessModelDirectives
-from pydrake.multibody.plant import AddMultibodyPlant
+from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlant
+from pydrake.solvers import Solve
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput
 
-from hlcmp_drake.dmp import basis_centers_and_widths
+from hlcmp_drake.demos import read_demonstration
+from hlcmp_drake.errors import InputError
+from hlcmp_drake.dmp import Dmp, DmpSettings, basis_centers_and_widths
 from hlcmp_drake.paths import register_package
-from hlcmp_drake.scenario import (ConstantImpedanceConfig, HlcmpConfig, Scenario, SliderTask,
-                                  StepReferenceConfig, VariableImpedanceConfig)
+from hlcmp_drake.scenario import (ArmTask, ConstantImpedanceConfig, DemonstrationConfig,
+                                  HlcmpConfig, Scenario, SliderTask, StepReferenceConfig,
+                                  VariableImpedanceConfig)
 from hlcmp_drake.systems.baselines import ConstantImpedanceController, VariableImpedanceController
+from hlcmp_drake.systems.arm import NullSpaceImpedance, ToolContactForce
 from hlcmp_drake.systems.environment import UnilateralSpring
 from hlcmp_drake.systems.hlcmp_controller import HlcmpController, HlcmpGains
-from hlcmp_drake.systems.references import StepReference
+from hlcmp_drake.systems.references import DmpSource, StepReference
 from hlcmp_drake.systems.task_space import TaskForceToJointTorque, TaskSpaceDynamics
 
 
@@ -36,6 +43,8 @@ class BuiltDiagram:
     plant: object
     controller: object
     loggers: dict  # log name -> VectorLogSink
+    initial_positions: np.ndarray | None = None   # plant q at t = 0 (None: the model's default)
+    monitor: object = None  # callable(root_context) -> problem text or None
 
 
 def add_plant(builder, scenario: Scenario):
@@ -48,13 +57,23 @@ def add_plant(builder, scenario: Scenario):
     return plant, scene_graph
 
 
-def add_reference(builder, scenario: Scenario):
+def fit_demonstration(scenario: Scenario) -> Dmp:
+    """Table I step II at start-up: the DMP of the scenario's demonstration file."""
+    reference: DemonstrationConfig = scenario.reference
+    t, positions, axes = read_demonstration(reference.file)
+    settings = DmpSettings(n_basis=scenario.basis.n_basis, alpha=reference.alpha,
+                           alpha_s=scenario.basis.alpha_s, smoothing_s=reference.smoothing_s)
+    return Dmp.fit(t, positions, axes, settings)
+
+
+def add_reference(builder, scenario: Scenario, dmp: Dmp | None = None):
+    """The desired-motion source: set-points, or the DMP (`dmp`) of a demonstration."""
     reference = scenario.reference
     if isinstance(reference, StepReferenceConfig):
         system = StepReference(reference.times_s, reference.positions_m, scenario.duration_s,
                                scenario.basis.alpha_s)
-    else:  # pragma: no cover - the schema admits only the types above
-        raise TypeError(f"unsupported reference {type(reference).__name__}")
+    else:
+        system = DmpSource(dmp, tau=reference.duration_s or None)
     system.set_name("reference")
     return builder.AddSystem(system)
 
@@ -105,6 +124,10 @@ def connect_controller(builder, controller, reference, task_space):
         builder.Connect(task_space.GetOutputPort(port), controller.GetInputPort(port))
 
 
+HLCMP_LOGS = [("Ks", "stiffness"), ("Kd", "damping"), ("v", "feedforward"), ("u", "impedance_force"),
+              ("eps", "sliding_error")]
+
+
 def log(builder, loggers, name, port, period):
     logger = LogVectorOutput(port, builder, period)
     logger.set_name(f"log_{name.replace('/', '_')}")
@@ -147,9 +170,124 @@ def build_slider_diagram(scenario: Scenario, controller_name: str) -> BuiltDiagr
     log(builder, loggers, "fc", controller.GetOutputPort("force"), period)
     log(builder, loggers, "plant_state", plant.get_state_output_port(), period)
     if isinstance(controller, HlcmpController):
-        for name, port in [("Ks", "stiffness"), ("Kd", "damping"), ("v", "feedforward"),
-                           ("eps", "sliding_error")]:
+        for name, port in HLCMP_LOGS:
             log(builder, loggers, name, controller.GetOutputPort(port), period)
     diagram = builder.Build()
     diagram.set_name(f"{scenario.name}_{controller_name}")
     return BuiltDiagram(diagram, plant, controller, loggers)
+
+
+@dc.dataclass
+class ArmSetup:
+    """What every controller's diagram of an arm scenario shares: the fitted DMP, the
+    start posture q0 (inverse kinematics) and the tool orientation to hold."""
+
+    dmp: Dmp
+    q0: np.ndarray
+    tool_orientation: RotationMatrix
+
+
+def solve_start_posture(scenario: Scenario, tip_position):
+    """Inverse kinematics: the tool point at `tip_position`, the tool's +z along
+    task.tool_direction, as close as possible to the elbow-up seed task.ik_seed_rad.
+    Returns (q0, the tool's orientation in the world at q0)."""
+    task: ArmTask = scenario.task
+    plant = MultibodyPlant(0.0)
+    parser = Parser(plant)
+    register_package(parser.package_map())
+    ProcessModelDirectives(ModelDirectives(directives=scenario.directives), plant, parser)
+    plant.Finalize()
+    frame = plant.GetFrameByName(*_scoped(plant, task.tool_frame))
+    ik = InverseKinematics(plant)
+    ik.AddPositionConstraint(frame, np.zeros(3), plant.world_frame(),
+                             np.asarray(tip_position) - 1e-4, np.asarray(tip_position) + 1e-4)
+    ik.AddAngleBetweenVectorsConstraint(plant.world_frame(), np.asarray(task.tool_direction, float),
+                                        frame, np.array([0.0, 0.0, 1.0]), 0.0, 1e-3)
+    seed = np.asarray(task.ik_seed_rad, dtype=float)
+    ik.get_mutable_prog().AddQuadraticErrorCost(np.eye(len(seed)), seed, ik.q())
+    result = Solve(ik.prog(), seed)
+    if not result.is_success():
+        raise InputError(f"inverse kinematics found no posture with the tool at {np.round(tip_position, 3)} "
+                         f"(the demonstration's start) pointing along {task.tool_direction}: "
+                         "is it within the arm's reach?")
+    q0 = result.GetSolution(ik.q())
+    context = plant.CreateDefaultContext()
+    plant.SetPositions(context, q0)
+    return q0, frame.CalcRotationMatrixInWorld(context)
+
+
+def _scoped(plant, scoped_name):
+    """('frame', model instance) for 'model::frame'."""
+    model, _, name = scoped_name.rpartition("::")
+    return (name, plant.GetModelInstanceByName(model)) if model else (name,)
+
+
+def prepare_arm(scenario: Scenario) -> ArmSetup:
+    dmp = fit_demonstration(scenario)
+    q0, orientation = solve_start_posture(scenario, dmp.start)
+    return ArmSetup(dmp, q0, orientation)
+
+
+def build_arm_diagram(scenario: Scenario, controller_name: str, setup: ArmSetup) -> BuiltDiagram:
+    """The iiwa tasks: DMP source -> controller -> J^T f_c + null-space terms -> plant."""
+    task: ArmTask = scenario.task
+    builder = DiagramBuilder()
+    plant, _ = add_plant(builder, scenario)
+    tool_frame = plant.GetFrameByName(*_scoped(plant, task.tool_frame))
+    task_space = builder.AddSystem(TaskSpaceDynamics(plant, tool_frame, axes=task.axes))
+    task_space.set_name("task_space")
+    builder.Connect(plant.get_state_output_port(), task_space.plant_state)
+    reference = add_reference(builder, scenario, setup.dmp)
+    controller = builder.AddSystem(make_controller(
+        controller_name, scenario.controllers[controller_name], scenario, setup.dmp.start))
+    connect_controller(builder, controller, reference, task_space)
+    sensor = builder.AddSystem(ToolContactForce(plant, tool_frame.body(), task.axes))
+    sensor.set_name("wrist_force_sensor")
+    builder.Connect(plant.get_contact_results_output_port(), sensor.contact_results)
+    if isinstance(controller, VariableImpedanceController):
+        builder.Connect(sensor.GetOutputPort("task_force"), controller.external_force)
+    below_task = builder.AddSystem(NullSpaceImpedance(
+        plant, tool_frame, setup.tool_orientation, setup.q0,
+        task.orientation_stiffness_Nm_per_rad, task.orientation_damping_Nms_per_rad,
+        task.posture_stiffness_Nm_per_rad, task.posture_damping_Nms_per_rad))
+    below_task.set_name("null_space_impedance")
+    builder.Connect(plant.get_state_output_port(), below_task.plant_state)
+    builder.Connect(task_space.GetOutputPort("null_space_projector"), below_task.projector)
+    builder.Connect(task_space.GetOutputPort("joint_gravity"), below_task.gravity)
+    effort = [plant.get_joint_actuator(i).effort_limit() for i in plant.GetJointActuatorIndices()]
+    torque_map = builder.AddSystem(TaskForceToJointTorque(scenario.n_axes, effort, extra_torque=True))
+    torque_map.set_name("task_force_to_joint_torque")
+    builder.Connect(controller.GetOutputPort("force"), torque_map.force)
+    builder.Connect(task_space.GetOutputPort("jacobian"), torque_map.jacobian)
+    builder.Connect(below_task.get_output_port(), torque_map.extra)
+    builder.Connect(torque_map.GetOutputPort("joint_torque"), plant.get_actuation_input_port())
+    loggers = {}
+    period = scenario.log_period_s
+    log(builder, loggers, "x", task_space.GetOutputPort("position"), period)
+    log(builder, loggers, "xd", reference.GetOutputPort("desired_position"), period)
+    log(builder, loggers, "f_ext", sensor.GetOutputPort("task_force"), period)
+    log(builder, loggers, "fc", controller.GetOutputPort("force"), period)
+    log(builder, loggers, "plant_state", plant.get_state_output_port(), period)
+    log(builder, loggers, "saturated_joints", torque_map.GetOutputPort("saturated"), period)
+    if isinstance(controller, HlcmpController):
+        for name, port in HLCMP_LOGS:
+            log(builder, loggers, name, controller.GetOutputPort(port), period)
+    diagram = builder.Build()
+    diagram.set_name(f"{scenario.name}_{controller_name}")
+
+    def monitor(root_context):
+        force = sensor.GetOutputPort("force").Eval(sensor.GetMyContextFromRoot(root_context))
+        if np.linalg.norm(force) > task.max_contact_force_N:
+            return f"contact force {np.linalg.norm(force):.0f} N above max_contact_force_N = {task.max_contact_force_N} N"
+        return None
+
+    return BuiltDiagram(diagram, plant, controller, loggers, setup.q0, monitor)
+
+
+def diagram_factory(scenario: Scenario):
+    """callable(controller name) -> BuiltDiagram for the scenario's kind of world; the
+    work all controllers share (fitting the DMP, inverse kinematics) is done once here."""
+    if isinstance(scenario.task, ArmTask):
+        setup = prepare_arm(scenario)
+        return lambda name: build_arm_diagram(scenario, name, setup)
+    return lambda name: build_slider_diagram(scenario, name)

@@ -38,3 +38,8 @@ def force_smoothness(f):
     """Figs. 8 / 12b: sum over the run of |second difference| of the force, per axis
     (the discrete form of the paper's sum of |f''|, in N: smaller is smoother)."""
     return np.sum(np.abs(np.diff(f, n=2, axis=0)), axis=0)
+
+
+def max_abs_force(f):
+    """Per-axis peak |f| over the run; (T, M) -> (M,)."""
+    return np.max(np.abs(f), axis=0)

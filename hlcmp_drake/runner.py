@@ -7,27 +7,25 @@ from pathlib import Path
 import numpy as np
 
 from hlcmp_drake import outputs
-from hlcmp_drake.builders import build_slider_diagram
-from hlcmp_drake.experiments import one_dof
+from hlcmp_drake.builders import diagram_factory
+from hlcmp_drake.experiments import insertion, one_dof
 from hlcmp_drake.recording import record_runs
 from hlcmp_drake.scenario import SliderTask, load_scenario
 from hlcmp_drake.simulate import simulate
 
 
 def _experiment(scenario):
-    """(diagram builder, evaluation module) for the scenario's kind of world."""
-    if isinstance(scenario.task, SliderTask):
-        return build_slider_diagram, one_dof
-    raise TypeError(f"unsupported task {type(scenario.task).__name__}")  # pragma: no cover
+    """The evaluation module for the scenario's kind of world."""
+    return one_dof if isinstance(scenario.task, SliderTask) else insertion
 
 
 def run_controllers(scenario, progress=None):
     """Build and simulate one diagram per controller; returns {name: RunResult}."""
-    build, _ = _experiment(scenario)
+    build = diagram_factory(scenario)
     runs = {}
     for name in scenario.controllers:
         start = time.perf_counter()
-        runs[name] = simulate(build(scenario, name), scenario, name)
+        runs[name] = simulate(build(name), scenario, name)
         if progress:
             wall = time.perf_counter() - start
             progress(f"{name}: {runs[name].t[-1]:.2f} s simulated in {wall:.1f} s "
@@ -49,7 +47,7 @@ def timeseries_arrays(runs):
 
 
 def evaluate(runs, scenario):
-    _, experiment = _experiment(scenario)
+    experiment = _experiment(scenario)
     unstable = {n: r for n, r in runs.items() if r.status != "ok"}
     metrics = {
         "scenario": scenario.name,
@@ -61,7 +59,7 @@ def evaluate(runs, scenario):
                                   for n, r in unstable.items()}
         metrics["claims"] = {}
     else:
-        metrics["claims"] = experiment.claims(metrics["controllers"], scenario)
+        metrics["claims"] = experiment.claims(metrics["controllers"], scenario, runs)
     return metrics
 
 
@@ -71,7 +69,7 @@ def run_scenario(name_or_path, out_dir=None, progress=None):
     out_dir = Path(out_dir or Path("out") / scenario.name)
     runs = run_controllers(scenario, progress)
     metrics = evaluate(runs, scenario)
-    _, experiment = _experiment(scenario)
+    experiment = _experiment(scenario)
     outputs.write_npz(out_dir / "timeseries.npz", timeseries_arrays(runs))
     if metrics["status"] == "ok":
         for file_name, figure in experiment.figures(runs, scenario).items():

@@ -96,6 +96,37 @@ class SliderTask:
 
 
 @dc.dataclass
+class ArmTask:
+    """A torque-controlled arm (the iiwa) whose task space is the translation of a tool
+    point. The start posture comes from inverse kinematics at the demonstration's start
+    with the tool frame's +z axis along `tool_direction` (world; the rotation about it is
+    left to the solver, near the seed `ik_seed_rad`); that orientation and posture are
+    then held below the translational task (NullSpaceImpedance)."""
+
+    tool_frame: str = "insertion_tool::tip"
+    axes: list[int] = dc.field(default_factory=lambda: [0, 1, 2])
+    tool_direction: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, -1.0])
+    ik_seed_rad: list[float] = dc.field(default_factory=lambda: [0.0, 0.6, 0.0, -1.5, 0.0, 1.0, 0.0])
+    orientation_stiffness_Nm_per_rad: float = 100.0
+    orientation_damping_Nms_per_rad: float = 10.0
+    posture_stiffness_Nm_per_rad: float = 20.0
+    posture_damping_Nms_per_rad: float = 5.0
+    max_contact_force_N: float = 200.0
+
+
+@dc.dataclass
+class DemonstrationConfig:
+    """The reference is a DMP fitted at start-up to a demonstration CSV (t,x,y,z; world
+    frame, metres). `file` is relative to the scenario file's folder. The DMP's N and
+    alpha_s are the scenario's `basis`; `duration_s` > 0 replays it at another tau."""
+
+    file: str = ""
+    alpha: float = 25.0
+    smoothing_s: float = 0.01
+    duration_s: float = 0.0
+
+
+@dc.dataclass
 class Scenario:
     name: str = ""
     duration_s: float = 1.0
@@ -103,14 +134,16 @@ class Scenario:
     directives: list[ModelDirective] = dc.field(default_factory=list)
     plant_config: MultibodyPlantConfig = dc.field(default_factory=MultibodyPlantConfig)
     simulator_config: SimulatorConfig = dc.field(default_factory=SimulatorConfig)
-    task: Union[SliderTask] = dc.field(default_factory=SliderTask)
-    reference: Union[StepReferenceConfig] = dc.field(default_factory=StepReferenceConfig)
+    task: Union[SliderTask, ArmTask] = dc.field(default_factory=SliderTask)
+    reference: Union[StepReferenceConfig, DemonstrationConfig] = dc.field(default_factory=StepReferenceConfig)
     basis: BasisConfig = dc.field(default_factory=BasisConfig)
     controllers: dict[str, ControllerConfig] = dc.field(default_factory=dict)
     max_abs_position_m: float = 10.0
 
     @property
     def n_axes(self):
+        if isinstance(self.task, ArmTask):
+            return len(self.task.axes)
         return len(self.reference.positions_m[0])
 
 
@@ -163,6 +196,9 @@ def load_scenario(name_or_path):
     except Exception as error:  # yaml errors come as several exception types
         raise _yaml_error(path, text, error) from None
     validate_scenario(scenario, path, text)
+    if isinstance(scenario.reference, DemonstrationConfig):
+        # Resolve the demonstration next to the scenario file, once, for every later user.
+        scenario.reference.file = str((path.parent / scenario.reference.file).resolve())
     return scenario, path
 
 
@@ -184,6 +220,8 @@ def validate_scenario(scenario: Scenario, path, text=""):
     if not scenario.basis.alpha_s > 0:
         fail("alpha_s", "must be positive")
     reference = scenario.reference
+    if isinstance(reference, StepReferenceConfig) and isinstance(scenario.task, ArmTask):
+        fail("reference", "an arm task needs a !DemonstrationConfig reference")
     if isinstance(reference, StepReferenceConfig):
         if len(reference.times_s) != len(reference.positions_m) or not reference.times_s:
             fail("times_s", "needs one entry per row of positions_m")
@@ -191,6 +229,24 @@ def validate_scenario(scenario: Scenario, path, text=""):
             fail("times_s", "must start at 0 and increase")
         if len({len(row) for row in reference.positions_m}) != 1:
             fail("positions_m", "every row needs the same number of axes")
+    if isinstance(reference, DemonstrationConfig):
+        demo = Path(path).parent / reference.file
+        if not reference.file or not demo.is_file():
+            fail("file", f"demonstration file '{reference.file}' not found (looked for {demo})")
+        if not (reference.alpha > 0 and reference.smoothing_s >= 0 and reference.duration_s >= 0):
+            fail("alpha", "alpha > 0, smoothing_s >= 0 and duration_s >= 0 are required")
+    task = scenario.task
+    if isinstance(task, ArmTask):
+        if not task.axes or any(a not in (0, 1, 2) for a in task.axes) or len(set(task.axes)) != len(task.axes):
+            fail("axes", f"task axes must be distinct values of 0 (x), 1 (y), 2 (z), got {task.axes}")
+        if len(task.tool_direction) != 3 or not any(task.tool_direction):
+            fail("tool_direction", "needs a non-zero 3-vector")
+        for key in ("orientation_stiffness_Nm_per_rad", "orientation_damping_Nms_per_rad",
+                    "posture_stiffness_Nm_per_rad", "posture_damping_Nms_per_rad"):
+            if not (math.isfinite(getattr(task, key)) and getattr(task, key) >= 0):
+                fail(key, f"must be non-negative, got {getattr(task, key)}")
+        if not task.max_contact_force_N > 0:
+            fail("max_contact_force_N", "must be positive")
     m = scenario.n_axes
     if not scenario.controllers:
         fail("controllers", "at least one controller is needed")

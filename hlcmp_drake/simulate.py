@@ -21,17 +21,20 @@ class RunResult:
     stop_time: float | None = None
 
 
-def simulate(built, scenario, controller_name, monitor_extra=None) -> RunResult:
+def simulate(built, scenario, controller_name) -> RunResult:
     """Simulate `built` (a BuiltDiagram) for scenario.duration_s.
 
-    A monitor checks every step that the plant state is finite and the task-space
-    position stays within scenario.max_abs_position_m; otherwise the run stops at once
+    A monitor checks every step that the plant state is finite, its positions stay within
+    scenario.max_abs_position_m, and whatever `built.monitor` checks for its world (e.g.
+    the contact force); otherwise the run stops at once
     with status "unstable", and the logs up to that moment are kept.
     """
     simulator = Simulator(built.diagram)
     ApplySimulatorConfig(scenario.simulator_config, simulator)
     context = simulator.get_mutable_context()
     plant_context = built.plant.GetMyContextFromRoot(context)
+    if built.initial_positions is not None:
+        built.plant.SetPositions(plant_context, built.initial_positions)
     trouble = {}
 
     def monitor(root_context):
@@ -40,9 +43,9 @@ def simulate(built, scenario, controller_name, monitor_extra=None) -> RunResult:
         if not np.all(np.isfinite(state)):
             problem = "plant state is not finite"
         elif np.max(np.abs(state[: built.plant.num_positions()])) > scenario.max_abs_position_m:
-            problem = f"position beyond {scenario.max_abs_position_m} m/rad"
-        elif monitor_extra is not None:
-            problem = monitor_extra(root_context)
+            problem = f"a joint position beyond {scenario.max_abs_position_m} m/rad"
+        elif built.monitor is not None:
+            problem = built.monitor(root_context)
         if problem:
             trouble.update(reason=problem, time=root_context.get_time())
             return EventStatus.ReachedTermination(built.diagram, problem)

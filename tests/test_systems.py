@@ -92,7 +92,7 @@ def test_hlcmp_controller_ports_and_state(hlcmp_setup):
     names = [controller.get_input_port(i).get_name() for i in range(controller.num_input_ports())]
     assert names == CONTROLLER_INPUTS
     assert [controller.get_output_port(i).get_name() for i in range(controller.num_output_ports())] == \
-        ["force", "stiffness", "damping", "feedforward", "sliding_error"]
+        ["force", "stiffness", "damping", "feedforward", "impedance_force", "sliding_error"]
 
 
 def test_hlcmp_controller_matches_the_numpy_equations(hlcmp_setup):

@@ -37,7 +37,7 @@ def _faster(a, b):
     return a is not None and (b is None or a < b)
 
 
-def claims(metrics, scenario):
+def claims(metrics, scenario, runs=None):
     """C5: Hl-CMPs reach the desired depth and return faster than [21]; [21] with an
     improper f_d fails to reach the depth (0.5 N too shallow, 5 N too deep)."""
     depth = _segments(scenario)[0]

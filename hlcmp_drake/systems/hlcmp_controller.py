@@ -30,8 +30,8 @@ class HlcmpController(LeafSystem):
 
     Continuous state: theta = [theta_k, theta_d, theta_v], each (M, N) row-major, so Drake
     integrates the adaptation law Eq. 31. Outputs: `force` f_c (Eq. 33), and for logging
-    `stiffness`, `damping` (diagonals of K_s, K_d), `feedforward` v (Eq. 14) and
-    `sliding_error` eps (Eq. 29).
+    `stiffness`, `damping` (diagonals of K_s, K_d), `feedforward` v (Eq. 14),
+    `impedance_force` u (Eq. 4) and `sliding_error` eps (Eq. 29).
     """
 
     def __init__(self, centers, widths, gains: HlcmpGains, theta0=None):
@@ -52,7 +52,7 @@ class HlcmpController(LeafSystem):
                           calc=self._calc_terms),
             {self.all_input_ports_ticket(), self.all_state_ticket()})
         for name, field in [("force", "force"), ("stiffness", "k_s"), ("damping", "k_d"),
-                            ("feedforward", "v"), ("sliding_error", "eps")]:
+                            ("feedforward", "v"), ("impedance_force", "u"), ("sliding_error", "eps")]:
             self.DeclareVectorOutputPort(name, m, self._output_from(field), {self._terms.ticket()})
 
     @property
@@ -79,8 +79,9 @@ class HlcmpController(LeafSystem):
         xe_dot, xe_ddot = reference_motion(xd_dot, xd_ddot, e, edot, self._gains.pi)
         f0 = nominal_force(inertia, coriolis, gravity, xe_dot, xe_ddot, self._gains.gain_l, eps)
         terms = abstract_value.get_mutable_value()
-        terms.force[:] = commanded_force(f0, impedance_force(k_s, k_d, e, edot), v)
-        terms.k_s[:], terms.k_d[:], terms.v[:], terms.eps[:] = k_s, k_d, v, eps
+        u = impedance_force(k_s, k_d, e, edot)
+        terms.force[:] = commanded_force(f0, u, v)
+        terms.k_s[:], terms.k_d[:], terms.v[:], terms.u[:], terms.eps[:] = k_s, k_d, v, u, eps
         terms.e[:], terms.edot[:], terms.g = e, edot, g
 
     def _output_from(self, field):
@@ -99,6 +100,6 @@ class _ControlTerms:
     """Scratch values of one controller evaluation, kept in a Drake cache entry."""
 
     def __init__(self, m):
-        self.force, self.k_s, self.k_d, self.v, self.eps, self.e, self.edot = (
-            np.zeros(m) for _ in range(7))
+        self.force, self.k_s, self.k_d, self.v, self.u, self.eps, self.e, self.edot = (
+            np.zeros(m) for _ in range(8))
         self.g = None

@@ -20,6 +20,8 @@ class TaskSpaceTerms:
     inertia: np.ndarray    # Lambda = (J M^-1 J^T)^-1
     coriolis: np.ndarray   # C_x = Jbar^T C(q, v) Jbar - Lambda Jdot Jbar
     gravity: np.ndarray    # G_x = Jbar^T G(q)
+    null_space: np.ndarray  # N^T = I - J^T Jbar^T (nv x nv), dynamically consistent
+    joint_gravity: np.ndarray  # G(q) (nv,)
 
 
 class TaskSpaceDynamics(LeafSystem):
@@ -59,7 +61,9 @@ class TaskSpaceDynamics(LeafSystem):
                                   ("jacobian", m * nv, "jacobian"),
                                   ("task_inertia", m * m, "inertia"),
                                   ("task_coriolis", m * m, "coriolis"),
-                                  ("task_gravity", m, "gravity")]:
+                                  ("task_gravity", m, "gravity"),
+                                  ("null_space_projector", nv * nv, "null_space"),
+                                  ("joint_gravity", nv, "joint_gravity")]:
             self.DeclareVectorOutputPort(name, size, self._output_from(field), prereq)
 
     def terms(self, context) -> TaskSpaceTerms:
@@ -94,31 +98,45 @@ class TaskSpaceDynamics(LeafSystem):
         minv_jt = np.linalg.solve(mass, jac.T)
         inertia = np.linalg.inv(jac @ minv_jt)
         jbar = minv_jt @ inertia
-        gravity = jbar.T @ -plant.CalcGravityGeneralizedForces(ctx)
+        joint_gravity = -plant.CalcGravityGeneralizedForces(ctx)
+        gravity = jbar.T @ joint_gravity
         plant.SetPositions(self._scratch, q)
         coriolis_q = self._polarized(v, plant.CalcBiasTerm)
         jdot = self._polarized(v, lambda c: plant.CalcBiasTranslationalAcceleration(
             c, JacobianWrtVariable.kV, self._frame, self._point, world, world)[self._axes, 0])
         coriolis = jbar.T @ coriolis_q @ jbar - inertia @ jdot @ jbar
-        abstract_value.set_value(TaskSpaceTerms(position, jac @ v, jac, inertia, coriolis, gravity))
+        null_space = np.eye(self._nv) - jac.T @ jbar.T
+        abstract_value.set_value(TaskSpaceTerms(position, jac @ v, jac, inertia, coriolis, gravity,
+                                                null_space, joint_gravity))
 
 
 class TaskForceToJointTorque(LeafSystem):
-    """tau = J^T f_c, saturated element-wise at the actuators' effort limits.
+    """tau = J^T f_c (+ a joint torque from below the task, e.g. the null-space terms),
+    saturated element-wise at the actuators' effort limits.
 
-    Inputs: `force` (M) and `jacobian` (M x nv row-major). Output: `joint_torque` (nv).
+    Inputs: `force` (M), `jacobian` (M x nv row-major) and, with `extra_torque=True`,
+    `extra_torque` (nv). Outputs: `joint_torque` (nv), and `saturated` (1): the number
+    of joints at their limit, for the run monitor.
     """
 
-    def __init__(self, n_axes, effort_limits):
+    def __init__(self, n_axes, effort_limits, extra_torque=False):
         super().__init__()
         self._limits = np.asarray(effort_limits, dtype=float)
         nv = len(self._limits)
         self._m, self._nv = n_axes, nv
         self.force = self.DeclareVectorInputPort("force", BasicVector(n_axes))
         self.jacobian = self.DeclareVectorInputPort("jacobian", BasicVector(n_axes * nv))
-        self.DeclareVectorOutputPort("joint_torque", nv, self._calc_torque,
-                                     {self.all_input_ports_ticket()})
+        self.extra = self.DeclareVectorInputPort("extra_torque", BasicVector(nv)) if extra_torque else None
+        prereq = {self.all_input_ports_ticket()}
+        self.DeclareVectorOutputPort("joint_torque", nv, self._calc_torque, prereq)
+        self.DeclareVectorOutputPort("saturated", 1, self._calc_saturated, prereq)
+
+    def _raw_torque(self, context):
+        torque = self.jacobian.Eval(context).reshape(self._m, self._nv).T @ self.force.Eval(context)
+        return torque + self.extra.Eval(context) if self.extra is not None else torque
 
     def _calc_torque(self, context, output):
-        jac = self.jacobian.Eval(context).reshape(self._m, self._nv)
-        output.SetFromVector(np.clip(jac.T @ self.force.Eval(context), -self._limits, self._limits))
+        output.SetFromVector(np.clip(self._raw_torque(context), -self._limits, self._limits))
+
+    def _calc_saturated(self, context, output):
+        output.SetFromVector([np.count_nonzero(np.abs(self._raw_torque(context)) >= self._limits)])

@@ -1,0 +1,198 @@
+"""The insertion experiment (paper Sec. V-D, Figs. 4-8) and claims C1-C4."""
+
+import numpy as np
+
+from hlcmp_drake.metrics import (force_smoothness, max_abs_force, mean_abs_force,
+                                 mean_abs_position_error)
+
+AXES = ("x", "y", "z")
+CONTACT_FORCE_N = 0.5      # |f_ext| above this counts as contact
+SELECTIVE_FRACTION = 0.2   # C3: x/y profiles within 20 % of the z profile's peak
+CHANGE_FRACTION = 0.2      # C4: a rise or fall counts when it is 20 % of the profile's peak
+
+
+def _per_axis(values):
+    return {axis: float(v) for axis, v in zip(AXES, values)}
+
+
+def contact_mask(run):
+    return np.linalg.norm(run.series["f_ext"], axis=1) > CONTACT_FORCE_N
+
+
+def ff_to_commanded_ratio_z(run):
+    """The paper's observation u ~ v ~ f_c / 2 (Eq. 3: f_c = -(u + v)): mean v_z over mean
+    (u_z + v_z), over the samples in contact. None without contact."""
+    mask = contact_mask(run)
+    if not mask.any():
+        return None
+    v, u = run.series["v"][mask, 2], run.series["u"][mask, 2]
+    total = np.mean(u + v)
+    return None if total == 0 else float(np.mean(v) / total)
+
+
+def controller_metrics(run, scenario):
+    """Per axis: mean |x - x_d| (Fig. 6), mean |f| (Fig. 7), sum |second difference of f|
+    (Fig. 8), max |f|; for the Hl-CMP also the peaks of its learned profiles and the ratio
+    of feed-forward to commanded force in z."""
+    x, xd, f = run.series["x"], run.series["xd"], run.series["f_ext"]
+    metrics = {
+        "mean_abs_position_error_m": _per_axis(mean_abs_position_error(x, xd)),
+        "mean_abs_force_N": _per_axis(mean_abs_force(f)),
+        "force_smoothness_N": _per_axis(force_smoothness(f)),
+        "max_abs_force_N": _per_axis(max_abs_force(f)),
+    }
+    if "Ks" in run.series:
+        metrics["max_stiffness_N_per_m"] = _per_axis(np.max(run.series["Ks"], axis=0))
+        metrics["max_abs_feedforward_N"] = _per_axis(np.max(np.abs(run.series["v"]), axis=0))
+        metrics["ff_to_commanded_force_ratio_z"] = ff_to_commanded_ratio_z(run)
+    return metrics
+
+
+def _phase_times(run):
+    """(contact onset, pierce = peak |f_z| before the deepest point, end of the push =
+    the deepest point of the reference) as sample indices; None without contact."""
+    mask = contact_mask(run)
+    if not mask.any():
+        return None
+    deepest = int(np.argmin(run.series["xd"][:, 2]))
+    onset = int(np.argmax(mask))
+    if onset >= deepest:
+        return None
+    pierce = onset + int(np.argmax(np.abs(run.series["f_ext"][onset:deepest + 1, 2])))
+    return onset, pierce, deepest
+
+
+def rise_and_fall(run):
+    """C4 in numbers: K_s,z and v_z at contact onset, at the pierce and at the end of the
+    push, and their peak in between. C4 holds when both rise from onset to pierce and
+    fall from their peak to the end of the push by at least CHANGE_FRACTION of the peak."""
+    phases = _phase_times(run)
+    if phases is None:
+        return None
+    onset, pierce, end = phases
+    out = {"onset_s": float(run.t[onset]), "pierce_s": float(run.t[pierce]), "push_end_s": float(run.t[end])}
+    for key, name in (("Ks", "stiffness"), ("v", "feedforward")):
+        z = run.series[key][:, 2]
+        out[name] = {"at_onset": float(z[onset]), "at_pierce": float(z[pierce]),
+                     "peak": float(np.max(z[onset:end + 1])), "at_push_end": float(z[end])}
+    return out
+
+
+def claims(metrics, scenario, runs=None):
+    constants = sorted((name for name in metrics if name.startswith("const_")),
+                       key=lambda n: float(n.split("_")[1]))
+    hl = metrics.get("hlcmp")
+    result = {}
+    # C1: a stiffer constant impedance tracks better.
+    errors = [sum(metrics[n]["mean_abs_position_error_m"].values()) for n in constants]
+    result["C1"] = {
+        "holds": all(a > b for a, b in zip(errors, errors[1:])),
+        "evidence": "mean |x - x_d| summed over x, y, z: " + ", ".join(
+            f"{n} {e * 1000:.2f} mm" for n, e in zip(constants, errors)) + ".",
+    }
+    if hl is None:
+        return result
+    # C2: the Hl-CMP's contact force is smoother than every constant impedance's (z axis).
+    smooth = {n: metrics[n]["force_smoothness_N"]["z"] for n in ["hlcmp", *constants]}
+    result["C2"] = {
+        "holds": all(smooth["hlcmp"] < smooth[n] for n in constants),
+        "evidence": "sum |second difference of f_z|: " + ", ".join(
+            f"{n} {v:.2f} N" for n, v in smooth.items()) + ".",
+    }
+    # C3: only the task-relevant axis (z) adapts noticeably.
+    k, v = hl["max_stiffness_N_per_m"], hl["max_abs_feedforward_N"]
+    selective = all(k[a] <= SELECTIVE_FRACTION * k["z"] and v[a] <= SELECTIVE_FRACTION * v["z"]
+                    for a in ("x", "y")) and k["z"] > 0
+    result["C3"] = {
+        "holds": bool(selective),
+        "evidence": (f"peak learned stiffness x/y/z {k['x']:.1f}/{k['y']:.1f}/{k['z']:.1f} N/m, "
+                     f"peak |feed-forward| x/y/z {v['x']:.2f}/{v['y']:.2f}/{v['z']:.2f} N "
+                     f"(holds if x and y stay within {SELECTIVE_FRACTION:.0%} of z)."),
+    }
+    # C4: stiffness and feed-forward rise while pushing in and fall after the pierce.
+    phases = rise_and_fall(runs["hlcmp"]) if runs else None
+    if phases is None:
+        result["C4"] = {"holds": False, "evidence": "no contact phase found in the Hl-CMP run."}
+    else:
+        ok = all(p["peak"] > 0
+                 and p["at_pierce"] - p["at_onset"] >= CHANGE_FRACTION * p["peak"]
+                 and p["peak"] - p["at_push_end"] >= CHANGE_FRACTION * p["peak"]
+                 for p in (phases["stiffness"], phases["feedforward"]))
+        ks, ff = phases["stiffness"], phases["feedforward"]
+        ratio = hl["ff_to_commanded_force_ratio_z"]
+        result["C4"] = {
+            "holds": bool(ok),
+            "evidence": (f"K_s,z {ks['at_onset']:.1f} -> {ks['at_pierce']:.1f} (pierce, "
+                         f"{phases['pierce_s']:.2f} s) -> peak {ks['peak']:.1f} -> {ks['at_push_end']:.1f} N/m "
+                         f"at the end of the push; v_z {ff['at_onset']:.2f} -> {ff['at_pierce']:.2f} -> "
+                         f"peak {ff['peak']:.2f} -> {ff['at_push_end']:.2f} N. Feed-forward / commanded "
+                         f"force in z over the contact: "
+                         f"{'n/a' if ratio is None else f'{ratio:.2f}'} (paper: about 0.5)."),
+            "phases": phases,
+        }
+    return result
+
+
+def table(metrics):
+    rows = [f"{'controller':<11} {'|e| x/y/z [mm]':>22} {'mean |f| x/y/z [N]':>22} "
+            f"{'smoothness x/y/z [N]':>24} {'max |f_z| [N]':>13}"]
+    for name, m in metrics.items():
+        e = "/".join(f"{m['mean_abs_position_error_m'][a] * 1000:.2f}" for a in AXES)
+        f = "/".join(f"{m['mean_abs_force_N'][a]:.2f}" for a in AXES)
+        s = "/".join(f"{m['force_smoothness_N'][a]:.1f}" for a in AXES)
+        rows.append(f"{name:<11} {e:>22} {f:>22} {s:>24} {m['max_abs_force_N']['z']:>13.2f}")
+    return "\n".join(rows)
+
+
+def figures(runs, scenario):
+    from hlcmp_drake.plots import bar_chart, new_figure
+
+    out = {}
+    hl = runs.get("hlcmp")
+    if hl is not None:
+        fig, axes = new_figure(5, 1, size=(8, 11), sharex=True)
+        axes[0].plot(hl.t, hl.series["xd"][:, 2], "k--", label="reference $x_{d,z}$")
+        axes[0].plot(hl.t, hl.series["x"][:, 2], label="measured $x_z$")
+        axes[0].set_ylabel("z [m]")
+        axes[1].plot(hl.t, hl.series["v"][:, 2], color="C2")
+        axes[1].set_ylabel("FF $v_z$ [N]")
+        axes[2].plot(hl.t, hl.series["Ks"][:, 2], color="C3")
+        axes[2].set_ylabel("stiffness [N/m]")
+        axes[3].plot(hl.t, hl.series["Kd"][:, 2], color="C4")
+        axes[3].set_ylabel("damping [Ns/m]")
+        axes[4].plot(hl.t, hl.series["u"][:, 2] + hl.series["v"][:, 2], color="C1",
+                     label="CF $u_z + v_z$ (Eq. 3)")
+        axes[4].plot(hl.t, hl.series["v"][:, 2], color="C2", lw=1, label="FF $v_z$")
+        axes[4].set_ylabel("force [N]")
+        axes[4].set_xlabel("time [s]")
+        axes[0].set_title("Hl-CMP profiles learned online in z (paper Fig. 4)")
+        for axis in axes:
+            axis.grid(alpha=0.3)
+        axes[0].legend(fontsize=8)
+        axes[4].legend(fontsize=8)
+        out["fig4_profiles_z.png"] = fig
+
+    fig, axes = new_figure(2, 3, size=(13, 7), sharex=True)
+    first = next(iter(runs.values()))
+    for i, axis_name in enumerate(AXES):
+        axes[i].plot(first.t, first.series["xd"][:, i], "k--", lw=1.2, label="reference")
+        for name, run in runs.items():
+            axes[i].plot(run.t, run.series["x"][:, i], label=name)
+            axes[3 + i].plot(run.t, run.series["f_ext"][:, i], label=name)
+        axes[i].set_title(f"{axis_name}: position [m]")
+        axes[3 + i].set_title(f"{axis_name}: measured force [N]")
+        axes[3 + i].set_xlabel("time [s]")
+    for axis in axes:
+        axis.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    fig.suptitle("Endpoint position and wrist force during reproduction (paper Fig. 5)")
+    out["fig5_position_force.png"] = fig
+
+    metrics = {name: controller_metrics(run, scenario) for name, run in runs.items()}
+    for file_name, key, label, scale in [
+            ("fig6_position_error.png", "mean_abs_position_error_m", "mean |x - x_d| [mm] (paper Fig. 6)", 1000),
+            ("fig7_mean_force.png", "mean_abs_force_N", "mean |f| [N] (paper Fig. 7)", 1),
+            ("fig8_smoothness.png", "force_smoothness_N", "sum |second difference of f| [N] (paper Fig. 8)", 1)]:
+        values = {name: [m[key][a] * scale for a in AXES] for name, m in metrics.items()}
+        out[file_name] = bar_chart(values, AXES, label)
+    return out

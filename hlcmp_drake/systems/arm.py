@@ -1,0 +1,98 @@
+"""The parts of task-space control that only a redundant arm needs: the orientation and
+posture held below the translational task, and the wrist force sensor."""
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.math import RotationMatrix
+from pydrake.multibody.plant import ContactResults
+from pydrake.multibody.tree import JacobianWrtVariable
+from pydrake.systems.framework import BasicVector, LeafSystem
+
+
+class NullSpaceImpedance(LeafSystem):
+    """tau_0 = N^T (G(q) + J_w^T (-K_o e_R - D_o w) - K_p (q - q_0) - D_p q').
+
+    Holds the tool's orientation with a fixed rotational impedance (e_R: the rotation
+    vector from the desired to the current tool orientation, w: the tool's angular
+    velocity) and the arm's posture near q_0, projected with the dynamically consistent
+    N^T = I - J^T Jbar^T of the translational task, so neither disturbs the task-space
+    dynamics that Eqs. 33-34 assume; G(q) completes the gravity compensation whose
+    task-space share J^T Jbar^T G is already in f_c. Inputs: `plant_state`,
+    `null_space_projector` and `joint_gravity` (from TaskSpaceDynamics). Output:
+    `joint_torque` (nv).
+    """
+
+    def __init__(self, plant, tool_frame, desired_orientation: RotationMatrix, nominal_positions,
+                 orientation_stiffness, orientation_damping, posture_stiffness, posture_damping):
+        super().__init__()
+        self._plant, self._frame = plant, tool_frame
+        self._context = plant.CreateDefaultContext()
+        self._R_desired = desired_orientation
+        self._q0 = np.asarray(nominal_positions, dtype=float)
+        self._k_o, self._d_o = float(orientation_stiffness), float(orientation_damping)
+        self._k_p, self._d_p = float(posture_stiffness), float(posture_damping)
+        nq, nv = plant.num_positions(), plant.num_velocities()
+        self._nq, self._nv = nq, nv
+        self.plant_state = self.DeclareVectorInputPort("plant_state", BasicVector(nq + nv))
+        self.projector = self.DeclareVectorInputPort("null_space_projector", BasicVector(nv * nv))
+        self.gravity = self.DeclareVectorInputPort("joint_gravity", BasicVector(nv))
+        self.DeclareVectorOutputPort("joint_torque", nv, self._calc, {self.all_input_ports_ticket()})
+
+    def _calc(self, context, output):
+        plant, ctx, world = self._plant, self._context, self._plant.world_frame()
+        state = self.plant_state.Eval(context)
+        plant.SetPositionsAndVelocities(ctx, state)
+        q, v = state[: self._nq], state[self._nq :]
+        R_current = self._frame.CalcRotationMatrixInWorld(ctx)
+        error = (R_current @ self._R_desired.inverse()).ToAngleAxis()
+        e_R = error.axis() * error.angle()
+        j_w = plant.CalcJacobianAngularVelocity(ctx, JacobianWrtVariable.kV, self._frame, world, world)
+        moment = -self._k_o * e_R - self._d_o * (j_w @ v)
+        below_task = (self.gravity.Eval(context) + j_w.T @ moment
+                      - self._k_p * (q - self._q0) - self._d_p * v)
+        output.SetFromVector(self.projector.Eval(context).reshape(self._nv, self._nv) @ below_task)
+
+
+class ToolContactForce(LeafSystem):
+    """The contact force on the tool's body, world frame: what a wrist force/torque sensor
+    reads of the environment (gravity and inertia of the tool aside). Sums the hydroelastic
+    and point contacts in the plant's contact results that involve `tool_body`.
+    Input `contact_results` (abstract ContactResults); output `force` (3) and, restricted
+    to `axes`, `task_force` (M)."""
+
+    def __init__(self, plant, tool_body, axes=(0, 1, 2)):
+        super().__init__()
+        self._plant = plant
+        self._body_index = tool_body.index()
+        self._geometries = set(plant.GetCollisionGeometriesForBody(tool_body))
+        self._axes = list(axes)
+        self.contact_results = self.DeclareAbstractInputPort(
+            "contact_results", AbstractValue.Make(ContactResults()))
+        prereq = {self.all_input_ports_ticket()}
+        self.DeclareVectorOutputPort("force", 3, self._calc_force, prereq)
+        self.DeclareVectorOutputPort("task_force", len(self._axes), self._calc_task_force, prereq)
+
+    def force_on_tool(self, context):
+        results = self.contact_results.Eval(context)
+        total = np.zeros(3)
+        for i in range(results.num_hydroelastic_contacts()):
+            info = results.hydroelastic_contact_info(i)
+            surface = info.contact_surface()
+            force = info.F_Ac_W().translational()  # acts on the body of geometry M
+            if surface.id_M() in self._geometries:
+                total += force
+            elif surface.id_N() in self._geometries:
+                total -= force
+        for i in range(results.num_point_pair_contacts()):
+            info = results.point_pair_contact_info(i)
+            if info.bodyA_index() == self._body_index:
+                total -= info.contact_force()   # contact_force() acts on body B
+            elif info.bodyB_index() == self._body_index:
+                total += info.contact_force()
+        return total
+
+    def _calc_force(self, context, output):
+        output.SetFromVector(self.force_on_tool(context))
+
+    def _calc_task_force(self, context, output):
+        output.SetFromVector(self.force_on_tool(context)[self._axes])
