@@ -161,7 +161,7 @@ def build_slider_diagram(scenario: Scenario, controller_name: str) -> BuiltDiagr
     torque_map.set_name("task_force_to_joint_torque")
     builder.Connect(controller.GetOutputPort("force"), torque_map.force)
     builder.Connect(task_space.GetOutputPort("jacobian"), torque_map.jacobian)
-    builder.Connect(torque_map.get_output_port(), plant.get_actuation_input_port())
+    builder.Connect(torque_map.GetOutputPort("joint_torque"), plant.get_actuation_input_port())
     loggers = {}
     period = scenario.log_period_s
     log(builder, loggers, "x", task_space.GetOutputPort("position"), period)

@@ -58,3 +58,16 @@ def write_text(path, text):
     def write(temp):
         Path(temp).write_text(text)
     return atomic_write(path, write)
+
+
+def write_diagram_graph(out_dir, diagram):
+    """The wired diagram as Drake draws it (GetGraphvizString): diagram.svg where Graphviz's
+    `dot` is installed, else diagram.dot. Returns the path written."""
+    import shutil
+    import subprocess
+
+    dot = diagram.GetGraphvizString(max_depth=1)
+    if shutil.which("dot"):
+        svg = subprocess.run(["dot", "-Tsvg"], input=dot, capture_output=True, text=True, check=True)
+        return write_text(Path(out_dir) / "diagram.svg", svg.stdout)
+    return write_text(Path(out_dir) / "diagram.dot", dot)

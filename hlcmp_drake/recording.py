@@ -31,9 +31,11 @@ def _replay_diagram(scenario, meshcat, prefix):
     return builder.Build(), plant
 
 
-def record_runs(scenario, runs, spacing_m=0.6, frames_per_second=30.0):
+def record_runs(scenario, runs):
     """Returns the HTML text of a recording of all `runs` ({name: RunResult}); each run
     must have logged its plant state as the series "plant_state"."""
+    config = scenario.recording
+    spacing_m, frames_per_second = config.spacing_m, config.frames_per_second
     # The server Meshcat starts is not the product here; its "listening" line would mislead.
     logging.getLogger("drake").setLevel(logging.WARNING)
     meshcat = Meshcat()
@@ -51,9 +53,8 @@ def record_runs(scenario, runs, spacing_m=0.6, frames_per_second=30.0):
             context.SetTime(t)
             plant.SetPositions(plant_context, state[:nq])
             diagram.ForcedPublish(context)
-    # Look at the row of copies from the front, slightly from above.
-    middle = 0.5 * (len(runs) - 1) * spacing_m
-    meshcat.SetCameraPose(np.array([1.6, middle - 1.8, 1.2]), np.array([0.0, middle, 0.2]))
+    middle = np.array([0.0, 0.5 * (len(runs) - 1) * spacing_m, 0.0])
+    meshcat.SetCameraPose(middle + config.camera_position_m, middle + config.camera_target_m)
     meshcat.StopRecording()
     meshcat.PublishRecording()
     return meshcat.StaticHtml()

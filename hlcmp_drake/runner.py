@@ -19,9 +19,9 @@ def _experiment(scenario):
     return one_dof if isinstance(scenario.task, SliderTask) else insertion
 
 
-def run_controllers(scenario, progress=None):
+def run_controllers(scenario, progress=None, build=None):
     """Build and simulate one diagram per controller; returns {name: RunResult}."""
-    build = diagram_factory(scenario)
+    build = build or diagram_factory(scenario)
     runs = {}
     for name in scenario.controllers:
         start = time.perf_counter()
@@ -67,7 +67,8 @@ def run_scenario(name_or_path, out_dir=None, progress=None):
     """Load, run, evaluate and write one scenario. Returns (metrics, out_dir, table text)."""
     scenario, _ = load_scenario(name_or_path)
     out_dir = Path(out_dir or Path("out") / scenario.name)
-    runs = run_controllers(scenario, progress)
+    build = diagram_factory(scenario)
+    runs = run_controllers(scenario, progress, build)
     metrics = evaluate(runs, scenario)
     experiment = _experiment(scenario)
     outputs.write_npz(out_dir / "timeseries.npz", timeseries_arrays(runs))
@@ -77,6 +78,7 @@ def run_scenario(name_or_path, out_dir=None, progress=None):
     if progress:
         progress("recording the runs for the offline 3-D viewer")
     outputs.write_text(out_dir / "recording.html", record_runs(scenario, runs))
+    outputs.write_diagram_graph(out_dir, build(next(iter(scenario.controllers))).diagram)
     outputs.write_json(out_dir / "metrics.json", metrics)
     return metrics, out_dir, experiment.table(metrics["controllers"])
 

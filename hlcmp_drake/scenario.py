@@ -127,6 +127,17 @@ class DemonstrationConfig:
 
 
 @dc.dataclass
+class RecordingConfig:
+    """The offline 3-D recording: the runs' copies of the world stand `spacing_m` apart
+    along +y; the camera is placed relative to the middle copy."""
+
+    spacing_m: float = 0.6
+    camera_position_m: list[float] = dc.field(default_factory=lambda: [1.6, -1.8, 1.2])
+    camera_target_m: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.2])
+    frames_per_second: float = 30.0
+
+
+@dc.dataclass
 class Scenario:
     name: str = ""
     duration_s: float = 1.0
@@ -139,6 +150,7 @@ class Scenario:
     basis: BasisConfig = dc.field(default_factory=BasisConfig)
     controllers: dict[str, ControllerConfig] = dc.field(default_factory=dict)
     max_abs_position_m: float = 10.0
+    recording: RecordingConfig = dc.field(default_factory=RecordingConfig)
 
     @property
     def n_axes(self):

@@ -25,3 +25,18 @@ def one_dof_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("one_dof")
     assert main(["run", "one_dof", "--out", str(out), "--quiet"]) == 0
     return out
+
+
+@pytest.fixture(scope="session")
+def short_insertion(tmp_path_factory):
+    """`hlcmp run` of the insertion scenario cut to 4.5 s (approach and start of the push)."""
+    from hlcmp_drake.cli import main
+    from hlcmp_drake.paths import DIAGRAMS_DIR
+
+    root = tmp_path_factory.mktemp("insertion")
+    text = (DIAGRAMS_DIR / "insertion.yaml").read_text()
+    text = text.replace("duration_s: 9.5", "duration_s: 4.5").replace(
+        "file: demos/insertion_demo.csv", f"file: {DIAGRAMS_DIR / 'demos' / 'insertion_demo.csv'}")
+    (root / "short.yaml").write_text(text)
+    assert main(["run", str(root / "short.yaml"), "--out", str(root / "out"), "--quiet"]) == 0
+    return root / "out"

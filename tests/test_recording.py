@@ -6,7 +6,10 @@ import subprocess
 
 import pytest
 
-CONTROLLERS = ["hlcmp", "vic_fd_0.5", "vic_fd_1.5", "vic_fd_5.0"]
+RUNS = {
+    "one_dof_run": (["hlcmp", "vic_fd_0.5", "vic_fd_1.5", "vic_fd_5.0"], "body_visual"),
+    "short_insertion": (["hlcmp", "const_500", "const_1000", "const_2000"], "foam_visual"),
+}
 
 
 def _chromium():
@@ -17,24 +20,28 @@ def _chromium():
     pytest.skip("no Chromium on this machine (install Debian's 'chromium' package; .ci/run tries to)")
 
 
-def test_recording_is_self_contained(one_dof_run):
-    html = (one_dof_run / "recording.html").read_text()
+@pytest.mark.parametrize("run", RUNS)
+def test_recording_is_self_contained(request, run):
+    html = (request.getfixturevalue(run) / "recording.html").read_text()
     assert not re.search(r"<script[^>]+src=[\"']https?:", html)
     assert not re.search(r"<link[^>]+href=[\"']https?:", html)
 
 
-def test_recording_draws_every_run_offline_in_chromium(one_dof_run, tmp_path):
+@pytest.mark.parametrize("run", RUNS)
+def test_recording_draws_every_run_offline_in_chromium(request, run, tmp_path):
     browser = _chromium()
+    out_dir = request.getfixturevalue(run)
+    controllers, geometry = RUNS[run]
     result = subprocess.run(
         [browser, "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
          "--disable-component-update", "--disable-sync", "--no-first-run",
          f"--user-data-dir={tmp_path / 'profile'}", "--virtual-time-budget=10000", "--dump-dom",
-         (one_dof_run / "recording.html").as_uri()],
+         (out_dir / "recording.html").as_uri()],
         capture_output=True, text=True, timeout=180)
     titles = re.findall(r'<li class="title">([^<]*)', result.stdout)
     # The Meshcat scene tree lists the replayed runs and their geometry, and an animation.
     assert "runs" in titles, titles[:40]
-    for name in CONTROLLERS:
+    for name in controllers:
         assert name in titles
-    assert titles.count("body_visual") == len(CONTROLLERS)
+    assert titles.count(geometry) == len(controllers)
     assert "Animations" in titles

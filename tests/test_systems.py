@@ -164,7 +164,8 @@ def test_force_to_torque_saturates():
     context = torque_map.CreateDefaultContext()
     torque_map.force.FixValue(context, [2.0, 3.0])
     torque_map.jacobian.FixValue(context, [1, 0, 1, 0, 1, 1])
-    np.testing.assert_allclose(torque_map.get_output_port().Eval(context), [2.0, 3.0, 1.0])
+    np.testing.assert_allclose(torque_map.GetOutputPort("joint_torque").Eval(context), [2.0, 3.0, 1.0])
+    np.testing.assert_allclose(torque_map.GetOutputPort("saturated").Eval(context), [1])
 
 
 DOUBLE_PENDULUM = """<?xml version="1.0"?>
