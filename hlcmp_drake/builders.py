@@ -47,13 +47,23 @@ class BuiltDiagram:
     monitor: object = None  # callable(root_context) -> problem text or None
 
 
+def load_models(plant, scenario: Scenario):
+    """The scenario's model directives into `plant`, which is then finalized."""
+    parser = Parser(plant)
+    register_package(parser.package_map())
+    try:
+        ProcessModelDirectives(ModelDirectives(directives=scenario.directives), plant, parser)
+    except RuntimeError as error:
+        first = next((line for line in str(error).splitlines() if line.strip()), "")
+        hint = " (drake_models is downloaded on first use: is there internet?)" if "drake_models" in str(error) else ""
+        raise InputError(f"{scenario.name}: the models could not be loaded{hint}: {first}") from None
+    plant.Finalize()
+
+
 def add_plant(builder, scenario: Scenario):
     """MultibodyPlant + SceneGraph from the scenario's plant config and model directives."""
     plant, scene_graph = AddMultibodyPlant(scenario.plant_config, builder)
-    parser = Parser(plant)
-    register_package(parser.package_map())
-    ProcessModelDirectives(ModelDirectives(directives=scenario.directives), plant, parser)
-    plant.Finalize()
+    load_models(plant, scenario)
     return plant, scene_graph
 
 
@@ -193,10 +203,7 @@ def solve_start_posture(scenario: Scenario, tip_position):
     Returns (q0, the tool's orientation in the world at q0)."""
     task: ArmTask = scenario.task
     plant = MultibodyPlant(0.0)
-    parser = Parser(plant)
-    register_package(parser.package_map())
-    ProcessModelDirectives(ModelDirectives(directives=scenario.directives), plant, parser)
-    plant.Finalize()
+    load_models(plant, scenario)
     frame = plant.GetFrameByName(*_scoped(plant, task.tool_frame))
     ik = InverseKinematics(plant)
     ik.AddPositionConstraint(frame, np.zeros(3), plant.world_frame(),

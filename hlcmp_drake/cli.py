@@ -1,6 +1,6 @@
 """The `hlcmp` command line.
 
-    hlcmp run SCENARIO [--out DIR]           run a bundled scenario or a YAML file
+    hlcmp run SCENARIO [--out DIR] [--iiwa ours|drake_models]   run a scenario
     hlcmp fit DEMO.csv --out SKILL.npz       fit the DMP of a demonstration
     hlcmp rollout SKILL.npz --out TRAJ.csv   roll a skill's DMP out
 
@@ -9,6 +9,7 @@ Exit codes: 0 success, 2 bad input (one line on stderr; --debug shows the traceb
 """
 
 import argparse
+import logging
 import sys
 
 import numpy as np
@@ -59,11 +60,18 @@ def _basis_count(text):
 def cmd_run(args):
     from hlcmp_drake.runner import print_summary, run_scenario
 
+    if not args.debug:
+        # Drake's INFO lines (the Meshcat server a recording starts, package downloads)
+        # are not for this command's user; warnings and errors still show. (pydrake sets
+        # this logger's level when imported, so this comes after the import above.)
+        logging.getLogger("drake").setLevel(logging.WARNING)
+
     def progress(message):
         if not args.quiet:
             print(message, file=sys.stderr, flush=True)
 
-    metrics, out_dir, table = run_scenario(args.scenario, args.out, progress)
+    metrics, out_dir, table = run_scenario(args.scenario, args.out, progress,
+                                           drake_models_iiwa=args.iiwa == "drake_models")
     print_summary(metrics, out_dir, table)
     return EXIT_UNSTABLE if metrics["status"] != "ok" else 0
 
@@ -112,6 +120,9 @@ def build_parser():
     run.add_argument("scenario", help="one_dof, or a path to a scenario .yaml")
     run.add_argument("--out", help="output folder (default out/SCENARIO)")
     run.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    run.add_argument("--iiwa", choices=("ours", "drake_models"), default="ours",
+                     help="the iiwa14 model: ours (models/iiwa14.sdf, default) or Drake's official "
+                          "one from drake_models (downloaded by Drake on first use: needs internet)")
     run.set_defaults(func=cmd_run)
 
     fit = sub.add_parser("fit", help="fit the DMP of a demonstration CSV (t,x,y,z)")

@@ -7,8 +7,6 @@ MeshcatVisualizer under the prefix /drake/<controller> -- and the copies are set
 along the world y axis, in the order the scenario lists the controllers.
 """
 
-import logging
-
 import numpy as np
 from pydrake.geometry import Meshcat, MeshcatVisualizer, MeshcatVisualizerParams, Role
 from pydrake.math import RigidTransform
@@ -36,8 +34,6 @@ def record_runs(scenario, runs):
     must have logged its plant state as the series "plant_state"."""
     config = scenario.recording
     spacing_m, frames_per_second = config.spacing_m, config.frames_per_second
-    # The server Meshcat starts is not the product here; its "listening" line would mislead.
-    logging.getLogger("drake").setLevel(logging.WARNING)
     meshcat = Meshcat()
     meshcat.StartRecording(frames_per_second, set_visualizations_while_recording=False)
     for k, (name, run) in enumerate(runs.items()):

@@ -22,6 +22,35 @@ def one_dof_markdown(metrics):
     return "\n".join(rows) + f"\n\n**C5: {verdict}.** Its parts:\n{parts}\n"
 
 
+PAPER_SAYS = {
+    "C1": "higher constant stiffness gives smaller position error (Fig. 6)",
+    "C2": "Hl-CMPs give a smoother contact force than constant stiffness (Fig. 8)",
+    "C3": "only the task-relevant axis adapts: x/y stiffness and force stay near their start values",
+    "C4": "feed-forward force and stiffness rise while pushing in and fall after the pierce; v ≈ ½ f_c (Fig. 4)",
+    "C5": "Hl-CMPs reach the depth and return faster than [21]; [21] with an improper f_d fails (Fig. 13)",
+}
+
+
+def claims_markdown(claims):
+    rows = ["| claim | the paper says | we measured | reproduced |", "|---|---|---|---|"]
+    for name, claim in claims.items():
+        evidence = claim["evidence"].replace("|", "\\|")   # a literal bar inside a table cell
+        rows.append(f"| {name} | {PAPER_SAYS[name]} | {evidence} | "
+                    f"**{'yes' if claim['holds'] else 'no'}** |")
+    return "\n".join(rows) + "\n"
+
+
+def insertion_markdown(metrics):
+    rows = ["| controller | mean abs(e) x/y/z [mm] | mean abs(f) x/y/z [N] | smoothness x/y/z [N] | max abs(f_z) [N] |",
+            "|---|---|---|---|---|"]
+    for name, m in metrics["controllers"].items():
+        def triple(key, scale=1.0, fmt="{:.2f}"):
+            return "/".join(fmt.format(m[key][a] * scale) for a in ("x", "y", "z"))
+        rows.append(f"| `{name}` | {triple('mean_abs_position_error_m', 1000)} | {triple('mean_abs_force_N')} | "
+                    f"{triple('force_smoothness_N', fmt='{:.1f}')} | {m['max_abs_force_N']['z']:.2f} |")
+    return "\n".join(rows) + "\n\n" + claims_markdown(metrics["claims"])
+
+
 def replace_block(text, name, body):
     """Replace the text between `<!-- BEGIN name -->` and `<!-- END name -->`."""
     begin, end = f"<!-- BEGIN {name} -->", f"<!-- END {name} -->"
@@ -30,7 +59,13 @@ def replace_block(text, name, body):
     return f"{head}{begin}\n{body}{end}{tail}"
 
 
-def update_readme(readme_path, one_dof_dir):
-    metrics = json.loads((Path(one_dof_dir) / "metrics.json").read_text())
+RESULT_BLOCKS = {"one_dof": one_dof_markdown, "insertion": insertion_markdown}
+
+
+def update_readme(readme_path, run_dirs):
+    """Rewrite the README's `<name> results` blocks from {name: run folder}."""
     text = Path(readme_path).read_text()
-    Path(readme_path).write_text(replace_block(text, "one_dof results", one_dof_markdown(metrics)))
+    for name, run_dir in run_dirs.items():
+        metrics = json.loads((Path(run_dir) / "metrics.json").read_text())
+        text = replace_block(text, f"{name} results", RESULT_BLOCKS[name](metrics))
+    Path(readme_path).write_text(text)

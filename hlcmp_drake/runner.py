@@ -10,7 +10,7 @@ from hlcmp_drake import outputs
 from hlcmp_drake.builders import diagram_factory
 from hlcmp_drake.experiments import insertion, one_dof
 from hlcmp_drake.recording import record_runs
-from hlcmp_drake.scenario import SliderTask, load_scenario
+from hlcmp_drake.scenario import SliderTask, load_scenario, use_drake_models_iiwa
 from hlcmp_drake.simulate import simulate
 
 
@@ -63,9 +63,12 @@ def evaluate(runs, scenario):
     return metrics
 
 
-def run_scenario(name_or_path, out_dir=None, progress=None):
-    """Load, run, evaluate and write one scenario. Returns (metrics, out_dir, table text)."""
+def run_scenario(name_or_path, out_dir=None, progress=None, drake_models_iiwa=False):
+    """Load, run, evaluate and write one scenario. Returns (metrics, out_dir, table text).
+    drake_models_iiwa: use Drake's official iiwa14 model instead of ours (needs internet)."""
     scenario, _ = load_scenario(name_or_path)
+    if drake_models_iiwa:
+        scenario = use_drake_models_iiwa(scenario)
     out_dir = Path(out_dir or Path("out") / scenario.name)
     build = diagram_factory(scenario)
     runs = run_controllers(scenario, progress, build)

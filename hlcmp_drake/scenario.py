@@ -13,8 +13,10 @@ import re
 from pathlib import Path
 from typing import Union
 
+from pydrake.common.schema import Transform
 from pydrake.common.yaml import yaml_load_typed
-from pydrake.multibody.parsing import ModelDirective
+from pydrake.math import RigidTransform
+from pydrake.multibody.parsing import AddModel, AddWeld, ModelDirective
 from pydrake.multibody.plant import MultibodyPlantConfig
 from pydrake.systems.analysis import SimulatorConfig
 
@@ -294,3 +296,29 @@ def _validate_controller(name, config, m, fail):
             per_axis(key)
         if not (config.sigma >= 0 and config.sample_period_s > 0):
             fail("sigma", f"controller '{name}': sigma >= 0 and sample_period_s > 0 are required")
+
+
+OWN_IIWA = "package://hlcmp_drake/models/iiwa14.sdf"
+DRAKE_MODELS_IIWA = "package://drake_models/iiwa_description/sdf/iiwa14_no_collision.sdf"
+FLANGE_OFFSET_M = 0.045   # our model's "flange" frame, along link 7's +z
+
+
+def use_drake_models_iiwa(scenario: Scenario) -> Scenario:
+    """The same scenario with Drake's official iiwa14 (drake_models, which Drake downloads
+    on first use: needs internet) in place of ours. Its links have the same names; it has
+    no "flange" frame, so welds to iiwa::flange go to iiwa::iiwa_link_7 + 0.045 m."""
+    directives = []
+    for directive in scenario.directives:
+        model, weld = directive.add_model, directive.add_weld
+        if model is not None and model.file == OWN_IIWA:
+            directive = ModelDirective(add_model=AddModel(
+                file=DRAKE_MODELS_IIWA, name=model.name,
+                default_joint_positions=model.default_joint_positions,
+                default_free_body_pose=model.default_free_body_pose))
+        elif weld is not None and weld.parent.endswith("::flange"):
+            x_pc = weld.X_PC.GetDeterministicValue() if weld.X_PC is not None else RigidTransform()
+            directive = ModelDirective(add_weld=AddWeld(
+                parent=weld.parent[: -len("flange")] + "iiwa_link_7", child=weld.child,
+                X_PC=Transform(RigidTransform([0.0, 0.0, FLANGE_OFFSET_M]) @ x_pc)))
+        directives.append(directive)
+    return dc.replace(scenario, directives=directives)

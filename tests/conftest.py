@@ -28,15 +28,10 @@ def one_dof_run(tmp_path_factory):
 
 
 @pytest.fixture(scope="session")
-def short_insertion(tmp_path_factory):
-    """`hlcmp run` of the insertion scenario cut to 4.5 s (approach and start of the push)."""
+def insertion_run(tmp_path_factory):
+    """`hlcmp run insertion` once for the whole session (the full scenario, about 35 s)."""
     from hlcmp_drake.cli import main
-    from hlcmp_drake.paths import DIAGRAMS_DIR
 
-    root = tmp_path_factory.mktemp("insertion")
-    text = (DIAGRAMS_DIR / "insertion.yaml").read_text()
-    text = text.replace("duration_s: 9.5", "duration_s: 4.5").replace(
-        "file: demos/insertion_demo.csv", f"file: {DIAGRAMS_DIR / 'demos' / 'insertion_demo.csv'}")
-    (root / "short.yaml").write_text(text)
-    assert main(["run", str(root / "short.yaml"), "--out", str(root / "out"), "--quiet"]) == 0
-    return root / "out"
+    out = tmp_path_factory.mktemp("insertion")
+    assert main(["run", "insertion", "--out", str(out), "--quiet"]) == 0
+    return out

@@ -98,3 +98,13 @@ def test_existing_output_survives_a_failed_run(tmp_path):
     bad.write_text("t,x\n0,abc\n")
     assert hlcmp("fit", bad, "--out", out).returncode == 2
     assert out.read_bytes() == b"previous result"
+
+
+def test_drake_models_without_internet_is_one_clear_line(tmp_path):
+    result = hlcmp("run", "insertion", "--iiwa", "drake_models", "--out", tmp_path / "o")
+    if result.returncode == 0:
+        pytest.skip("drake_models could be downloaded here: the offline path cannot be checked")
+    assert result.returncode == 2
+    assert len(result.stderr.strip().splitlines()) == 1, result.stderr
+    assert "drake_models" in result.stderr
+    assert not (tmp_path / "o").exists()

@@ -1,5 +1,5 @@
-"""The insertion experiment: the scenario file, a contact smoke test, and a shortened
-`hlcmp run` of the real scenario (4.5 s: approach and the start of the push)."""
+"""The insertion experiment: the scenario file, a contact smoke test, the full
+`hlcmp run insertion` (about 35 s) and the hand-built diagram script."""
 
 import json
 import subprocess
@@ -48,15 +48,15 @@ def test_tool_touches_the_foam_and_the_force_opposes_the_push():
     assert run.series["x"][in_contact, 2].min() < 0.33   # below the plank's top face
 
 
-def test_short_run_writes_the_contract(short_insertion):
-    metrics = json.loads((short_insertion / "metrics.json").read_text())
+def test_run_writes_the_contract(insertion_run):
+    metrics = json.loads((insertion_run / "metrics.json").read_text())
     assert metrics["status"] == "ok" and list(metrics["controllers"]) == CONTROLLERS
     for m in metrics["controllers"].values():
         for key in ("mean_abs_position_error_m", "mean_abs_force_N", "force_smoothness_N", "max_abs_force_N"):
             assert set(m[key]) == {"x", "y", "z"}
     assert "ff_to_commanded_force_ratio_z" in metrics["controllers"]["hlcmp"]
     assert set(metrics["claims"]) == {"C1", "C2", "C3", "C4"}
-    data = np.load(short_insertion / "timeseries.npz")
+    data = np.load(insertion_run / "timeseries.npz")
     T = len(data["t"])
     for name in CONTROLLERS:
         for key in ("x", "xd", "f_ext", "fc"):
@@ -64,15 +64,15 @@ def test_short_run_writes_the_contract(short_insertion):
     for key in ("Ks", "Kd", "v"):
         assert data[f"hlcmp/{key}"].shape == (T, 3)
     for figure in FIGURES:
-        assert (short_insertion / "figures" / figure).read_bytes()[:4] == b"\x89PNG"
-    assert (short_insertion / "recording.html").stat().st_size > 100_000
-    graph = next(short_insertion.glob("diagram.*"))
+        assert (insertion_run / "figures" / figure).read_bytes()[:4] == b"\x89PNG"
+    assert (insertion_run / "recording.html").stat().st_size > 100_000
+    graph = next(insertion_run.glob("diagram.*"))
     assert "task_space" in graph.read_text() and "hlcmp" in graph.read_text()
 
 
-def test_short_run_metrics_agree_with_its_time_series(short_insertion):
-    metrics = json.loads((short_insertion / "metrics.json").read_text())
-    data = np.load(short_insertion / "timeseries.npz")
+def test_run_metrics_agree_with_its_time_series(insertion_run):
+    metrics = json.loads((insertion_run / "metrics.json").read_text())
+    data = np.load(insertion_run / "timeseries.npz")
     scenario, _ = load_scenario("insertion")
     for name in CONTROLLERS:
         series = {key.split("/", 1)[1]: data[key] for key in data.files if key.startswith(f"{name}/")}
@@ -90,3 +90,18 @@ def test_build_insertion_diagram_by_hand(tmp_path):
     graph = next(tmp_path.glob("diagram.*"))
     for system in ("DmpSource", "HlcmpController", "TaskSpaceDynamics", "TaskForceToJointTorque"):
         assert system in graph.read_text()
+
+
+def test_the_tool_goes_through_the_plank_and_back_with_constant_stiffness(insertion_run):
+    data = np.load(insertion_run / "timeseries.npz")
+    z = data["const_2000/x"][:, 2]
+    assert z.min() < 0.30 < 0.33 < z[-1]   # below the bottom face, and back above the top
+
+
+def test_readme_results_come_from_this_run(insertion_run):
+    from hlcmp_drake.report import insertion_markdown
+
+    metrics = json.loads((insertion_run / "metrics.json").read_text())
+    readme = (REPO_ROOT / "README.md").read_text()
+    block = readme.split("<!-- BEGIN insertion results -->\n")[1].split("<!-- END insertion results -->")[0]
+    assert block == insertion_markdown(metrics)
