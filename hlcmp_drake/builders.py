@@ -138,10 +138,38 @@ HLCMP_LOGS = [("Ks", "stiffness"), ("Kd", "damping"), ("v", "feedforward"), ("u"
               ("eps", "sliding_error")]
 
 
-def log(builder, loggers, name, port, period):
-    logger = LogVectorOutput(port, builder, period)
-    logger.set_name(f"log_{name.replace('/', '_')}")
-    loggers[name] = logger
+def add_torque_map(builder, scenario, plant, controller, task_space, extra_torque_port=None):
+    """tau = J^T f_c (+ the torque below the task, when given) into the plant's actuation."""
+    effort = [plant.get_joint_actuator(i).effort_limit() for i in plant.GetJointActuatorIndices()]
+    torque_map = builder.AddSystem(TaskForceToJointTorque(scenario.n_axes, effort,
+                                                          extra_torque=extra_torque_port is not None))
+    torque_map.set_name("task_force_to_joint_torque")
+    builder.Connect(controller.GetOutputPort("force"), torque_map.force)
+    builder.Connect(task_space.GetOutputPort("jacobian"), torque_map.jacobian)
+    if extra_torque_port is not None:
+        builder.Connect(extra_torque_port, torque_map.extra)
+    builder.Connect(torque_map.GetOutputPort("joint_torque"), plant.get_actuation_input_port())
+    return torque_map
+
+
+def add_loggers(builder, scenario, plant, task_space, reference, controller, force_port, torque_map):
+    """The timeseries.npz contract's series (and the plant state for the recording), as
+    Drake VectorLogSinks at scenario.log_period_s. Returns {series name: logger}."""
+    ports = {
+        "x": task_space.GetOutputPort("position"),
+        "xd": reference.GetOutputPort("desired_position"),
+        "f_ext": force_port,
+        "fc": controller.GetOutputPort("force"),
+        "plant_state": plant.get_state_output_port(),
+        "saturated_joints": torque_map.GetOutputPort("saturated"),
+    }
+    if isinstance(controller, HlcmpController):
+        ports.update({name: controller.GetOutputPort(port) for name, port in HLCMP_LOGS})
+    loggers = {}
+    for name, port in ports.items():
+        loggers[name] = LogVectorOutput(port, builder, scenario.log_period_s)
+        loggers[name].set_name(f"log_{name}")
+    return loggers
 
 
 def build_slider_diagram(scenario: Scenario, controller_name: str) -> BuiltDiagram:
@@ -166,22 +194,9 @@ def build_slider_diagram(scenario: Scenario, controller_name: str) -> BuiltDiagr
     connect_controller(builder, controller, reference, task_space)
     if isinstance(controller, VariableImpedanceController):
         builder.Connect(spring.GetOutputPort("reaction_force"), controller.external_force)
-    effort = [plant.get_joint_actuator(i).effort_limit() for i in plant.GetJointActuatorIndices()]
-    torque_map = builder.AddSystem(TaskForceToJointTorque(scenario.n_axes, effort))
-    torque_map.set_name("task_force_to_joint_torque")
-    builder.Connect(controller.GetOutputPort("force"), torque_map.force)
-    builder.Connect(task_space.GetOutputPort("jacobian"), torque_map.jacobian)
-    builder.Connect(torque_map.GetOutputPort("joint_torque"), plant.get_actuation_input_port())
-    loggers = {}
-    period = scenario.log_period_s
-    log(builder, loggers, "x", task_space.GetOutputPort("position"), period)
-    log(builder, loggers, "xd", reference.GetOutputPort("desired_position"), period)
-    log(builder, loggers, "f_ext", spring.GetOutputPort("reaction_force"), period)
-    log(builder, loggers, "fc", controller.GetOutputPort("force"), period)
-    log(builder, loggers, "plant_state", plant.get_state_output_port(), period)
-    if isinstance(controller, HlcmpController):
-        for name, port in HLCMP_LOGS:
-            log(builder, loggers, name, controller.GetOutputPort(port), period)
+    torque_map = add_torque_map(builder, scenario, plant, controller, task_space)
+    loggers = add_loggers(builder, scenario, plant, task_space, reference, controller,
+                          spring.GetOutputPort("reaction_force"), torque_map)
     diagram = builder.Build()
     diagram.set_name(f"{scenario.name}_{controller_name}")
     return BuiltDiagram(diagram, plant, controller, loggers)
@@ -261,24 +276,10 @@ def build_arm_diagram(scenario: Scenario, controller_name: str, setup: ArmSetup)
     builder.Connect(plant.get_state_output_port(), below_task.plant_state)
     builder.Connect(task_space.GetOutputPort("null_space_projector"), below_task.projector)
     builder.Connect(task_space.GetOutputPort("joint_gravity"), below_task.gravity)
-    effort = [plant.get_joint_actuator(i).effort_limit() for i in plant.GetJointActuatorIndices()]
-    torque_map = builder.AddSystem(TaskForceToJointTorque(scenario.n_axes, effort, extra_torque=True))
-    torque_map.set_name("task_force_to_joint_torque")
-    builder.Connect(controller.GetOutputPort("force"), torque_map.force)
-    builder.Connect(task_space.GetOutputPort("jacobian"), torque_map.jacobian)
-    builder.Connect(below_task.get_output_port(), torque_map.extra)
-    builder.Connect(torque_map.GetOutputPort("joint_torque"), plant.get_actuation_input_port())
-    loggers = {}
-    period = scenario.log_period_s
-    log(builder, loggers, "x", task_space.GetOutputPort("position"), period)
-    log(builder, loggers, "xd", reference.GetOutputPort("desired_position"), period)
-    log(builder, loggers, "f_ext", sensor.GetOutputPort("task_force"), period)
-    log(builder, loggers, "fc", controller.GetOutputPort("force"), period)
-    log(builder, loggers, "plant_state", plant.get_state_output_port(), period)
-    log(builder, loggers, "saturated_joints", torque_map.GetOutputPort("saturated"), period)
-    if isinstance(controller, HlcmpController):
-        for name, port in HLCMP_LOGS:
-            log(builder, loggers, name, controller.GetOutputPort(port), period)
+    torque_map = add_torque_map(builder, scenario, plant, controller, task_space,
+                                below_task.get_output_port())
+    loggers = add_loggers(builder, scenario, plant, task_space, reference, controller,
+                          sensor.GetOutputPort("task_force"), torque_map)
     diagram = builder.Build()
     diagram.set_name(f"{scenario.name}_{controller_name}")
 

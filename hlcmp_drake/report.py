@@ -69,3 +69,12 @@ def update_readme(readme_path, run_dirs):
         metrics = json.loads((Path(run_dir) / "metrics.json").read_text())
         text = replace_block(text, f"{name} results", RESULT_BLOCKS[name](metrics))
     Path(readme_path).write_text(text)
+
+
+def print_table_and_update(table, block, update, readme_path):
+    """For the sweep scripts: print a generated table; with `update`, also write it into
+    the README's `block`."""
+    print(table)
+    if update:
+        text = Path(readme_path).read_text()
+        Path(readme_path).write_text(replace_block(text, block, table))

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from hlcmp_drake.experiments import insertion
-from hlcmp_drake.report import replace_block
+from hlcmp_drake.report import print_table_and_update
 from hlcmp_drake.runner import run_controllers
 from hlcmp_drake.scenario import load_scenario
 
@@ -61,11 +61,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--update-readme", action="store_true")
     args = parser.parse_args()
-    table = markdown(sweep())
-    print(table)
-    if args.update_readme:
-        readme = ROOT / "README.md"
-        readme.write_text(replace_block(readme.read_text(), "insertion learning rate", table))
+    print_table_and_update(markdown(sweep()), "insertion learning rate", args.update_readme, ROOT / "README.md")
 
 
 if __name__ == "__main__":

@@ -13,7 +13,7 @@ from pathlib import Path
 from hlcmp_drake.builders import build_slider_diagram
 from hlcmp_drake.experiments.one_dof import DEPTH_TOLERANCE_M
 from hlcmp_drake.metrics import settle_time, value_at
-from hlcmp_drake.report import replace_block
+from hlcmp_drake.report import print_table_and_update
 from hlcmp_drake.scenario import load_scenario
 from hlcmp_drake.simulate import simulate
 
@@ -50,11 +50,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--update-readme", action="store_true")
     args = parser.parse_args()
-    table = markdown(sweep())
-    print(table)
-    if args.update_readme:
-        readme = ROOT / "README.md"
-        readme.write_text(replace_block(readme.read_text(), "one_dof sensitivity", table))
+    print_table_and_update(markdown(sweep()), "one_dof sensitivity", args.update_readme, ROOT / "README.md")
 
 
 if __name__ == "__main__":
