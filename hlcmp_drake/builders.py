@@ -12,7 +12,7 @@ from __future__ import annotations
 import dataclasses as dc
 
 import numpy as np
-from pydrake.math import RotationMatrix
+from pydrake.math import RollPitchYaw, RotationMatrix
 from pydrake.multibody.inverse_kinematics import InverseKinematics
 from pydrake.multibody.parsing import ModelDirectives, Parser, ProcessModelDirectives
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlant
@@ -214,7 +214,8 @@ class ArmSetup:
 
 def solve_start_posture(scenario: Scenario, tip_position):
     """Inverse kinematics: the tool point at `tip_position`, the tool's +z along
-    task.tool_direction, as close as possible to the elbow-up seed task.ik_seed_rad.
+    task.tool_direction (or the tool at task.tool_rpy_rad), as close as possible to the
+    elbow-up seed task.ik_seed_rad.
     Returns (q0, the tool's orientation in the world at q0)."""
     task: ArmTask = scenario.task
     plant = MultibodyPlant(0.0)
@@ -223,14 +224,19 @@ def solve_start_posture(scenario: Scenario, tip_position):
     ik = InverseKinematics(plant)
     ik.AddPositionConstraint(frame, np.zeros(3), plant.world_frame(),
                              np.asarray(tip_position) - 1e-4, np.asarray(tip_position) + 1e-4)
-    ik.AddAngleBetweenVectorsConstraint(plant.world_frame(), np.asarray(task.tool_direction, float),
-                                        frame, np.array([0.0, 0.0, 1.0]), 0.0, 1e-3)
+    if task.tool_rpy_rad:
+        ik.AddOrientationConstraint(plant.world_frame(), RotationMatrix(RollPitchYaw(task.tool_rpy_rad)),
+                                    frame, RotationMatrix(), 1e-3)
+    else:
+        ik.AddAngleBetweenVectorsConstraint(plant.world_frame(), np.asarray(task.tool_direction, float),
+                                            frame, np.array([0.0, 0.0, 1.0]), 0.0, 1e-3)
     seed = np.asarray(task.ik_seed_rad, dtype=float)
     ik.get_mutable_prog().AddQuadraticErrorCost(np.eye(len(seed)), seed, ik.q())
     result = Solve(ik.prog(), seed)
     if not result.is_success():
         raise InputError(f"inverse kinematics found no posture with the tool at {np.round(tip_position, 3)} "
-                         f"(the demonstration's start) pointing along {task.tool_direction}: "
+                         f"(the demonstration's start) pointing along {task.tool_direction} "
+                         f"(orientation {task.tool_rpy_rad or 'free about it'}): "
                          "is it within the arm's reach?")
     q0 = result.GetSolution(ik.q())
     context = plant.CreateDefaultContext()

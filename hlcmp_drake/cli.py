@@ -1,6 +1,7 @@
 """The `hlcmp` command line.
 
     hlcmp run SCENARIO [--out DIR] [--iiwa ours|drake_models]   run a scenario
+    hlcmp report [--out DIR]                 every bundled scenario and one offline page
     hlcmp fit DEMO.csv --out SKILL.npz       fit the DMP of a demonstration
     hlcmp rollout SKILL.npz --out TRAJ.csv   roll a skill's DMP out
 
@@ -14,7 +15,10 @@ import sys
 
 import numpy as np
 
+from hlcmp_drake.dmp import DmpSettings
 from hlcmp_drake.errors import InputError
+
+DEFAULT_SMOOTHING_S = DmpSettings().smoothing_s
 
 EXIT_BAD_INPUT = 2
 EXIT_UNSTABLE = 3
@@ -37,14 +41,23 @@ def _floats(text, what):
     return values
 
 
-def _positive(text):
+def _number(text, minimum, inclusive):
     try:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a number, got '{text}'") from None
-    if not (np.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"must be a positive number, got '{text}'")
+    if not (np.isfinite(value) and (value >= minimum if inclusive else value > minimum)):
+        kind = "a non-negative" if inclusive else "a positive"
+        raise argparse.ArgumentTypeError(f"must be {kind} number, got '{text}'")
     return value
+
+
+def _positive(text):
+    return _number(text, 0.0, inclusive=False)
+
+
+def _non_negative(text):
+    return _number(text, 0.0, inclusive=True)
 
 
 def _basis_count(text):
@@ -57,14 +70,18 @@ def _basis_count(text):
     return value
 
 
+def _quiet_drake(args):
+    """Drake's INFO lines (the Meshcat server a recording starts, package downloads) are
+    not for this command's user; warnings and errors still show. pydrake sets this
+    logger's level when it is imported, so call this after importing it."""
+    if not args.debug:
+        logging.getLogger("drake").setLevel(logging.WARNING)
+
+
 def cmd_run(args):
     from hlcmp_drake.runner import print_summary, run_scenario
 
-    if not args.debug:
-        # Drake's INFO lines (the Meshcat server a recording starts, package downloads)
-        # are not for this command's user; warnings and errors still show. (pydrake sets
-        # this logger's level when imported, so this comes after the import above.)
-        logging.getLogger("drake").setLevel(logging.WARNING)
+    _quiet_drake(args)
 
     def progress(message):
         if not args.quiet:
@@ -76,13 +93,37 @@ def cmd_run(args):
     return EXIT_UNSTABLE if metrics["status"] != "ok" else 0
 
 
+def cmd_report(args):
+    import time
+    from pathlib import Path
+
+    from hlcmp_drake.outputs import write_text
+    from hlcmp_drake.report import report_page
+    from hlcmp_drake.runner import run_scenario
+
+    _quiet_drake(args)
+    out = Path(args.out)
+    sections, status, start = [], 0, time.perf_counter()
+    for name in args.scenarios:
+        if not args.quiet:
+            print(f"running {name} ...", file=sys.stderr, flush=True)
+        began = time.perf_counter()
+        metrics, run_dir, _ = run_scenario(name, out / name, None if args.quiet else
+                                           lambda message: print(f"  {message}", file=sys.stderr, flush=True))
+        sections.append((name, run_dir, time.perf_counter() - began))
+        status = max(status, 0 if metrics["status"] == "ok" else EXIT_UNSTABLE)
+    page = write_text(out / "index.html", report_page(out, sections))
+    print(f"report: {page} ({time.perf_counter() - start:.0f} s for {', '.join(args.scenarios)})")
+    return status
+
+
 def cmd_fit(args):
     from hlcmp_drake.demos import read_demonstration
     from hlcmp_drake.dmp import Dmp, DmpSettings
     from hlcmp_drake.skill import Skill, save_skill
 
     t, positions, axes = read_demonstration(args.demo)
-    dmp = Dmp.fit(t, positions, axes, DmpSettings(n_basis=args.basis))
+    dmp = Dmp.fit(t, positions, axes, DmpSettings(n_basis=args.basis, smoothing_s=args.smoothing))
     save_skill(args.out, Skill.untrained(dmp))
     flat = [a for a, scaled in zip(axes, dmp.goal_scaled) if not scaled]
     print(f"fitted {len(axes)} axis DMP ({','.join(axes)}), N = {args.basis}, tau = {dmp.tau:.3f} s"
@@ -125,10 +166,20 @@ def build_parser():
                           "one from drake_models (downloaded by Drake on first use: needs internet)")
     run.set_defaults(func=cmd_run)
 
+    report = sub.add_parser("report", help="run every bundled scenario and write one offline report page")
+    report.add_argument("--out", default="out/report", help="output folder (default out/report)")
+    report.add_argument("--scenarios", nargs="+", choices=("one_dof", "insertion", "cutting"),
+                        default=["one_dof", "insertion", "cutting"], help="a subset to run")
+    report.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    report.set_defaults(func=cmd_report)
+
     fit = sub.add_parser("fit", help="fit the DMP of a demonstration CSV (t,x,y,z)")
     fit.add_argument("demo")
     fit.add_argument("--out", required=True, help="skill file to write (.npz)")
     fit.add_argument("--basis", type=_basis_count, default=30, help="basis functions N (default 30)")
+    fit.add_argument("--smoothing", type=_non_negative, default=DEFAULT_SMOOTHING_S,
+                     help=f"std-dev in s of the Gaussian smoothing before differentiation "
+                          f"(default {DEFAULT_SMOOTHING_S}; about 0.05 removes a hand's 8-12 Hz tremor)")
     fit.set_defaults(func=cmd_fit)
 
     rollout = sub.add_parser("rollout", help="roll a skill's DMP out into a trajectory CSV")

@@ -22,6 +22,8 @@ import numpy as np
 # Axes with |g - p0| below this fraction of the demonstration's range are "g ~ p0" axes
 # (SPEC section 2): their Eq. 13 amplitude would vanish, so the range is used instead.
 DEGENERATE_GOAL_FRACTION = 0.1
+# The regression also sees the demonstration's end held at rest for this fraction of tau.
+TAIL_FRACTION = 0.5
 
 
 @dataclass(frozen=True)
@@ -220,13 +222,19 @@ class Dmp:
         goal_scaled = np.abs(goal - start) >= DEGENERATE_GOAL_FRACTION * np.maximum(span, 1e-12)
         amplitude = np.where(goal_scaled, goal - start, np.maximum(span, 1e-12))
         centers, widths = basis_centers_and_widths(settings.n_basis, settings.alpha_s)
-        s = phase_at(t_u, tau, settings.alpha_s)
+        # A settled tail: the demonstration ends at rest at its goal, so over a further
+        # TAIL_FRACTION * tau (the phase still decaying) the forcing term must vanish. Without
+        # these samples the last kernels, whose features s (g - p0) are tiny near the end, get
+        # large weights from noise, and the DMP drifts away from the goal after t = tau.
+        dt = t_u[1] - t_u[0]
+        t_tail = tau + dt * np.arange(1, int(TAIL_FRACTION * tau / dt) + 1)
+        s = phase_at(np.concatenate([t_u, t_tail]), tau, settings.alpha_s)
         theta_p = np.zeros((p.shape[1], settings.n_basis))
         for m in range(p.shape[1]):
             features = forcing_basis(s, centers, widths, amplitude[m : m + 1])[:, 0, :]
             target = forcing_target(p[:, m], pdot[:, m], pddot[:, m], goal[m], tau,
                                     settings.alpha, settings.beta)
-            theta_p[m] = fit_forcing_weights(features, target)
+            theta_p[m] = fit_forcing_weights(features, np.concatenate([target, np.zeros(len(t_tail))]))
         return cls(settings, tau, start, goal, theta_p, amplitude, goal_scaled, tuple(axis_names))
 
     def with_goal(self, goal):

@@ -1,6 +1,7 @@
 """Markdown for the README's results sections, generated from a run's metrics.json so
 that no number in the README is typed by hand."""
 
+import html
 import json
 from pathlib import Path
 
@@ -22,20 +23,11 @@ def one_dof_markdown(metrics):
     return "\n".join(rows) + f"\n\n**C5: {verdict}.** Its parts:\n{parts}\n"
 
 
-PAPER_SAYS = {
-    "C1": "higher constant stiffness gives smaller position error (Fig. 6)",
-    "C2": "Hl-CMPs give a smoother contact force than constant stiffness (Fig. 8)",
-    "C3": "only the task-relevant axis adapts: x/y stiffness and force stay near their start values",
-    "C4": "feed-forward force and stiffness rise while pushing in and fall after the pierce; v ≈ ½ f_c (Fig. 4)",
-    "C5": "Hl-CMPs reach the depth and return faster than [21]; [21] with an improper f_d fails (Fig. 13)",
-}
-
-
 def claims_markdown(claims):
     rows = ["| claim | the paper says | we measured | reproduced |", "|---|---|---|---|"]
     for name, claim in claims.items():
         evidence = claim["evidence"].replace("|", "\\|")   # a literal bar inside a table cell
-        rows.append(f"| {name} | {PAPER_SAYS[name]} | {evidence} | "
+        rows.append(f"| {name} | {claim['paper_says']} | {evidence} | "
                     f"**{'yes' if claim['holds'] else 'no'}** |")
     return "\n".join(rows) + "\n"
 
@@ -59,7 +51,11 @@ def replace_block(text, name, body):
     return f"{head}{begin}\n{body}{end}{tail}"
 
 
-RESULT_BLOCKS = {"one_dof": one_dof_markdown, "insertion": insertion_markdown}
+def cutting_markdown(metrics):
+    return insertion_markdown(metrics)   # the same per-axis metrics and a claims table
+
+
+RESULT_BLOCKS = {"one_dof": one_dof_markdown, "insertion": insertion_markdown, "cutting": cutting_markdown}
 
 
 def update_readme(readme_path, run_dirs):
@@ -78,3 +74,90 @@ def print_table_and_update(table, block, update, readme_path):
     if update:
         text = Path(readme_path).read_text()
         Path(readme_path).write_text(replace_block(text, block, table))
+
+
+# ----------------------------------------------------------------------------------------
+# The offline report page (hlcmp report)
+# ----------------------------------------------------------------------------------------
+
+EXPERIMENT_TITLES = {
+    "one_dof": ("1-DOF comparison with a variable-impedance controller", "Fig. 13"),
+    "insertion": ("Insertion of a rod through a foam plank (iiwa14)", "Figs. 4-8"),
+    "cutting": ("Cutting a soft block (iiwa14)", "Figs. 11-12"),
+}
+
+PAGE_STYLE = """
+body { font-family: sans-serif; max-width: 1100px; margin: 2em auto; padding: 0 1em; color: #222; }
+table { border-collapse: collapse; margin: 1em 0; font-size: 0.92em; }
+th, td { border: 1px solid #bbb; padding: 0.3em 0.6em; vertical-align: top; text-align: left; }
+th { background: #eee; }
+td.yes { background: #dff3df; font-weight: bold; } td.no { background: #f8dcdc; font-weight: bold; }
+img { max-width: 100%; border: 1px solid #ddd; margin: 0.5em 0; }
+img.missing { border: 3px solid red; min-height: 2em; }
+code { background: #f4f4f4; padding: 0 0.2em; }
+"""
+
+
+def _claims_html(claims):
+    rows = ["<tr><th>claim</th><th>the paper says</th><th>we measured</th><th>reproduced</th></tr>"]
+    for name, claim in claims.items():
+        verdict = "yes" if claim["holds"] else "no"
+        rows.append(f"<tr><td>{name}</td><td>{html.escape(claim['paper_says'])}</td>"
+                    f"<td>{html.escape(claim['evidence'])}</td><td class='{verdict}'>{verdict}</td></tr>")
+    return "<table>" + "".join(rows) + "</table>"
+
+
+def _metrics_html(metrics):
+    """Every controller's metrics as one table: a column per metric (per axis where it has axes)."""
+    controllers = metrics["controllers"]
+    columns = []   # (metric, axis or None), in first-seen order over all controllers
+    for values in controllers.values():
+        for key, value in values.items():
+            for column in [(key, axis) for axis in value] if isinstance(value, dict) else [(key, None)]:
+                if column not in columns:
+                    columns.append(column)
+
+    def cell(value):
+        if isinstance(value, float):
+            return f"{round(value, 9):.4g}"   # rounding shows a 1e-15 residue as 0
+        return "–" if value is None else html.escape(str(value))
+
+    head = "".join(f"<th>{html.escape(key)}{'' if axis is None else f' ({axis})'}</th>" for key, axis in columns)
+    rows = [f"<tr><th>controller</th>{head}</tr>"]
+    for name, values in controllers.items():
+        cells = "".join(f"<td>{cell(values.get(key) if axis is None else values.get(key, {}).get(axis))}</td>"
+                        for key, axis in columns)
+        rows.append(f"<tr><td><code>{html.escape(name)}</code></td>{cells}</tr>")
+    return "<div style='overflow-x: auto'><table>" + "".join(rows) + "</table></div>"
+
+
+def report_page(out_dir, sections):
+    """index.html text for `sections`: [(scenario name, its run folder, wall seconds)].
+    Every link and image is relative to out_dir, so the page works offline."""
+    out_dir = Path(out_dir)
+    parts = ["<!DOCTYPE html><html><head><meta charset='utf-8'><title>hlcmp-drake: the paper's "
+             f"experiments</title><style>{PAGE_STYLE}</style></head><body>",
+             "<h1>Hl-CMPs on Drake: the paper's experiments, reproduced in simulation</h1>",
+             "<p>Zeng et al., <i>An Approach for Robotic Learning Inspired by Biomimetic Adaptive "
+             "Control</i>, IEEE TII 18(3), 2022. Every number below comes from the runs linked "
+             "with it; each claim of the paper is marked reproduced or not.</p>",
+             "<h2>Contents</h2><ul>"]
+    parts += [f"<li><a href='#{name}'>{html.escape(EXPERIMENT_TITLES[name][0])}</a></li>" for name, _, _ in sections]
+    parts.append("</ul>")
+    for name, run_dir, seconds in sections:
+        title, figures = EXPERIMENT_TITLES[name]
+        metrics = json.loads((Path(run_dir) / "metrics.json").read_text())
+        rel = Path(run_dir).resolve().relative_to(out_dir.resolve()).as_posix()
+        parts.append(f"<h2 id='{name}'>{html.escape(title)} (paper {figures})</h2>")
+        parts.append(f"<p>Status: <b>{metrics['status']}</b>; ran in {seconds:.0f} s. "
+                     f"<a href='{rel}/recording.html'>3-D recording (offline)</a> · "
+                     f"<a href='{rel}/metrics.json'>metrics.json</a> · "
+                     f"<a href='{rel}/timeseries.npz'>timeseries.npz</a></p>")
+        parts.append("<h3>Claims</h3>" + _claims_html(metrics.get("claims", {})))
+        parts.append("<h3>Metrics</h3>" + _metrics_html(metrics))
+        parts.append("<h3>Figures</h3>")
+        for figure in sorted((Path(run_dir) / "figures").glob("*.png")):
+            parts.append(f"<img src='{rel}/figures/{figure.name}' alt='{figure.stem}' "
+                         "onerror=\"this.classList.add('missing')\">")
+    parts.append("</body></html>")
+    return "\n".join(parts) + "\n"

@@ -8,15 +8,15 @@ import numpy as np
 
 from hlcmp_drake import outputs
 from hlcmp_drake.builders import diagram_factory
-from hlcmp_drake.experiments import insertion, one_dof
+from hlcmp_drake.experiments import EXPERIMENTS
 from hlcmp_drake.recording import record_runs
-from hlcmp_drake.scenario import SliderTask, load_scenario, use_drake_models_iiwa
+from hlcmp_drake.scenario import load_scenario, use_drake_models_iiwa
 from hlcmp_drake.simulate import simulate
 
 
 def _experiment(scenario):
-    """The evaluation module for the scenario's kind of world."""
-    return one_dof if isinstance(scenario.task, SliderTask) else insertion
+    """The evaluation module the scenario names."""
+    return EXPERIMENTS[scenario.experiment]
 
 
 def run_controllers(scenario, progress=None, build=None):

@@ -102,12 +102,15 @@ class ArmTask:
     """A torque-controlled arm (the iiwa) whose task space is the translation of a tool
     point. The start posture comes from inverse kinematics at the demonstration's start
     with the tool frame's +z axis along `tool_direction` (world; the rotation about it is
-    left to the solver, near the seed `ik_seed_rad`); that orientation and posture are
-    then held below the translational task (NullSpaceImpedance)."""
+    left to the solver, near the seed `ik_seed_rad`) -- or, for a tool whose rotation
+    about its axis matters (a blade), with the whole tool orientation `tool_rpy_rad`
+    (world roll, pitch, yaw) when given; that orientation and posture are then held below
+    the translational task (NullSpaceImpedance)."""
 
     tool_frame: str = "insertion_tool::tip"
     axes: list[int] = dc.field(default_factory=lambda: [0, 1, 2])
     tool_direction: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, -1.0])
+    tool_rpy_rad: list[float] = dc.field(default_factory=list)
     ik_seed_rad: list[float] = dc.field(default_factory=lambda: [0.0, 0.6, 0.0, -1.5, 0.0, 1.0, 0.0])
     orientation_stiffness_Nm_per_rad: float = 100.0
     orientation_damping_Nms_per_rad: float = 10.0
@@ -141,7 +144,11 @@ class RecordingConfig:
 
 @dc.dataclass
 class Scenario:
+    """name: names the outputs. experiment: how the runs are evaluated -- one_dof,
+    insertion or cutting (their metrics, claims and figures; see hlcmp_drake.experiments)."""
+
     name: str = ""
+    experiment: str = ""
     duration_s: float = 1.0
     log_period_s: float = 0.01
     directives: list[ModelDirective] = dc.field(default_factory=list)
@@ -225,6 +232,12 @@ def validate_scenario(scenario: Scenario, path, text=""):
 
     if not scenario.name:
         fail("name", "must be given")
+    from hlcmp_drake.experiments import EXPERIMENTS  # late: the experiments import this module
+
+    if scenario.experiment not in EXPERIMENTS:
+        fail("experiment", f"must be one of {', '.join(EXPERIMENTS)}, got '{scenario.experiment}'")
+    if (scenario.experiment == "one_dof") != isinstance(scenario.task, SliderTask):
+        fail("experiment", f"'{scenario.experiment}' does not fit a {type(scenario.task).__name__}")
     for key in ("duration_s", "log_period_s"):
         value = getattr(scenario, key)
         if not (math.isfinite(value) and value > 0):
@@ -255,6 +268,8 @@ def validate_scenario(scenario: Scenario, path, text=""):
             fail("axes", f"task axes must be distinct values of 0 (x), 1 (y), 2 (z), got {task.axes}")
         if len(task.tool_direction) != 3 or not any(task.tool_direction):
             fail("tool_direction", "needs a non-zero 3-vector")
+        if len(task.tool_rpy_rad) not in (0, 3):
+            fail("tool_rpy_rad", "needs three angles (roll, pitch, yaw), or none")
         for key in ("orientation_stiffness_Nm_per_rad", "orientation_damping_Nms_per_rad",
                     "posture_stiffness_Nm_per_rad", "posture_damping_Nms_per_rad"):
             if not (math.isfinite(getattr(task, key)) and getattr(task, key) >= 0):

@@ -35,3 +35,13 @@ def insertion_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("insertion")
     assert main(["run", "insertion", "--out", str(out), "--quiet"]) == 0
     return out
+
+
+@pytest.fixture(scope="session")
+def cutting_run(tmp_path_factory):
+    """`hlcmp run cutting` once for the whole session (the full scenario, about 30 s)."""
+    from hlcmp_drake.cli import main
+
+    out = tmp_path_factory.mktemp("cutting")
+    assert main(["run", "cutting", "--out", str(out), "--quiet"]) == 0
+    return out

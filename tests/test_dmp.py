@@ -114,3 +114,15 @@ def test_settings_validation():
     with pytest.raises(ValueError):
         DmpSettings(n_basis=1)
     assert DmpSettings(alpha=40).beta == 10
+
+
+def test_a_tremor_demonstration_stays_at_its_goal_after_tau(smooth_demo):
+    """Noise near the end must not leave large weights on the last kernels: the fit sees
+    the demonstration held at rest after tau (TAIL_FRACTION), so the DMP settles at g."""
+    t, positions = smooth_demo
+    rng = np.random.default_rng(11)
+    tremor = 2e-4 * np.sin(2 * np.pi * rng.uniform(8, 12, 3) * t[:, None] + rng.uniform(0, 6, 3))
+    dmp = Dmp.fit(t, positions + tremor, "xyz", DmpSettings(smoothing_s=0.03))
+    t_r, p, *_ = dmp.rollout(duration=2 * dmp.tau, dt=0.002)
+    after = t_r >= dmp.tau
+    assert np.abs(p[after] - dmp.goal).max() < 1e-3

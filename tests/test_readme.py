@@ -15,7 +15,7 @@ def _quick_start_commands():
 def test_quick_start_is_two_commands_and_ci_runs_the_test_command():
     main_job, tests = _quick_start_commands()
     assert "\n" not in main_job and "\n" not in tests
-    assert "hlcmp run" in main_job and "pytest" in tests
+    assert "hlcmp report" in main_job and "pytest" in tests
     assert tests in (REPO_ROOT / ".ci" / "run").read_text().splitlines()
 
 

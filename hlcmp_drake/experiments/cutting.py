@@ -1,0 +1,85 @@
+"""The cutting experiment (paper Sec. V-E, Figs. 11-12) and claims C2, C3 for cutting.
+
+The per-axis metrics are the insertion's (Figs. 6-8 there, Fig. 12b here)."""
+
+# The runner asks every experiment module for controller_metrics, claims, table, figures.
+from hlcmp_drake.experiments.insertion import AXES, controller_metrics, table  # noqa: F401
+
+
+PAPER_SAYS = {
+    "C2": "Hl-CMPs cut with a smoother z force than constant stiffness (Fig. 12b)",
+    "C3": "the profiles adapt selectively, most on the axis whose dynamics are hardest (Fig. 11)",
+}
+
+
+def claims(metrics, scenario, runs=None):
+    constants = [name for name in metrics if name.startswith("const_")]
+    hl = metrics["hlcmp"]
+    smooth = {n: metrics[n]["force_smoothness_N"]["z"] for n in ["hlcmp", *constants]}
+    result = {"C2": {
+        "holds": all(smooth["hlcmp"] < smooth[n] for n in constants),
+        "evidence": "sum |second difference of f_z| (Fig. 12b): " + ", ".join(
+            f"{n} {v:.2f} N" for n, v in smooth.items()) + ".",
+    }}
+    # C3 for cutting: the profiles adapt most on the axis where the task pushes back most.
+    force = hl["mean_abs_force_N"]
+    hardest = max(AXES, key=force.get)
+    k, v = hl["max_stiffness_N_per_m"], hl["max_abs_feedforward_N"]
+    most_k, most_v = max(AXES, key=k.get), max(AXES, key=v.get)
+    result["C3"] = {
+        "holds": most_k == hardest and most_v == hardest,
+        "evidence": (f"mean |f| x/y/z {force['x']:.2f}/{force['y']:.2f}/{force['z']:.2f} N (hardest: {hardest}); "
+                     f"peak learned stiffness x/y/z {k['x']:.1f}/{k['y']:.1f}/{k['z']:.1f} N/m (most: {most_k}); "
+                     f"peak |feed-forward| x/y/z {v['x']:.2f}/{v['y']:.2f}/{v['z']:.2f} N (most: {most_v})."),
+    }
+    for name, claim in result.items():
+        claim["paper_says"] = PAPER_SAYS[name]
+    return result
+
+
+def figures(runs, scenario):
+    from hlcmp_drake.plots import new_figure
+
+    out = {}
+    hl = runs.get("hlcmp")
+    if hl is not None:
+        rows = [("position [m]", None), ("FF v [N]", "v"), ("stiffness [N/m]", "Ks"),
+                ("damping [Ns/m]", "Kd"), ("CF u + v [N]", "cf")]
+        fig, axes = new_figure(len(rows), 3, size=(13, 11), sharex=True)
+        for col, axis_name in enumerate(AXES):
+            for row, (label, key) in enumerate(rows):
+                axis = axes[row * 3 + col]
+                if key is None:
+                    axis.plot(hl.t, hl.series["xd"][:, col], "k--", label="reference")
+                    axis.plot(hl.t, hl.series["x"][:, col], label="measured")
+                    axis.set_title(f"{axis_name} axis")
+                elif key == "cf":
+                    axis.plot(hl.t, hl.series["u"][:, col] + hl.series["v"][:, col], color="C1")
+                else:
+                    axis.plot(hl.t, hl.series[key][:, col], color=f"C{row + 1}")
+                if col == 0:
+                    axis.set_ylabel(label)
+                axis.grid(alpha=0.3)
+        axes[0].legend(fontsize=8)
+        for col in range(3):
+            axes[(len(rows) - 1) * 3 + col].set_xlabel("time [s]")
+        fig.suptitle("Hl-CMP profiles learned online while cutting (paper Fig. 11)")
+        out["fig11_profiles_xyz.png"] = fig
+
+    fig, axes = new_figure(1, 2, size=(13, 4.5))
+    for name, run in runs.items():
+        axes[0].plot(run.t, run.series["f_ext"][:, 2], label=name)
+    axes[0].set_xlabel("time [s]")
+    axes[0].set_ylabel("measured force f_z [N]")
+    axes[0].set_title("(a) endpoint force in z")
+    axes[0].grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    smooth = [controller_metrics(run, scenario)["force_smoothness_N"]["z"] for run in runs.values()]
+    axes[1].bar(range(len(runs)), smooth, color=[f"C{i}" for i in range(len(runs))])
+    axes[1].set_xticks(range(len(runs)), list(runs))
+    axes[1].set_ylabel("sum |second difference of f_z| [N]")
+    axes[1].set_title("(b) smoothness (smaller is smoother)")
+    axes[1].grid(alpha=0.3, axis="y")
+    fig.suptitle("Cutting: measured z force (paper Fig. 12)")
+    out["fig12_force_z_smoothness.png"] = fig
+    return out

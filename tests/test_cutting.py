@@ -1,0 +1,68 @@
+"""The cutting experiment: its demonstration (the g ~ p0 case), the full run, its claims."""
+
+import json
+from types import SimpleNamespace
+
+import numpy as np
+
+from hlcmp_drake.builders import fit_demonstration
+from hlcmp_drake.experiments import cutting
+from hlcmp_drake.paths import REPO_ROOT
+from hlcmp_drake.report import cutting_markdown
+from hlcmp_drake.scenario import ArmTask, HlcmpConfig, load_scenario
+
+CONTROLLERS = ["hlcmp", "const_500", "const_1000"]
+
+
+def test_scenario_has_the_paper_values():
+    scenario, _ = load_scenario("cutting")
+    assert isinstance(scenario.task, ArmTask) and scenario.experiment == "cutting"
+    assert list(scenario.controllers) == CONTROLLERS
+    hl = scenario.controllers["hlcmp"]
+    assert isinstance(hl, HlcmpConfig)
+    assert (hl.q_k, hl.q_d, hl.q_v) == ([4000.0] * 3, [50.0] * 3, [9.0] * 3)
+
+
+def test_the_dmp_brings_z_back_to_the_start_height():
+    """The cutting demonstration ends at the height it started from (g ~ p0 in z)."""
+    scenario, _ = load_scenario("cutting")
+    dmp = fit_demonstration(scenario)
+    assert list(dmp.goal_scaled) == [True, True, False]
+    t, p, *_ = dmp.rollout(duration=dmp.tau + 1.0)
+    assert p[:, 2].min() < dmp.start[2] - 0.08        # it goes down into the block ...
+    assert abs(p[-1, 2] - dmp.start[2]) < 1e-3         # ... and comes back up
+    np.testing.assert_allclose(p[-1], dmp.goal, atol=1e-3)
+
+
+def test_run_writes_the_contract_and_its_metrics_agree(cutting_run):
+    metrics = json.loads((cutting_run / "metrics.json").read_text())
+    assert metrics["status"] == "ok" and list(metrics["controllers"]) == CONTROLLERS
+    assert set(metrics["claims"]) == {"C2", "C3"}
+    data = np.load(cutting_run / "timeseries.npz")
+    scenario, _ = load_scenario("cutting")
+    for name in CONTROLLERS:
+        series = {key.split("/", 1)[1]: data[key] for key in data.files if key.startswith(f"{name}/")}
+        assert series["f_ext"].shape == (len(data["t"]), 3)
+        assert cutting.controller_metrics(SimpleNamespace(t=data["t"], series=series), scenario) == \
+            metrics["controllers"][name]
+    for figure in ("fig11_profiles_xyz.png", "fig12_force_z_smoothness.png"):
+        assert (cutting_run / "figures" / figure).read_bytes()[:4] == b"\x89PNG"
+    assert (cutting_run / "recording.html").stat().st_size > 100_000
+
+
+def test_the_blade_cuts_through_the_block(cutting_run):
+    data = np.load(cutting_run / "timeseries.npz")
+    t = data["t"]
+    cutting_phase = (t > 2.5) & (t < 5.5)
+    for name in ("const_500", "const_1000"):
+        z, f = data[f"{name}/x"][:, 2], data[f"{name}/f_ext"]
+        assert np.all(z[cutting_phase] < 0.27)                 # the edge is inside the block
+        assert np.all(f[cutting_phase, 1] < 0)                 # the block resists the cut along +y
+        assert np.all(f[cutting_phase, 2] > 0)                 # and pushes the blade up
+
+
+def test_readme_results_come_from_this_run(cutting_run):
+    metrics = json.loads((cutting_run / "metrics.json").read_text())
+    readme = (REPO_ROOT / "README.md").read_text()
+    block = readme.split("<!-- BEGIN cutting results -->\n")[1].split("<!-- END cutting results -->")[0]
+    assert block == cutting_markdown(metrics)

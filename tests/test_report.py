@@ -1,0 +1,64 @@
+"""The report page: generated from the runs' own metrics, offline, every image and link local."""
+
+import html
+import json
+import re
+import shutil
+import subprocess
+
+import pytest
+
+from hlcmp_drake.report import report_page
+
+
+@pytest.fixture(scope="session")
+def report(one_dof_run, insertion_run, cutting_run, tmp_path_factory):
+    base = tmp_path_factory.getbasetemp()   # the three run folders live below it
+    sections = [("one_dof", one_dof_run, 1.0), ("insertion", insertion_run, 1.0), ("cutting", cutting_run, 1.0)]
+    page = base / "index.html"
+    page.write_text(report_page(base, sections))
+    return page, sections
+
+
+def test_every_local_link_and_image_resolves(report):
+    page, _ = report
+    text = page.read_text()
+    targets = re.findall(r"(?:src|href)='([^'#][^']*)'", text)
+    assert len([t for t in targets if t.endswith(".png")]) == 1 + 5 + 2
+    assert sum(t.endswith("recording.html") for t in targets) == 3
+    for target in targets:
+        assert not target.startswith(("http:", "https:", "//")), target
+        assert (page.parent / target).exists(), target
+
+
+def test_every_number_is_the_runs_own(report):
+    page, sections = report
+    text = page.read_text()
+    for _, run_dir, _ in sections:
+        metrics = json.loads((run_dir / "metrics.json").read_text())
+        for name, claim in metrics["claims"].items():
+            assert html.escape(claim["evidence"]) in text
+
+
+def test_the_page_renders_in_chromium_with_every_image(report, tmp_path):
+    browser = shutil.which("chromium")
+    if browser is None:
+        pytest.skip("no Chromium on this machine (install Debian's 'chromium' package; .ci/run tries to)")
+    page, _ = report
+    result = subprocess.run(
+        [browser, "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+         "--disable-component-update", "--disable-sync", "--no-first-run",
+         f"--user-data-dir={tmp_path / 'profile'}", "--virtual-time-budget=5000", "--dump-dom", page.as_uri()],
+        capture_output=True, text=True, timeout=180)
+    assert result.stdout.count("<img") == 8
+    images = re.findall(r"<img[^>]*>", result.stdout)
+    assert images and not [img for img in images if re.search(r'class="[^"]*missing', img)]
+    assert result.stdout.count("<h2 id=") == 3
+
+
+def test_report_command_runs_the_scenarios(tmp_path):
+    from hlcmp_drake.cli import main
+
+    assert main(["report", "--out", str(tmp_path), "--scenarios", "one_dof", "--quiet"]) == 0
+    text = (tmp_path / "index.html").read_text()
+    assert "one_dof/recording.html" in text and (tmp_path / "one_dof" / "metrics.json").exists()
