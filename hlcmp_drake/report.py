@@ -58,12 +58,26 @@ def cutting_markdown(metrics):
 RESULT_BLOCKS = {"one_dof": one_dof_markdown, "insertion": insertion_markdown, "cutting": cutting_markdown}
 
 
+def claims_summary_markdown(all_metrics):
+    """One row per claim per experiment: {scenario name: metrics} -> markdown table."""
+    rows = ["| claim | experiment | the paper says | reproduced here |", "|---|---|---|---|"]
+    for name, metrics in all_metrics.items():
+        for claim_name, claim in metrics["claims"].items():
+            rows.append(f"| {claim_name} | {name} | {claim['paper_says']} | "
+                        f"**{'yes' if claim['holds'] else 'no'}** |")
+    return "\n".join(rows) + "\n"
+
+
 def update_readme(readme_path, run_dirs):
-    """Rewrite the README's `<name> results` blocks from {name: run folder}."""
+    """Rewrite the README's `<name> results` blocks, and the claims summary when every
+    experiment is given, from {name: run folder}."""
     text = Path(readme_path).read_text()
-    for name, run_dir in run_dirs.items():
-        metrics = json.loads((Path(run_dir) / "metrics.json").read_text())
+    all_metrics = {name: json.loads((Path(run_dir) / "metrics.json").read_text())
+                   for name, run_dir in run_dirs.items()}
+    for name, metrics in all_metrics.items():
         text = replace_block(text, f"{name} results", RESULT_BLOCKS[name](metrics))
+    if set(all_metrics) == set(RESULT_BLOCKS):
+        text = replace_block(text, "claims summary", claims_summary_markdown(all_metrics))
     Path(readme_path).write_text(text)
 
 

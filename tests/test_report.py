@@ -62,3 +62,14 @@ def test_report_command_runs_the_scenarios(tmp_path):
     assert main(["report", "--out", str(tmp_path), "--scenarios", "one_dof", "--quiet"]) == 0
     text = (tmp_path / "index.html").read_text()
     assert "one_dof/recording.html" in text and (tmp_path / "one_dof" / "metrics.json").exists()
+
+
+def test_readme_claims_summary_comes_from_the_runs(one_dof_run, insertion_run, cutting_run):
+    from hlcmp_drake.paths import REPO_ROOT
+    from hlcmp_drake.report import claims_summary_markdown
+
+    runs = {"one_dof": one_dof_run, "insertion": insertion_run, "cutting": cutting_run}
+    metrics = {name: json.loads((run / "metrics.json").read_text()) for name, run in runs.items()}
+    readme = (REPO_ROOT / "README.md").read_text()
+    block = readme.split("<!-- BEGIN claims summary -->\n")[1].split("<!-- END claims summary -->")[0]
+    assert block == claims_summary_markdown(metrics)
