@@ -20,6 +20,7 @@ from pydrake.solvers import Solve
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput
 
+from hlcmp_drake.checks import check_demonstration_feasible
 from hlcmp_drake.demos import read_demonstration
 from hlcmp_drake.errors import InputError
 from hlcmp_drake.dmp import Dmp, DmpSettings, basis_centers_and_widths
@@ -68,9 +69,15 @@ def add_plant(builder, scenario: Scenario):
 
 
 def fit_demonstration(scenario: Scenario) -> Dmp:
-    """Table I step II at start-up: the DMP of the scenario's demonstration file."""
+    """Table I step II at start-up: the DMP of the scenario's demonstration file, after
+    checking the arm can follow it (checks.check_demonstration_feasible)."""
     reference: DemonstrationConfig = scenario.reference
-    t, positions, axes = read_demonstration(reference.file)
+    t, positions, axes, lines = read_demonstration(reference.file, with_lines=True)
+    if axes != ("x", "y", "z")[: len(axes)] or len(axes) != scenario.n_axes:
+        raise InputError(f"{reference.file}: has columns {','.join(axes)}, the scenario "
+                         f"'{scenario.name}' needs x,y,z")
+    if isinstance(scenario.task, ArmTask):
+        check_demonstration_feasible(scenario, t, positions, reference.file, lines)
     settings = DmpSettings(n_basis=scenario.basis.n_basis, alpha=reference.alpha,
                            alpha_s=scenario.basis.alpha_s, smoothing_s=reference.smoothing_s)
     return Dmp.fit(t, positions, axes, settings)
@@ -100,17 +107,20 @@ def desired_force_schedule(config: VariableImpedanceConfig, reference: StepRefer
     return schedule
 
 
-def make_controller(name, config, scenario: Scenario, initial_position):
-    """The controller system described by one entry of `scenario.controllers`."""
+def make_controller(name, config, scenario: Scenario, initial_position, theta0=None):
+    """The controller system described by one entry of `scenario.controllers`. For an
+    Hl-CMP, `theta0` ((theta_k, theta_d, theta_v), each M x N) replaces the configured
+    uniform initial weights: a learned skill, or the previous trial's result."""
     m = scenario.n_axes
     if isinstance(config, HlcmpConfig):
         centers, widths = basis_centers_and_widths(scenario.basis.n_basis, scenario.basis.alpha_s)
         gains = HlcmpGains(np.asarray(config.q_k, float), np.asarray(config.q_d, float),
                            np.asarray(config.q_v, float), config.pi, np.asarray(config.gain_l, float))
         n = len(centers)
-        theta0 = np.concatenate([np.full(m * n, config.theta_k0), np.full(m * n, config.theta_d0),
-                                 np.full(m * n, config.theta_v0)])
-        system = HlcmpController(centers, widths, gains, theta0)
+        if theta0 is None:
+            theta0 = np.concatenate([np.full(m * n, config.theta_k0), np.full(m * n, config.theta_d0),
+                                     np.full(m * n, config.theta_v0)])
+        system = HlcmpController(centers, widths, gains, np.concatenate([np.ravel(t) for t in theta0]))
     elif isinstance(config, ConstantImpedanceConfig):
         system = ConstantImpedanceController(config.stiffness_N_per_m, config.damping_Ns_per_m,
                                              config.pi, config.gain_l)
@@ -172,7 +182,7 @@ def add_loggers(builder, scenario, plant, task_space, reference, controller, for
     return loggers
 
 
-def build_slider_diagram(scenario: Scenario, controller_name: str) -> BuiltDiagram:
+def build_slider_diagram(scenario: Scenario, controller_name: str, theta0=None) -> BuiltDiagram:
     """The 1-DOF experiment: one prismatic joint, the unilateral spring, one controller."""
     task: SliderTask = scenario.task
     builder = DiagramBuilder()
@@ -190,7 +200,7 @@ def build_slider_diagram(scenario: Scenario, controller_name: str) -> BuiltDiagr
     reference = add_reference(builder, scenario)
     initial_position = np.zeros(scenario.n_axes)
     controller = builder.AddSystem(make_controller(
-        controller_name, scenario.controllers[controller_name], scenario, initial_position))
+        controller_name, scenario.controllers[controller_name], scenario, initial_position, theta0))
     connect_controller(builder, controller, reference, task_space)
     if isinstance(controller, VariableImpedanceController):
         builder.Connect(spring.GetOutputPort("reaction_force"), controller.external_force)
@@ -212,14 +222,10 @@ class ArmSetup:
     tool_orientation: RotationMatrix
 
 
-def solve_start_posture(scenario: Scenario, tip_position):
-    """Inverse kinematics: the tool point at `tip_position`, the tool's +z along
-    task.tool_direction (or the tool at task.tool_rpy_rad), as close as possible to the
-    elbow-up seed task.ik_seed_rad.
-    Returns (q0, the tool's orientation in the world at q0)."""
-    task: ArmTask = scenario.task
-    plant = MultibodyPlant(0.0)
-    load_models(plant, scenario)
+def solve_ik_for_tool(plant, task: ArmTask, tip_position, seed):
+    """Inverse kinematics on a finalized `plant`: the tool point at `tip_position`, the
+    tool's +z along task.tool_direction (or the tool at task.tool_rpy_rad), as close as
+    possible to `seed`. Returns q, or None if there is no such posture."""
     frame = plant.GetFrameByName(*_scoped(plant, task.tool_frame))
     ik = InverseKinematics(plant)
     ik.AddPositionConstraint(frame, np.zeros(3), plant.world_frame(),
@@ -230,18 +236,27 @@ def solve_start_posture(scenario: Scenario, tip_position):
     else:
         ik.AddAngleBetweenVectorsConstraint(plant.world_frame(), np.asarray(task.tool_direction, float),
                                             frame, np.array([0.0, 0.0, 1.0]), 0.0, 1e-3)
-    seed = np.asarray(task.ik_seed_rad, dtype=float)
+    seed = np.asarray(seed, dtype=float)
     ik.get_mutable_prog().AddQuadraticErrorCost(np.eye(len(seed)), seed, ik.q())
     result = Solve(ik.prog(), seed)
-    if not result.is_success():
+    return result.GetSolution(ik.q()) if result.is_success() else None
+
+
+def solve_start_posture(scenario: Scenario, tip_position):
+    """The start posture q0 for the DMP's start (elbow-up seed task.ik_seed_rad), and the
+    tool's orientation in the world there."""
+    task: ArmTask = scenario.task
+    plant = MultibodyPlant(0.0)
+    load_models(plant, scenario)
+    q0 = solve_ik_for_tool(plant, task, tip_position, task.ik_seed_rad)
+    if q0 is None:
         raise InputError(f"inverse kinematics found no posture with the tool at {np.round(tip_position, 3)} "
                          f"(the demonstration's start) pointing along {task.tool_direction} "
                          f"(orientation {task.tool_rpy_rad or 'free about it'}): "
                          "is it within the arm's reach?")
-    q0 = result.GetSolution(ik.q())
     context = plant.CreateDefaultContext()
     plant.SetPositions(context, q0)
-    return q0, frame.CalcRotationMatrixInWorld(context)
+    return q0, plant.GetFrameByName(*_scoped(plant, task.tool_frame)).CalcRotationMatrixInWorld(context)
 
 
 def _scoped(plant, scoped_name):
@@ -250,13 +265,16 @@ def _scoped(plant, scoped_name):
     return (name, plant.GetModelInstanceByName(model)) if model else (name,)
 
 
-def prepare_arm(scenario: Scenario) -> ArmSetup:
-    dmp = fit_demonstration(scenario)
+def prepare_arm(scenario: Scenario, dmp: Dmp | None = None) -> ArmSetup:
+    """The DMP (`dmp`, e.g. a saved skill's, or fitted to the scenario's demonstration),
+    the start posture for it, and the tool orientation to hold."""
+    dmp = dmp or fit_demonstration(scenario)
     q0, orientation = solve_start_posture(scenario, dmp.start)
     return ArmSetup(dmp, q0, orientation)
 
 
-def build_arm_diagram(scenario: Scenario, controller_name: str, setup: ArmSetup) -> BuiltDiagram:
+def build_arm_diagram(scenario: Scenario, controller_name: str, setup: ArmSetup,
+                      theta0=None) -> BuiltDiagram:
     """The iiwa tasks: DMP source -> controller -> J^T f_c + null-space terms -> plant."""
     task: ArmTask = scenario.task
     builder = DiagramBuilder()
@@ -267,7 +285,7 @@ def build_arm_diagram(scenario: Scenario, controller_name: str, setup: ArmSetup)
     builder.Connect(plant.get_state_output_port(), task_space.plant_state)
     reference = add_reference(builder, scenario, setup.dmp)
     controller = builder.AddSystem(make_controller(
-        controller_name, scenario.controllers[controller_name], scenario, setup.dmp.start))
+        controller_name, scenario.controllers[controller_name], scenario, setup.dmp.start, theta0))
     connect_controller(builder, controller, reference, task_space)
     sensor = builder.AddSystem(ToolContactForce(plant, tool_frame.body(), task.axes))
     sensor.set_name("wrist_force_sensor")
@@ -289,19 +307,46 @@ def build_arm_diagram(scenario: Scenario, controller_name: str, setup: ArmSetup)
     diagram = builder.Build()
     diagram.set_name(f"{scenario.name}_{controller_name}")
 
+    return BuiltDiagram(diagram, plant, controller, loggers, setup.q0,
+                        arm_monitor(plant, sensor, torque_map, task))
+
+
+def arm_monitor(plant, sensor, torque_map, task: ArmTask):
+    """The arm's safety checks, run after every step: contact force above
+    task.max_contact_force_N, a joint beyond its position limit, or any joint held at its
+    effort limit for longer than task.max_saturation_s. Returns the problem or None."""
+    lower, upper = plant.GetPositionLowerLimits(), plant.GetPositionUpperLimits()
+    names = [plant.get_joint(plant.get_joint_actuator(i).joint().index()).name()
+             for i in plant.GetJointActuatorIndices()]
+    saturated_since = [None]
+
     def monitor(root_context):
         force = sensor.GetOutputPort("force").Eval(sensor.GetMyContextFromRoot(root_context))
         if np.linalg.norm(force) > task.max_contact_force_N:
-            return f"contact force {np.linalg.norm(force):.0f} N above max_contact_force_N = {task.max_contact_force_N} N"
+            return (f"contact force {np.linalg.norm(force):.0f} N above max_contact_force_N = "
+                    f"{task.max_contact_force_N} N")
+        q = plant.GetPositions(plant.GetMyContextFromRoot(root_context))
+        beyond = np.flatnonzero((q < lower - 1e-3) | (q > upper + 1e-3))
+        if beyond.size:
+            k = beyond[0]
+            return f"joint {names[k]} at {q[k]:.3f} rad, beyond its limit ±{upper[k]:.3f} rad"
+        t = root_context.get_time()
+        if torque_map.GetOutputPort("saturated").Eval(torque_map.GetMyContextFromRoot(root_context))[0] > 0:
+            saturated_since[0] = t if saturated_since[0] is None else saturated_since[0]
+            if t - saturated_since[0] > task.max_saturation_s:
+                return f"joint torques saturated for more than max_saturation_s = {task.max_saturation_s} s"
+        else:
+            saturated_since[0] = None
         return None
 
-    return BuiltDiagram(diagram, plant, controller, loggers, setup.q0, monitor)
+    return monitor
 
 
-def diagram_factory(scenario: Scenario):
-    """callable(controller name) -> BuiltDiagram for the scenario's kind of world; the
-    work all controllers share (fitting the DMP, inverse kinematics) is done once here."""
+def diagram_factory(scenario: Scenario, dmp: Dmp | None = None):
+    """callable(controller name, theta0=None) -> BuiltDiagram for the scenario's kind of
+    world; the work all controllers share (fitting the DMP unless `dmp` is given, inverse
+    kinematics) is done once here."""
     if isinstance(scenario.task, ArmTask):
-        setup = prepare_arm(scenario)
-        return lambda name: build_arm_diagram(scenario, name, setup)
-    return lambda name: build_slider_diagram(scenario, name)
+        setup = prepare_arm(scenario, dmp)
+        return lambda name, theta0=None: build_arm_diagram(scenario, name, setup, theta0)
+    return lambda name, theta0=None: build_slider_diagram(scenario, name, theta0)

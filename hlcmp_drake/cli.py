@@ -2,6 +2,8 @@
 
     hlcmp run SCENARIO [--out DIR] [--iiwa ours|drake_models]   run a scenario
     hlcmp report [--out DIR]                 every bundled scenario and one offline page
+    hlcmp learn DEMO.csv --scenario S --out DIR [--trials K] [--skill SKILL.npz]
+    hlcmp reproduce SKILL.npz --scenario S --out DIR [--freeze]
     hlcmp fit DEMO.csv --out SKILL.npz       fit the DMP of a demonstration
     hlcmp rollout SKILL.npz --out TRAJ.csv   roll a skill's DMP out
 
@@ -16,6 +18,7 @@ import sys
 import numpy as np
 
 from hlcmp_drake.dmp import DmpSettings
+from hlcmp_drake.progress import Progress
 from hlcmp_drake.errors import InputError
 
 DEFAULT_SMOOTHING_S = DmpSettings().smoothing_s
@@ -60,6 +63,16 @@ def _non_negative(text):
     return _number(text, 0.0, inclusive=True)
 
 
+def _trial_count(text):
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got '{text}'") from None
+    if not 1 <= value <= 100:
+        raise argparse.ArgumentTypeError(f"must be between 1 and 100, got {value}")
+    return value
+
+
 def _basis_count(text):
     try:
         value = int(text)
@@ -82,12 +95,7 @@ def cmd_run(args):
     from hlcmp_drake.runner import print_summary, run_scenario
 
     _quiet_drake(args)
-
-    def progress(message):
-        if not args.quiet:
-            print(message, file=sys.stderr, flush=True)
-
-    metrics, out_dir, table = run_scenario(args.scenario, args.out, progress,
+    metrics, out_dir, table = run_scenario(args.scenario, args.out, Progress(args.quiet),
                                            drake_models_iiwa=args.iiwa == "drake_models")
     print_summary(metrics, out_dir, table)
     return EXIT_UNSTABLE if metrics["status"] != "ok" else 0
@@ -103,18 +111,63 @@ def cmd_report(args):
 
     _quiet_drake(args)
     out = Path(args.out)
+    progress = Progress(args.quiet)
     sections, status, start = [], 0, time.perf_counter()
     for name in args.scenarios:
-        if not args.quiet:
-            print(f"running {name} ...", file=sys.stderr, flush=True)
+        progress.say(f"running {name} ...")
         began = time.perf_counter()
-        metrics, run_dir, _ = run_scenario(name, out / name, None if args.quiet else
-                                           lambda message: print(f"  {message}", file=sys.stderr, flush=True))
+        metrics, run_dir, _ = run_scenario(name, out / name, progress)
         sections.append((name, run_dir, time.perf_counter() - began))
         status = max(status, 0 if metrics["status"] == "ok" else EXIT_UNSTABLE)
     page = write_text(out / "index.html", report_page(out, sections))
     print(f"report: {page} ({time.perf_counter() - start:.0f} s for {', '.join(args.scenarios)})")
     return status
+
+
+def cmd_learn(args):
+    from hlcmp_drake.learning import learning_scenario
+    from hlcmp_drake.skill import load_skill
+
+    skill = load_skill(args.skill) if args.skill else None
+    return _learn_or_reproduce(args, demo=args.demo, skill=skill, trials=args.trials, freeze=False,
+                               fit=True, learning_scenario=learning_scenario)
+
+
+def cmd_reproduce(args):
+    from hlcmp_drake.learning import learning_scenario
+    from hlcmp_drake.skill import load_skill
+
+    return _learn_or_reproduce(args, demo=None, skill=load_skill(args.skill), trials=1,
+                               freeze=args.freeze, fit=False, learning_scenario=learning_scenario)
+
+
+def _learn_or_reproduce(args, demo, skill, trials, freeze, fit, learning_scenario):
+    from pathlib import Path
+
+    from hlcmp_drake.builders import fit_demonstration
+    from hlcmp_drake.learning import trial_outputs
+    from hlcmp_drake.runner import write_results
+    from hlcmp_drake.scenario import load_scenario
+    from hlcmp_drake.skill import Skill, save_skill
+
+    _quiet_drake(args)
+    base, _ = load_scenario(args.scenario)
+    scenario = learning_scenario(base, demo, skill, freeze)
+    dmp = fit_demonstration(scenario) if fit else skill.dmp
+    theta0 = (skill.theta_k, skill.theta_d, skill.theta_v) if skill else None
+    out = Path(args.out)
+    runs, metrics, figures = trial_outputs(scenario, dmp, trials, theta0, Progress(args.quiet),
+                                           demo=demo, skill_path=args.skill, frozen=freeze)
+    last = list(runs.values())[-1]
+    if last.status == "ok" and not freeze:
+        save_skill(out / "skill.npz", Skill(dmp, *last.theta))
+    write_results(out, scenario, runs, metrics, figures)
+    for row in metrics["trials"]:
+        print(f"trial {row['trial']}: mean |e| {sum(row['mean_abs_position_error_m'].values()) * 1000:.2f} mm, "
+              f"mean |f| {sum(row['mean_abs_force_N'].values()):.2f} N, "
+              f"smoothness z {row['force_smoothness_N']['z']:.2f} N, effort {row['effort_N']:.2f} N")
+    print(f"status: {metrics['status']}; results in {out}")
+    return EXIT_UNSTABLE if metrics["status"] != "ok" else 0
 
 
 def cmd_fit(args):
@@ -173,6 +226,24 @@ def build_parser():
     report.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     report.set_defaults(func=cmd_report)
 
+    learn = sub.add_parser("learn", help="learn a skill from your demonstration by reproducing it in a scenario")
+    learn.add_argument("demo", help="demonstration CSV (t,x,y,z; world frame of the scenario, metres)")
+    learn.add_argument("--scenario", required=True, help="the world: insertion, cutting, or a YAML path")
+    learn.add_argument("--out", required=True, help="output folder (skill.npz, metrics, figures, recording)")
+    learn.add_argument("--trials", type=_trial_count, default=1, help="reproductions, each continuing "
+                       "from the previous one's learned profiles (default 1)")
+    learn.add_argument("--skill", help="start from this saved skill's profiles instead of theta = 0")
+    learn.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    learn.set_defaults(func=cmd_learn)
+
+    reproduce = sub.add_parser("reproduce", help="replay a learned skill in a scenario")
+    reproduce.add_argument("skill", help="skill file (.npz) from hlcmp learn or fit")
+    reproduce.add_argument("--scenario", required=True, help="the world: insertion, cutting, or a YAML path")
+    reproduce.add_argument("--out", required=True, help="output folder")
+    reproduce.add_argument("--freeze", action="store_true", help="no adaptation: the learned profiles as they are")
+    reproduce.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    reproduce.set_defaults(func=cmd_reproduce)
+
     fit = sub.add_parser("fit", help="fit the DMP of a demonstration CSV (t,x,y,z)")
     fit.add_argument("demo")
     fit.add_argument("--out", required=True, help="skill file to write (.npz)")
@@ -193,8 +264,11 @@ def build_parser():
 
 
 def main(argv=None):
+    from hlcmp_drake.outputs import WRITTEN
+
     parser = build_parser()
     args = parser.parse_args(argv)
+    WRITTEN.clear()   # this command's files only (main may run more than once in a process)
     try:
         return args.func(args)
     except InputError as error:
@@ -203,8 +277,8 @@ def main(argv=None):
         print(f"hlcmp: error: {error}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
-        print("hlcmp: interrupted; files already in the output folder were left as they were",
-              file=sys.stderr)
+        done = f"written before it: {', '.join(map(str, WRITTEN))}" if WRITTEN else "nothing was written"
+        print(f"hlcmp: interrupted; {done}; every other file is as it was before", file=sys.stderr)
         return 130
 
 

@@ -18,8 +18,9 @@ MIN_SAMPLES = 10
 AXES = ("x", "y", "z")
 
 
-def read_demonstration(path):
-    """Returns (t (T,), positions (T, M), axis names). Raises InputError on bad input."""
+def read_demonstration(path, with_lines=False):
+    """Returns (t (T,), positions (T, M), axis names), and with `with_lines` also each
+    sample's line number in the file. Raises InputError on bad input."""
     path = Path(path)
     if not path.exists():
         raise InputError(f"{path}: no such file")
@@ -57,6 +58,8 @@ def read_demonstration(path):
     if len(rows) < MIN_SAMPLES:
         raise InputError(f"{path}: {len(rows)} samples; a demonstration needs at least {MIN_SAMPLES}")
     data = np.array([values for _, values in rows])
+    if with_lines:
+        return data[:, 0], data[:, 1 : 1 + len(axes)], axes, [number for number, _ in rows]
     return data[:, 0], data[:, 1 : 1 + len(axes)], axes
 
 

@@ -11,6 +11,7 @@ import numpy as np
 
 _UMASK = os.umask(0)
 os.umask(_UMASK)
+WRITTEN = []   # every path written in this process, in order (for the interrupt message)
 
 
 def atomic_write(path, write):
@@ -22,6 +23,7 @@ def atomic_write(path, write):
         write(temp)
         os.chmod(temp, 0o666 & ~_UMASK)  # mkstemp makes 0600; results are for sharing
         os.replace(temp, path)
+        WRITTEN.append(path)
     except BaseException:
         Path(temp).unlink(missing_ok=True)
         raise

@@ -21,7 +21,7 @@ from pydrake.multibody.plant import MultibodyPlantConfig
 from pydrake.systems.analysis import SimulatorConfig
 
 from hlcmp_drake.errors import InputError
-from hlcmp_drake.paths import DIAGRAMS_DIR, bundled_scenarios
+from hlcmp_drake.paths import DIAGRAMS_DIR, PACKAGE_NAME, REPO_ROOT, bundled_scenarios
 
 
 @dc.dataclass
@@ -117,6 +117,7 @@ class ArmTask:
     posture_stiffness_Nm_per_rad: float = 20.0
     posture_damping_Nms_per_rad: float = 5.0
     max_contact_force_N: float = 200.0
+    max_saturation_s: float = 0.25
 
 
 @dc.dataclass
@@ -211,7 +212,10 @@ def _yaml_error(path, text, error):
 def load_scenario(name_or_path):
     """Load and validate a scenario; any problem is an InputError naming file and line."""
     path = resolve_scenario_path(name_or_path)
-    text = path.read_text()
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as error:
+        raise InputError(f"{path}: cannot be read as text ({error.__class__.__name__})") from None
     try:
         scenario = yaml_load_typed(schema=Scenario, data=text)
     except Exception as error:  # yaml errors come as several exception types
@@ -223,6 +227,17 @@ def load_scenario(name_or_path):
     return scenario, path
 
 
+def _model_file_exists(file):
+    """Our package:// models and plain paths are checked; other packages (drake_models,
+    downloaded by Drake on first use) are left to Drake."""
+    prefix = f"package://{PACKAGE_NAME}/"
+    if file.startswith(prefix):
+        return (REPO_ROOT / file[len(prefix):]).is_file()
+    if file.startswith("package://"):
+        return True
+    return Path(file.removeprefix("file://")).is_file()
+
+
 def validate_scenario(scenario: Scenario, path, text=""):
     """Semantic checks that the YAML schema cannot express."""
 
@@ -232,6 +247,12 @@ def validate_scenario(scenario: Scenario, path, text=""):
 
     if not scenario.name:
         fail("name", "must be given")
+    for directive in scenario.directives:
+        if directive.add_model is not None and not _model_file_exists(directive.add_model.file):
+            file = directive.add_model.file
+            line = next((n for n, row in enumerate(text.splitlines(), 1) if file in row), None)
+            where = f"{path}:{line}" if line else f"{path}"
+            raise InputError(f"{where}: file: model file '{file}' does not exist")
     from hlcmp_drake.experiments import EXPERIMENTS  # late: the experiments import this module
 
     if scenario.experiment not in EXPERIMENTS:
@@ -276,6 +297,8 @@ def validate_scenario(scenario: Scenario, path, text=""):
                 fail(key, f"must be non-negative, got {getattr(task, key)}")
         if not task.max_contact_force_N > 0:
             fail("max_contact_force_N", "must be positive")
+        if not task.max_saturation_s > 0:
+            fail("max_saturation_s", "must be positive")
     m = scenario.n_axes
     if not scenario.controllers:
         fail("controllers", "at least one controller is needed")

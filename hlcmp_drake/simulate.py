@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses as dc
+import time
 
 import numpy as np
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
@@ -19,10 +20,12 @@ class RunResult:
     status: str = "ok"     # "ok" | "unstable"
     reason: str = ""
     stop_time: float | None = None
+    theta: tuple | None = None   # an Hl-CMP's (theta_k, theta_d, theta_v) when the run ended
 
 
-def simulate(built, scenario, controller_name) -> RunResult:
-    """Simulate `built` (a BuiltDiagram) for scenario.duration_s.
+def simulate(built, scenario, controller_name, progress=None) -> RunResult:
+    """Simulate `built` (a BuiltDiagram) for scenario.duration_s; `progress`, if given,
+    is called about once a wall-clock second with (controller, t, duration, wall seconds).
 
     A monitor checks every step that the plant state is finite, its positions stay within
     scenario.max_abs_position_m, and whatever `built.monitor` checks for its world (e.g.
@@ -36,8 +39,14 @@ def simulate(built, scenario, controller_name) -> RunResult:
     if built.initial_positions is not None:
         built.plant.SetPositions(plant_context, built.initial_positions)
     trouble = {}
+    wall_start = time.perf_counter()
+    last_report = [wall_start]
 
     def monitor(root_context):
+        if progress is not None and time.perf_counter() - last_report[0] > 1.0:
+            last_report[0] = time.perf_counter()
+            progress(controller_name, root_context.get_time(), scenario.duration_s,
+                     last_report[0] - wall_start)
         state = built.plant.GetPositionsAndVelocities(plant_context)
         problem = None
         if not np.all(np.isfinite(state)):
@@ -63,6 +72,8 @@ def simulate(built, scenario, controller_name) -> RunResult:
         log = logger.FindLog(context)
         t = log.sample_times() if t is None else t
         series[name] = log.data().T.copy()
+    controller_context = built.controller.GetMyContextFromRoot(context)
+    theta = built.controller.theta(controller_context) if hasattr(built.controller, "theta") else None
     if trouble:
-        return RunResult(controller_name, t, series, "unstable", trouble["reason"], trouble["time"])
-    return RunResult(controller_name, t, series)
+        return RunResult(controller_name, t, series, "unstable", trouble["reason"], trouble["time"], theta)
+    return RunResult(controller_name, t, series, theta=theta)

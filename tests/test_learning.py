@@ -1,0 +1,72 @@
+"""hlcmp learn / reproduce: skills as files, repeated trials, frozen replays."""
+
+import json
+
+import numpy as np
+import pytest
+
+from hlcmp_drake.cli import main
+from hlcmp_drake.dmp import basis_centers_and_widths, normalized_basis, phase_at
+from hlcmp_drake.paths import DIAGRAMS_DIR
+from hlcmp_drake.skill import load_skill
+
+DEMO = DIAGRAMS_DIR / "demos" / "insertion_demo.csv"
+
+
+@pytest.fixture(scope="module")
+def short_world(tmp_path_factory):
+    """The insertion world cut to 4.5 s (approach and the start of the push)."""
+    path = tmp_path_factory.mktemp("world") / "short_insertion.yaml"
+    text = (DIAGRAMS_DIR / "insertion.yaml").read_text()
+    path.write_text(text.replace("duration_s: 9.5", "duration_s: 4.5")
+                    .replace("file: demos/insertion_demo.csv", f"file: {DEMO}"))
+    return path
+
+
+@pytest.fixture(scope="module")
+def learned(short_world, tmp_path_factory):
+    out = tmp_path_factory.mktemp("learned")
+    assert main(["learn", str(DEMO), "--scenario", str(short_world), "--trials", "2",
+                 "--out", str(out), "--quiet"]) == 0
+    return out
+
+
+def test_two_trials_each_continuing_from_the_last(learned):
+    metrics = json.loads((learned / "metrics.json").read_text())
+    assert metrics["status"] == "ok" and [row["trial"] for row in metrics["trials"]] == [1, 2]
+    for row in metrics["trials"]:
+        assert set(row) == {"trial", "status", "mean_abs_position_error_m", "mean_abs_force_N",
+                            "force_smoothness_N", "effort_N"}
+    assert set(metrics["improves_over_trials"]) == {"position_error", "mean_force", "smoothness_z", "effort"}
+    data = np.load(learned / "timeseries.npz")
+    # Trial 2 starts with the stiffness trial 1 ended with: not zero, unlike trial 1.
+    assert data["trial_1/Ks"][0].max() == 0.0 and data["trial_2/Ks"][0].max() > 0.0
+    assert (learned / "figures" / "trials.png").exists() and (learned / "recording.html").exists()
+    skill = load_skill(learned / "skill.npz")
+    assert skill.theta_k.shape == (3, 30) and np.abs(skill.theta_k).max() > 0
+
+
+def test_frozen_reproduction_keeps_the_learned_profiles(learned, short_world, tmp_path):
+    out = tmp_path / "replay"
+    assert main(["reproduce", str(learned / "skill.npz"), "--scenario", str(short_world), "--freeze",
+                 "--out", str(out), "--quiet"]) == 0
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["adaptation"] == "frozen" and not (out / "skill.npz").exists()
+    skill = load_skill(learned / "skill.npz")
+    data = np.load(out / "timeseries.npz")
+    centers, widths = basis_centers_and_widths(skill.dmp.settings.n_basis, skill.dmp.settings.alpha_s)
+    for k in (0, 150, 300, 440):
+        s = phase_at(data["t"][k], skill.dmp.tau, skill.dmp.settings.alpha_s)
+        np.testing.assert_allclose(data["trial_1/Ks"][k], skill.theta_k @ normalized_basis(s, centers, widths),
+                                   rtol=1e-3, atol=1e-6)
+
+
+def test_a_skill_of_other_axes_is_refused(tmp_path, short_world, capsys):
+    demo = tmp_path / "xz.csv"
+    demo.write_text("t,x,z\n" + "".join(f"{k * 0.1:.1f},{0.6 + 0.001 * k:.3f},0.4\n" for k in range(20)))
+    assert main(["fit", str(demo), "--out", str(tmp_path / "xz.npz")]) == 0
+    capsys.readouterr()
+    assert main(["reproduce", str(tmp_path / "xz.npz"), "--scenario", str(short_world),
+                 "--out", str(tmp_path / "o")]) == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    assert len(error) == 1 and "the skill's axes (x,z) do not match" in error[0]
