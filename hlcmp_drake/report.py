@@ -58,6 +58,24 @@ def cutting_markdown(metrics):
 RESULT_BLOCKS = {"one_dof": one_dof_markdown, "insertion": insertion_markdown, "cutting": cutting_markdown}
 
 
+def learning_markdown(learn_metrics, replay_metrics=None):
+    """The per-trial table of `hlcmp learn` (and a frozen replay's row, when given)."""
+    rows = ["| run | mean abs(e), x+y+z [mm] | mean abs(f), x+y+z [N] | smoothness z [N] | effort [N] |",
+            "|---|---|---|---|---|"]
+
+    def row(label, r):
+        return (f"| {label} | {1000 * sum(r['mean_abs_position_error_m'].values()):.2f} | "
+                f"{sum(r['mean_abs_force_N'].values()):.2f} | {r['force_smoothness_N']['z']:.2f} | "
+                f"{r['effort_N']:.2f} |")
+
+    rows += [row(f"learn, trial {r['trial']}", r) for r in learn_metrics["trials"]]
+    if replay_metrics is not None:
+        rows.append(row("reproduce --freeze", replay_metrics["trials"][0]))
+    better = learn_metrics["improves_over_trials"] or {}
+    verdict = ", ".join(f"{key.replace('_', ' ')}: {'better' if ok else 'not better'}" for key, ok in better.items())
+    return "\n".join(rows) + f"\n\nLast trial against the first -- {verdict}.\n"
+
+
 def claims_summary_markdown(all_metrics):
     """One row per claim per experiment: {scenario name: metrics} -> markdown table."""
     rows = ["| claim | experiment | the paper says | reproduced here |", "|---|---|---|---|"]
