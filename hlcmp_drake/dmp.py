@@ -15,6 +15,7 @@ Defaults (the paper leaves them open):
 from __future__ import annotations
 
 import dataclasses
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -208,8 +209,9 @@ class Dmp:
     def n_axes(self):
         return len(self.axis_names)
 
-    @property
+    @functools.cached_property
     def basis(self):
+        """(centers, widths) of the phase basis, computed once per DMP."""
         return basis_centers_and_widths(self.settings.n_basis, self.settings.alpha_s)
 
     @classmethod
@@ -229,12 +231,12 @@ class Dmp:
         dt = t_u[1] - t_u[0]
         t_tail = tau + dt * np.arange(1, int(TAIL_FRACTION * tau / dt) + 1)
         s = phase_at(np.concatenate([t_u, t_tail]), tau, settings.alpha_s)
+        g_s = normalized_basis(s, centers, widths) * s[:, None]   # Eq. 13 without the amplitude
         theta_p = np.zeros((p.shape[1], settings.n_basis))
         for m in range(p.shape[1]):
-            features = forcing_basis(s, centers, widths, amplitude[m : m + 1])[:, 0, :]
             target = forcing_target(p[:, m], pdot[:, m], pddot[:, m], goal[m], tau,
                                     settings.alpha, settings.beta)
-            theta_p[m] = fit_forcing_weights(features, np.concatenate([target, np.zeros(len(t_tail))]))
+            theta_p[m] = fit_forcing_weights(g_s * amplitude[m], np.concatenate([target, np.zeros(len(t_tail))]))
         return cls(settings, tau, start, goal, theta_p, amplitude, goal_scaled, tuple(axis_names))
 
     def with_goal(self, goal):
@@ -249,38 +251,59 @@ class Dmp:
     def rates(self, p, z, s, tau=None):
         """Time derivatives (p', z', s') of the DMP state, Eqs. 7, 8, 13, 15."""
         tau = self.tau if tau is None else tau
-        centers, widths = self.basis
-        forcing = np.sum(self.theta_p * forcing_basis(s, centers, widths, self.current_amplitude()), axis=1)
-        pdot, zdot = transformation_rates(p, z, forcing, self.goal, tau,
+        pdot, zdot = transformation_rates(p, z, self.forcing(s), self.goal, tau,
                                           self.settings.alpha, self.settings.beta)
         return pdot, zdot, canonical_phase_rate(s, tau, self.settings.alpha_s)
 
+    def forcing(self, s):
+        """f = theta_p . g_p(s) per axis (Eqs. 9/13); s scalar -> (M,), s (T,) -> (T, M)."""
+        centers, widths = self.basis
+        return np.sum(self.theta_p * forcing_basis(s, centers, widths, self.current_amplitude()), axis=-1)
+
     def rollout(self, duration=None, dt=0.001, tau=None):
-        """Integrate the DMP (classic RK4) from its start; returns t, p, pdot, pddot, s.
+        """The DMP from its start, sampled every dt; returns t, p, pdot, pddot, s.
 
         tau defaults to the demonstration's duration; another tau is temporal scaling.
-        duration defaults to tau.
+        duration defaults to tau. The phase has a closed form (Eq. 8), so the forcing term
+        is evaluated at every sample in one vectorized pass; the transformation system
+        (Eqs. 7, 15) is linear, so it is stepped exactly for a forcing that varies
+        linearly between samples (first-order hold), one 2 x 2 matrix product a step.
         """
         tau = self.tau if tau is None else float(tau)
         duration = tau if duration is None else float(duration)
         n = int(round(duration / dt)) + 1
-        p, z, s = self.start.astype(float).copy(), np.zeros(self.n_axes), 1.0
-        out_p = np.empty((n, self.n_axes))
-        out_v = np.empty((n, self.n_axes))
-        out_a = np.empty((n, self.n_axes))
-        out_s = np.empty(n)
+        t = np.arange(n) * dt
+        s = phase_at(t, tau, self.settings.alpha_s)
+        forcing = self.forcing(s)                                             # (n, M)
+        alpha, beta, goal = self.settings.alpha, self.settings.beta, self.goal
+        # x = [p, z] per axis: x' = A x + [0, 1]^T u(t), u = (alpha beta g + f) / tau.
+        a = np.array([[0.0, 1.0 / tau], [-alpha * beta / tau, -alpha / tau]])
+        phi, gamma0, gamma1 = _first_order_hold(a, dt)
+        u = (alpha * beta * goal + forcing) / tau                             # (n, M)
+        slope = np.diff(u, axis=0, append=u[-1:]) / dt
+        drive = gamma0[:, None, None] * u[None] + gamma1[:, None, None] * slope[None]   # (2, n, M)
+        x = np.empty((n, 2, self.n_axes))
+        x[0] = [self.start, np.zeros(self.n_axes)]
+        for k in range(n - 1):
+            x[k + 1] = phi @ x[k] + drive[:, k]
+        p, z = x[:, 0], x[:, 1]
+        pdot, zdot = transformation_rates(p, z, forcing, goal, tau, alpha, beta)
+        return t, p, pdot, zdot / tau, s
 
-        def f(state):
-            return self.rates(state[0], state[1], state[2], tau)
 
-        for k in range(n):
-            pdot, zdot, sdot = f((p, z, s))
-            out_p[k], out_v[k], out_a[k], out_s[k] = p, pdot, zdot / tau, s
-            k1 = (pdot, zdot, sdot)
-            k2 = f((p + 0.5 * dt * k1[0], z + 0.5 * dt * k1[1], s + 0.5 * dt * k1[2]))
-            k3 = f((p + 0.5 * dt * k2[0], z + 0.5 * dt * k2[1], s + 0.5 * dt * k2[2]))
-            k4 = f((p + dt * k3[0], z + dt * k3[1], s + dt * k3[2]))
-            p = p + dt / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
-            z = z + dt / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
-            s = s + dt / 6 * (k1[2] + 2 * k2[2] + 2 * k3[2] + k4[2])
-        return np.arange(n) * dt, out_p, out_v, out_a, out_s
+def _first_order_hold(a, dt):
+    """Exact discretization of x' = A x + [0, 1]^T u with u linear over a step:
+    x(t + dt) = Phi x + Gamma0 u(t) + Gamma1 u'(t). From the exponential of the augmented
+    matrix [[A, b, 0], [0, 0, 1], [0, 0, 0]] dt (scaling and squaring of a Taylor series)."""
+    m = np.zeros((4, 4))
+    m[:2, :2], m[1, 2], m[2, 3] = a, 1.0, 1.0
+    m *= dt
+    squarings = max(0, int(np.ceil(np.log2(max(np.abs(m).sum(axis=1).max(), 1e-16) / 0.5))))
+    m /= 2.0**squarings
+    term, result = np.eye(4), np.eye(4)
+    for k in range(1, 16):
+        term = term @ m / k
+        result = result + term
+    for _ in range(squarings):
+        result = result @ result
+    return result[:2, :2], result[:2, 2], result[:2, 3]

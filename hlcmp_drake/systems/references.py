@@ -5,7 +5,8 @@ desired_acceleration (M each) and phase (1) -- so a controller cannot tell them 
 """
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import BasicVector, LeafSystem, ValueProducer
 
 from hlcmp_drake.dmp import Dmp, canonical_phase_rate
 
@@ -24,9 +25,14 @@ class DmpSource(LeafSystem):
         initial = np.concatenate([dmp.start, np.zeros(m), [1.0]])
         self.DeclareContinuousState(BasicVector(initial), 0, 0, 2 * m + 1)
         state = {self.all_state_ticket()}
+        # The derivatives and the acceleration output share one evaluation of the DMP.
+        self._rates = self.DeclareCacheEntry(
+            "dmp_rates", ValueProducer(allocate=lambda: AbstractValue.Make(None), calc=self._calc_rates),
+            state)
         self.DeclareVectorOutputPort("desired_position", m, self._calc_position, state)
         self.DeclareVectorOutputPort("desired_velocity", m, self._calc_velocity, state)
-        self.DeclareVectorOutputPort("desired_acceleration", m, self._calc_acceleration, state)
+        self.DeclareVectorOutputPort("desired_acceleration", m, self._calc_acceleration,
+                                     {self._rates.ticket()})
         self.DeclareVectorOutputPort("phase", 1, self._calc_phase, state)
 
     @property
@@ -37,8 +43,11 @@ class DmpSource(LeafSystem):
         x = context.get_continuous_state_vector().CopyToVector()
         return x[: self._m], x[self._m : 2 * self._m], x[2 * self._m]
 
+    def _calc_rates(self, context, abstract_value):
+        abstract_value.set_value(self._dmp.rates(*self._state(context), self._tau))
+
     def DoCalcTimeDerivatives(self, context, derivatives):
-        pdot, zdot, sdot = self._dmp.rates(*self._state(context), self._tau)
+        pdot, zdot, sdot = self._rates.Eval(context)
         derivatives.get_mutable_vector().SetFromVector(np.concatenate([pdot, zdot, [sdot]]))
 
     def _calc_position(self, context, output):
@@ -48,8 +57,7 @@ class DmpSource(LeafSystem):
         output.SetFromVector(self._state(context)[1] / self._tau)
 
     def _calc_acceleration(self, context, output):
-        _, zdot, _ = self._dmp.rates(*self._state(context), self._tau)
-        output.SetFromVector(zdot / self._tau)
+        output.SetFromVector(self._rates.Eval(context)[1] / self._tau)
 
     def _calc_phase(self, context, output):
         output.SetFromVector([self._state(context)[2]])

@@ -34,8 +34,8 @@ class TaskSpaceDynamics(LeafSystem):
     as matrices, only as the products C(q, v) v (CalcBiasTerm) and Jdot v
     (CalcBiasTranslationalAcceleration); both products are quadratic forms whose
     symmetric bilinear form is the matrix-vector product we need (Christoffel symbols,
-    resp. mixed second derivatives of P's position), so columns are recovered exactly by
-    polarization: C(q, v) w = [b(v + w) - b(v - w)] / 4. With nv = 1 this is exact and free.
+    resp. mixed second derivatives of P's position), so the products with the M columns
+    w of Jbar are recovered exactly by polarization: C(q, v) w = [b(v + w) - b(v - w)] / 4.
 
     All outputs come from one cache entry that depends on the plant-state input only,
     so integrator stages that do not change the plant's state reuse it.
@@ -74,15 +74,14 @@ class TaskSpaceDynamics(LeafSystem):
             output.SetFromVector(np.ravel(getattr(self._terms.Eval(context), field)))
         return calc
 
-    def _polarized(self, v, evaluate):
-        """Columns evaluate-bilinear(v, e_k) by polarization of a quadratic map of v."""
+    def _polarized(self, v, directions, evaluate):
+        """[bilinear(v, w) for each column w of `directions`] by polarization of the
+        quadratic map `evaluate` of the velocity: (evaluate(v + w) - evaluate(v - w)) / 4."""
         columns = []
-        for k in range(self._nv):
-            step = np.zeros(self._nv)
-            step[k] = 1.0
-            self._plant.SetVelocities(self._scratch, v + step)
+        for w in directions.T:
+            self._plant.SetVelocities(self._scratch, v + w)
             plus = evaluate(self._scratch)
-            self._plant.SetVelocities(self._scratch, v - step)
+            self._plant.SetVelocities(self._scratch, v - w)
             columns.append((plus - evaluate(self._scratch)) / 4.0)
         return np.column_stack(columns)
 
@@ -101,10 +100,11 @@ class TaskSpaceDynamics(LeafSystem):
         joint_gravity = -plant.CalcGravityGeneralizedForces(ctx)
         gravity = jbar.T @ joint_gravity
         plant.SetPositions(self._scratch, q)
-        coriolis_q = self._polarized(v, plant.CalcBiasTerm)
-        jdot = self._polarized(v, lambda c: plant.CalcBiasTranslationalAcceleration(
+        # Only C(q, v) Jbar and Jdot Jbar are needed: M polarizations each, not nv.
+        coriolis_jbar = self._polarized(v, jbar, plant.CalcBiasTerm)
+        jdot_jbar = self._polarized(v, jbar, lambda c: plant.CalcBiasTranslationalAcceleration(
             c, JacobianWrtVariable.kV, self._frame, self._point, world, world)[self._axes, 0])
-        coriolis = jbar.T @ coriolis_q @ jbar - inertia @ jdot @ jbar
+        coriolis = jbar.T @ coriolis_jbar - inertia @ jdot_jbar
         null_space = np.eye(self._nv) - jac.T @ jbar.T
         abstract_value.set_value(TaskSpaceTerms(position, jac @ v, jac, inertia, coriolis, gravity,
                                                 null_space, joint_gravity))
@@ -127,16 +127,20 @@ class TaskForceToJointTorque(LeafSystem):
         self.force = self.DeclareVectorInputPort("force", BasicVector(n_axes))
         self.jacobian = self.DeclareVectorInputPort("jacobian", BasicVector(n_axes * nv))
         self.extra = self.DeclareVectorInputPort("extra_torque", BasicVector(nv)) if extra_torque else None
-        prereq = {self.all_input_ports_ticket()}
+        # Both outputs come from one evaluation of the unsaturated torque.
+        self._raw = self.DeclareCacheEntry(
+            "unsaturated_torque", ValueProducer(allocate=lambda: AbstractValue.Make(None),
+                                                calc=self._calc_raw), {self.all_input_ports_ticket()})
+        prereq = {self._raw.ticket()}
         self.DeclareVectorOutputPort("joint_torque", nv, self._calc_torque, prereq)
         self.DeclareVectorOutputPort("saturated", 1, self._calc_saturated, prereq)
 
-    def _raw_torque(self, context):
+    def _calc_raw(self, context, abstract_value):
         torque = self.jacobian.Eval(context).reshape(self._m, self._nv).T @ self.force.Eval(context)
-        return torque + self.extra.Eval(context) if self.extra is not None else torque
+        abstract_value.set_value(torque + self.extra.Eval(context) if self.extra is not None else torque)
 
     def _calc_torque(self, context, output):
-        output.SetFromVector(np.clip(self._raw_torque(context), -self._limits, self._limits))
+        output.SetFromVector(np.clip(self._raw.Eval(context), -self._limits, self._limits))
 
     def _calc_saturated(self, context, output):
-        output.SetFromVector([np.count_nonzero(np.abs(self._raw_torque(context)) >= self._limits)])
+        output.SetFromVector([np.count_nonzero(np.abs(self._raw.Eval(context)) >= self._limits)])
