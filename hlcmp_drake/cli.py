@@ -4,6 +4,7 @@
     hlcmp report [--out DIR]                 every bundled scenario and one offline page
     hlcmp learn DEMO.csv --scenario S --out DIR [--trials K] [--skill SKILL.npz]
     hlcmp reproduce SKILL.npz --scenario S --out DIR [--freeze]
+    hlcmp bench --out DIR [--quick]          measure where the time goes
     hlcmp fit DEMO.csv --out SKILL.npz       fit the DMP of a demonstration
     hlcmp rollout SKILL.npz --out TRAJ.csv   roll a skill's DMP out
 
@@ -170,6 +171,21 @@ def _learn_or_reproduce(args, demo, skill, trials, freeze, fit, learning_scenari
     return EXIT_UNSTABLE if metrics["status"] != "ok" else 0
 
 
+def cmd_bench(args):
+    from pathlib import Path
+
+    from hlcmp_drake.benchmark import run_benchmark, table
+    from hlcmp_drake.outputs import write_json
+
+    _quiet_drake(args)
+    results = run_benchmark(quick=args.quick,
+                            progress=lambda message: print(message, file=sys.stderr, flush=True))
+    write_json(Path(args.out) / "bench.json", results)
+    print(table(results))
+    print(f"bench.json in {args.out}")
+    return 0
+
+
 def cmd_fit(args):
     from hlcmp_drake.demos import read_demonstration
     from hlcmp_drake.dmp import Dmp, DmpSettings
@@ -225,6 +241,11 @@ def build_parser():
                         default=["one_dof", "insertion", "cutting"], help="a subset to run")
     report.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     report.set_defaults(func=cmd_report)
+
+    bench = sub.add_parser("bench", help="measure where the time goes (bench.json and a table)")
+    bench.add_argument("--out", required=True, help="output folder for bench.json")
+    bench.add_argument("--quick", action="store_true", help="a few iterations of everything (CI smoke mode)")
+    bench.set_defaults(func=cmd_bench)
 
     learn = sub.add_parser("learn", help="learn a skill from your demonstration by reproducing it in a scenario")
     learn.add_argument("demo", help="demonstration CSV (t,x,y,z; world frame of the scenario, metres)")

@@ -8,7 +8,11 @@ import sys
 class Progress:
     def __init__(self, quiet=False, stream=None):
         self._stream = stream or sys.stderr
-        self.enabled = not quiet and self._stream.isatty()
+        try:
+            terminal = self._stream.isatty()
+        except (ValueError, AttributeError):   # a closed or file-less stream is no terminal
+            terminal = False
+        self.enabled = not quiet and terminal
 
     def step(self, controller, t, duration, wall_s):
         """Called about once a wall-clock second while a run simulates."""

@@ -76,6 +76,34 @@ def learning_markdown(learn_metrics, replay_metrics=None):
     return "\n".join(rows) + f"\n\nLast trial against the first -- {verdict}.\n"
 
 
+def bench_markdown(results):
+    """The benchmark's table (bench.json of `hlcmp bench`) with the targets of issue 6."""
+    def met(ok):
+        return "met" if ok else "**missed**"
+
+    ratio = results.get("dmp_vs_movement_primitives")
+    eval_us = results["controller_eval_us"]
+    rows = ["| measure | value | target | |", "|---|---|---|---|",
+            f"| insertion_rtf: simulated s per wall s, Hl-CMP insertion (9.5 s, no recording) | "
+            f"{results['insertion_rtf']:.2f} | ≥ 2 | {met(results['insertion_rtf'] >= 2)} |",
+            f"| controller_overhead_ratio: Hl-CMP run / same world driven by Drake's C++ "
+            f"InverseDynamicsController along the same joint motion | {results['controller_overhead_ratio']:.2f} | "
+            f"≤ 1.3 | {met(results['controller_overhead_ratio'] <= 1.3)} |"]
+    for n, v in eval_us.items():
+        target = "p99 ≤ 100" if n == "50" else ""
+        verdict = met(v["p99"] <= 100) if n == "50" else ""
+        rows.append(f"| controller_eval_us, N = {n}: derivatives + force output, median / p99 | "
+                    f"{v['median']:.0f} / {v['p99']:.0f} µs | {target} | {verdict} |")
+    rows += [f"| dmp_fit_ms: 3 axes, 2000 samples, N = 50 | {results['dmp_fit_ms']:.1f} ms | | |",
+             f"| dmp_rollout_ms: the same DMP at 1 ms steps | {results['dmp_rollout_ms']:.1f} ms | | |",
+             f"| dmp_vs_movement_primitives: our fit + rollout / movement_primitives 0.9.1's | "
+             f"{'n/a' if ratio is None else f'{ratio:.2f}'} | ≤ 1.0 | "
+             f"{'' if ratio is None else met(ratio <= 1.0)} |"]
+    rows += [f"| wall time of `hlcmp run {name}` (all its controllers, figures, recording) | {wall:.1f} s | | |"
+             for name, wall in results["scenario_wall_s"].items()]
+    return "\n".join(rows) + "\n"
+
+
 def claims_summary_markdown(all_metrics):
     """One row per claim per experiment: {scenario name: metrics} -> markdown table."""
     rows = ["| claim | experiment | the paper says | reproduced here |", "|---|---|---|---|"]

@@ -97,7 +97,8 @@ def run_scenario(name_or_path, out_dir=None, progress=None, drake_models_iiwa=Fa
     return metrics, out_dir, experiment.table(metrics["controllers"])
 
 
-def print_summary(metrics, out_dir, table, stream=sys.stdout):
+def print_summary(metrics, out_dir, table, stream=None):
+    stream = stream or sys.stdout   # looked up now: it may have been replaced since import
     print(table, file=stream)
     for controller, problem in metrics.get("instability", {}).items():
         print(f"UNSTABLE {controller}: {problem['reason']} at t = {problem['time_s']:.3f} s "

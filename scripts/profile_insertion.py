@@ -1,0 +1,33 @@
+"""Where one Hl-CMP insertion run spends its time: cProfile of a 5 s run, top entries by
+own time (the profile behind docs/performance.md).
+
+    python scripts/profile_insertion.py [--seconds 5] [--top 15]
+"""
+
+import argparse
+import cProfile
+import dataclasses as dc
+import pstats
+
+from hlcmp_drake.builders import diagram_factory
+from hlcmp_drake.scenario import load_scenario
+from hlcmp_drake.simulate import simulate
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=5.0)
+    parser.add_argument("--top", type=int, default=15)
+    args = parser.parse_args()
+    scenario, _ = load_scenario("insertion")
+    scenario = dc.replace(scenario, duration_s=args.seconds)
+    built = diagram_factory(scenario)("hlcmp")
+    profile = cProfile.Profile()
+    profile.enable()
+    simulate(built, scenario, "hlcmp")
+    profile.disable()
+    pstats.Stats(profile).sort_stats("tottime").print_stats(args.top)
+
+
+if __name__ == "__main__":
+    main()
