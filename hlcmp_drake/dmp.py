@@ -231,12 +231,12 @@ class Dmp:
         dt = t_u[1] - t_u[0]
         t_tail = tau + dt * np.arange(1, int(TAIL_FRACTION * tau / dt) + 1)
         s = phase_at(np.concatenate([t_u, t_tail]), tau, settings.alpha_s)
-        g_s = normalized_basis(s, centers, widths) * s[:, None]   # Eq. 13 without the amplitude
+        features = forcing_basis(s, centers, widths, amplitude)   # (T, M, N), the basis evaluated once
         theta_p = np.zeros((p.shape[1], settings.n_basis))
         for m in range(p.shape[1]):
             target = forcing_target(p[:, m], pdot[:, m], pddot[:, m], goal[m], tau,
                                     settings.alpha, settings.beta)
-            theta_p[m] = fit_forcing_weights(g_s * amplitude[m], np.concatenate([target, np.zeros(len(t_tail))]))
+            theta_p[m] = fit_forcing_weights(features[:, m, :], np.concatenate([target, np.zeros(len(t_tail))]))
         return cls(settings, tau, start, goal, theta_p, amplitude, goal_scaled, tuple(axis_names))
 
     def with_goal(self, goal):
@@ -276,10 +276,13 @@ class Dmp:
         s = phase_at(t, tau, self.settings.alpha_s)
         forcing = self.forcing(s)                                             # (n, M)
         alpha, beta, goal = self.settings.alpha, self.settings.beta, self.goal
-        # x = [p, z] per axis: x' = A x + [0, 1]^T u(t), u = (alpha beta g + f) / tau.
-        a = np.array([[0.0, 1.0 / tau], [-alpha * beta / tau, -alpha / tau]])
-        phi, gamma0, gamma1 = _first_order_hold(a, dt)
-        u = (alpha * beta * goal + forcing) / tau                             # (n, M)
+        # x = [p, z] per axis: x' = A x + b w(t), w = alpha beta g + f. A and b are read off
+        # transformation_rates (Eqs. 7, 15), which is linear in p, z and w.
+        a = np.column_stack([transformation_rates(1.0, 0.0, 0.0, 0.0, tau, alpha, beta),
+                             transformation_rates(0.0, 1.0, 0.0, 0.0, tau, alpha, beta)])
+        b = np.array(transformation_rates(0.0, 0.0, 1.0, 0.0, tau, alpha, beta))
+        phi, gamma0, gamma1 = _first_order_hold(a, b, dt)
+        u = alpha * beta * goal + forcing                                     # (n, M)
         slope = np.diff(u, axis=0, append=u[-1:]) / dt
         drive = gamma0[:, None, None] * u[None] + gamma1[:, None, None] * slope[None]   # (2, n, M)
         x = np.empty((n, 2, self.n_axes))
@@ -291,12 +294,12 @@ class Dmp:
         return t, p, pdot, zdot / tau, s
 
 
-def _first_order_hold(a, dt):
-    """Exact discretization of x' = A x + [0, 1]^T u with u linear over a step:
+def _first_order_hold(a, b, dt):
+    """Exact discretization of x' = A x + b u with u linear over a step:
     x(t + dt) = Phi x + Gamma0 u(t) + Gamma1 u'(t). From the exponential of the augmented
     matrix [[A, b, 0], [0, 0, 1], [0, 0, 0]] dt (scaling and squaring of a Taylor series)."""
     m = np.zeros((4, 4))
-    m[:2, :2], m[1, 2], m[2, 3] = a, 1.0, 1.0
+    m[:2, :2], m[:2, 2], m[2, 3] = a, b, 1.0
     m *= dt
     squarings = max(0, int(np.ceil(np.log2(max(np.abs(m).sum(axis=1).max(), 1e-16) / 0.5))))
     m /= 2.0**squarings

@@ -70,3 +70,23 @@ def test_a_skill_of_other_axes_is_refused(tmp_path, short_world, capsys):
                  "--out", str(tmp_path / "o")]) == 2
     error = capsys.readouterr().err.strip().splitlines()
     assert len(error) == 1 and "the skill's axes (x,z) do not match" in error[0]
+
+
+def test_effort_and_improvement_by_hand():
+    from types import SimpleNamespace
+
+    from hlcmp_drake.learning import effort, improvement
+
+    run = SimpleNamespace(series={"u": np.array([[1.0, -2.0, 0.0], [3.0, 0.0, 1.0]]),
+                                  "v": np.array([[1.0, 0.0, 0.0], [-1.0, 0.0, 1.0]])})
+    # mean |u + v| per axis: x (2 + 2)/2 = 2, y (2 + 0)/2 = 1, z (0 + 2)/2 = 1 -> 4
+    assert effort(run) == 4.0
+
+    def row(error, force, smooth, work):
+        return {"mean_abs_position_error_m": {"x": error, "y": 0.0, "z": 0.0},
+                "mean_abs_force_N": {"x": force, "y": 0.0, "z": 0.0},
+                "force_smoothness_N": {"x": 0.0, "y": 0.0, "z": smooth}, "effort_N": work}
+
+    assert improvement([row(2.0, 1.0, 5.0, 1.0)]) is None
+    assert improvement([row(2.0, 1.0, 5.0, 1.0), row(1.0, 2.0, 4.0, 3.0)]) == {
+        "position_error": True, "mean_force": False, "smoothness_z": True, "effort": False}
