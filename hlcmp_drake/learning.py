@@ -13,7 +13,7 @@ import numpy as np
 from hlcmp_drake.builders import diagram_factory
 from hlcmp_drake.errors import InputError
 from hlcmp_drake.runner import report_run
-from hlcmp_drake.scenario import BasisConfig, HlcmpConfig
+from hlcmp_drake.scenario import BasisConfig, DemonstrationConfig, HlcmpConfig
 from hlcmp_drake.simulate import simulate
 from hlcmp_drake.skill import Skill
 
@@ -21,6 +21,9 @@ from hlcmp_drake.skill import Skill
 def learning_scenario(scenario, demo_path=None, skill: Skill | None = None, freeze=False):
     """The scenario with only its Hl-CMP controller (learning rates 0 with `freeze`),
     reading `demo_path` as its demonstration, and with a skill's phase basis."""
+    if not isinstance(scenario.reference, DemonstrationConfig):
+        raise InputError(f"scenario '{scenario.name}' does not follow a demonstration; learning and "
+                         "reproducing skills needs one that does, such as insertion or cutting")
     config = scenario.controllers.get("hlcmp")
     if not isinstance(config, HlcmpConfig):
         raise InputError(f"scenario '{scenario.name}' has no Hl-CMP controller named 'hlcmp' to learn with")

@@ -79,6 +79,8 @@ def test_good_one_axis_demo_is_accepted(tmp_path):
     (["rollout", "NOSKILL", "--out", "T"], "no such file"),
     (["run", "no_such_scenario"], "not a bundled scenario"),
     (["frobnicate"], "invalid choice"),
+    (["learn", "DEMO", "--scenario", "one_dof", "--out", "T"], "does not follow a demonstration"),
+    (["learn", "DEMO", "--scenario", "insertion", "--out", "T", "--trials", "0"], "must be between 1 and 100"),
 ])
 def test_bad_arguments_exit_2_with_one_line(tmp_path, smooth_demo, args, expected):
     demo = write_demo(tmp_path / "demo.csv", *smooth_demo)
