@@ -55,14 +55,6 @@ class HlcmpController(LeafSystem):
                             ("feedforward", "v"), ("impedance_force", "u"), ("sliding_error", "eps")]:
             self.DeclareVectorOutputPort(name, m, self._output_from(field), {self._terms.ticket()})
 
-    @property
-    def n_axes(self):
-        return self._m
-
-    @property
-    def n_basis(self):
-        return self._n
-
     def theta(self, context):
         """(theta_k, theta_d, theta_v) from a context of this system, each (M, N)."""
         flat = context.get_continuous_state_vector().CopyToVector()
