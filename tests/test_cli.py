@@ -110,3 +110,9 @@ def test_drake_models_without_internet_is_one_clear_line(tmp_path):
     assert len(result.stderr.strip().splitlines()) == 1, result.stderr
     assert "drake_models" in result.stderr
     assert not (tmp_path / "o").exists()
+
+
+def test_debug_shows_the_traceback(tmp_path):
+    result = hlcmp("--debug", "fit", tmp_path / "missing.csv", "--out", tmp_path / "s.npz")
+    assert result.returncode != 0
+    assert "Traceback" in result.stderr and "InputError" in result.stderr and "no such file" in result.stderr
