@@ -18,12 +18,14 @@ from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput
 
-from hlcmp_drake.builders import add_plant, make_controller, prepare_arm
-from hlcmp_drake.outputs import write_diagram_graph
-from hlcmp_drake.scenario import load_scenario
+from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.io.outputs import write_diagram_graph
 from hlcmp_drake.systems.arm import NullSpaceImpedance, ToolContactForce
 from hlcmp_drake.systems.references import DmpSource
 from hlcmp_drake.systems.task_space import TaskForceToJointTorque, TaskSpaceDynamics
+from hlcmp_drake.worlds import arm
+from hlcmp_drake.worlds.controllers import hlcmp_controller
+from hlcmp_drake.worlds.models import add_plant
 
 
 def build(scenario, setup, meshcat):
@@ -33,8 +35,7 @@ def build(scenario, setup, meshcat):
 
     dmp = builder.AddSystem(DmpSource(setup.dmp))              # x_d, x_d', x_d'', s
     task_space = builder.AddSystem(TaskSpaceDynamics(plant, tip))   # x, x', J, M, C, G
-    controller = builder.AddSystem(make_controller("hlcmp", scenario.controllers["hlcmp"],
-                                                   scenario, setup.dmp.start))
+    controller = builder.AddSystem(hlcmp_controller(scenario.controllers["hlcmp"], scenario))
     task = scenario.task
     null_space = builder.AddSystem(NullSpaceImpedance(
         plant, tip, setup.tool_orientation, setup.q0,
@@ -74,7 +75,7 @@ def main():
     args.out.mkdir(parents=True, exist_ok=True)
 
     scenario, _ = load_scenario("insertion")
-    setup = prepare_arm(scenario)                   # fit the DMP, inverse kinematics for q0
+    setup = arm.prepare(scenario)                   # fit the DMP, inverse kinematics for q0
     meshcat = Meshcat()
     diagram, plant, logs = build(scenario, setup, meshcat)
     graph = write_diagram_graph(args.out, diagram)

@@ -15,10 +15,10 @@ from pathlib import Path
 
 import numpy as np
 
+from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.experiments import insertion
-from hlcmp_drake.report import print_table_and_update
-from hlcmp_drake.runner import run_controllers
-from hlcmp_drake.scenario import load_scenario
+from hlcmp_drake.present.report import write_block
+from hlcmp_drake.run.runner import run_controllers
 
 ROOT = Path(__file__).resolve().parent.parent
 PLANK_BOTTOM_Z = 0.30   # diagrams/insertion.yaml: top face at 0.33, 3 cm thick
@@ -35,7 +35,7 @@ def sweep(scales=(1, 10, 100, 1000)):
                             q_v=[q * scale for q in paper.q_v])
         variant = dc.replace(scenario, controllers={"hlcmp": config, **constants})
         runs = {**run_controllers(dc.replace(variant, controllers={"hlcmp": config})), **constant_runs}
-        metrics = {n: insertion.controller_metrics(r, variant) for n, r in runs.items()}
+        metrics = {n: insertion.controller_metrics(r, variant.controllers[n], variant) for n, r in runs.items()}
         claims = insertion.claims(metrics, variant, runs)
         rows.append((scale, runs["hlcmp"], metrics["hlcmp"], claims))
     return rows
@@ -61,7 +61,10 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--update-readme", action="store_true")
     args = parser.parse_args()
-    print_table_and_update(markdown(sweep()), "insertion learning rate", args.update_readme, ROOT / "README.md")
+    table = markdown(sweep())
+    print(table)
+    if args.update_readme:
+        write_block(ROOT / "README.md", "insertion learning rate", table)
 
 
 if __name__ == "__main__":

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hlcmp_drake.demos import write_trajectory
+from hlcmp_drake.io.demos import write_trajectory
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -10,12 +10,12 @@ import dataclasses as dc
 import itertools
 from pathlib import Path
 
-from hlcmp_drake.builders import build_slider_diagram
+from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.core.metrics import settle_time, value_at
 from hlcmp_drake.experiments.one_dof import DEPTH_TOLERANCE_M
-from hlcmp_drake.metrics import settle_time, value_at
-from hlcmp_drake.report import print_table_and_update
-from hlcmp_drake.scenario import load_scenario
-from hlcmp_drake.simulate import simulate
+from hlcmp_drake.present.report import write_block
+from hlcmp_drake.run.simulate import simulate
+from hlcmp_drake.worlds import slider
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -27,9 +27,9 @@ def sweep(basis_counts=(2, 10, 30), slopes=(1.0, 5.0, 20.0), gains=(1.0, 10.0)):
     for n, pi, gain in itertools.product(basis_counts, slopes, gains):
         config = dc.replace(paper, pi=pi, gain_l=[gain])
         variant = dc.replace(scenario, duration_s=10.0, controllers={"hlcmp": config},
-                             basis=dc.replace(scenario.basis, n_basis=n))
+                             dmp=dc.replace(scenario.dmp, n_basis=n))
         # The phase must still span the whole 20 s task, as in the full scenario.
-        run = simulate(build_slider_diagram(dc.replace(variant, duration_s=scenario.duration_s), "hlcmp"),
+        run = simulate(slider.build(dc.replace(variant, duration_s=scenario.duration_s), "hlcmp"),
                        variant, "hlcmp")
         x = run.series["x"][:, 0]
         reach = settle_time(run.t, x, -0.15, DEPTH_TOLERANCE_M, 0.0, 10.0 - 1e-9)
@@ -50,7 +50,10 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--update-readme", action="store_true")
     args = parser.parse_args()
-    print_table_and_update(markdown(sweep()), "one_dof sensitivity", args.update_readme, ROOT / "README.md")
+    table = markdown(sweep())
+    print(table)
+    if args.update_readme:
+        write_block(ROOT / "README.md", "one_dof sensitivity", table)
 
 
 if __name__ == "__main__":

@@ -6,12 +6,11 @@ own time (the profile behind docs/performance.md).
 
 import argparse
 import cProfile
-import dataclasses as dc
 import pstats
 
-from hlcmp_drake.builders import diagram_factory
-from hlcmp_drake.scenario import load_scenario
-from hlcmp_drake.simulate import simulate
+from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.run.simulate import simulate
+from hlcmp_drake.worlds.build import diagram_factory
 
 
 def main():
@@ -19,8 +18,7 @@ def main():
     parser.add_argument("--seconds", type=float, default=5.0)
     parser.add_argument("--top", type=int, default=15)
     args = parser.parse_args()
-    scenario, _ = load_scenario("insertion")
-    scenario = dc.replace(scenario, duration_s=args.seconds)
+    scenario, _ = load_scenario("insertion", [f"duration_s={args.seconds}"])
     built = diagram_factory(scenario)("hlcmp")
     profile = cProfile.Profile()
     profile.enable()

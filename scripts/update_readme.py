@@ -14,8 +14,11 @@ import argparse
 import shutil
 from pathlib import Path
 
-from hlcmp_drake.report import (RESULT_BLOCKS, bench_markdown, learning_markdown, replace_block,
-                                update_readme)
+from hlcmp_drake.experiments import EXPERIMENTS
+from hlcmp_drake.present.report import update_readme, write_block
+from hlcmp_drake.present.tables import to_markdown
+from hlcmp_drake.run.benchmark import table as bench_table
+from hlcmp_drake.run.learning import trials_table
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -31,13 +34,16 @@ def main():
     if args.learn:
         learn = json.loads((args.learn / "metrics.json").read_text())
         replay = json.loads((args.reproduce / "metrics.json").read_text()) if args.reproduce else None
-        readme = ROOT / "README.md"
-        readme.write_text(replace_block(readme.read_text(), "learning results", learning_markdown(learn, replay)))
+        better = learn["improves_over_trials"] or {}
+        verdict = ", ".join(f"{key.replace('_', ' ')}: {'better' if ok else 'not better'}" for key, ok in better.items())
+        write_block(ROOT / "README.md", "learning results",
+                    to_markdown(trials_table(learn, replay), code_first_column=False)
+                    + f"\nLast trial against the first -- {verdict}.\n")
     if args.bench:
-        table = bench_markdown(json.loads((args.bench / "bench.json").read_text()))
+        table = to_markdown(bench_table(json.loads((args.bench / "bench.json").read_text())), code_first_column=False)
         for document in (ROOT / "README.md", ROOT / "docs" / "performance.md"):
-            document.write_text(replace_block(document.read_text(), "benchmark", table))
-    run_dirs = {name: args.runs / name for name in RESULT_BLOCKS if (args.runs / name / "metrics.json").exists()}
+            write_block(document, "benchmark", table)
+    run_dirs = {name: args.runs / name for name in EXPERIMENTS if (args.runs / name / "metrics.json").exists()}
     update_readme(ROOT / "README.md", run_dirs)
     for name, run_dir in run_dirs.items():
         target = ROOT / "docs" / "figures" / name

@@ -1,6 +1,15 @@
 import numpy as np
 import pytest
 
+# Tests that use a whole bundled scenario's run are slow (tens of seconds each).
+SCENARIO_RUNS = {"one_dof_run", "insertion_run", "cutting_run"}
+
+
+def pytest_collection_modifyitems(items):
+    for item in items:
+        if SCENARIO_RUNS & set(getattr(item, "fixturenames", ())):
+            item.add_marker(pytest.mark.slow)
+
 
 def minimum_jerk(u):
     return 10 * u**3 - 15 * u**4 + 6 * u**5

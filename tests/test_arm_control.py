@@ -7,9 +7,10 @@ import pytest
 from pydrake.multibody.parsing import ModelDirectives, Parser, ProcessModelDirectives
 from pydrake.multibody.plant import MultibodyPlant
 
-from hlcmp_drake.builders import _scoped, prepare_arm
-from hlcmp_drake.paths import register_package
-from hlcmp_drake.scenario import load_scenario
+from hlcmp_drake.worlds.arm import prepare as prepare_arm
+from hlcmp_drake.worlds.models import scoped_frame
+from hlcmp_drake.io.paths import register_package
+from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.systems.arm import NullSpaceImpedance
 from hlcmp_drake.systems.task_space import TaskSpaceDynamics
 
@@ -23,7 +24,7 @@ def arm():
     register_package(parser.package_map())
     ProcessModelDirectives(ModelDirectives(directives=scenario.directives), plant, parser)
     plant.Finalize()
-    tip = plant.GetFrameByName(*_scoped(plant, scenario.task.tool_frame))
+    tip = scoped_frame(plant, scenario.task.tool_frame)
     task_space = TaskSpaceDynamics(plant, tip)
     context = task_space.CreateDefaultContext()
     state = np.concatenate([setup.q0, np.zeros(7)])

@@ -3,9 +3,12 @@ speed is reported by `hlcmp bench`, never asserted in a test)."""
 
 import json
 
+import pytest
+
 from hlcmp_drake.cli import main
 
 
+@pytest.mark.slow
 def test_quick_benchmark_writes_every_measurement(tmp_path, capsys):
     assert main(["bench", "--out", str(tmp_path), "--quick"]) == 0
     results = json.loads((tmp_path / "bench.json").read_text())

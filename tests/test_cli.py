@@ -6,7 +6,7 @@ import sys
 import numpy as np
 import pytest
 
-from hlcmp_drake.demos import read_demonstration
+from hlcmp_drake.io.demos import read_demonstration
 
 
 def hlcmp(*args, cwd=None):
@@ -75,7 +75,7 @@ def test_good_one_axis_demo_is_accepted(tmp_path):
     (["rollout", "SKILL", "--out", "T", "--goal", "1,2"], "--goal: the skill has 3 axes"),
     (["rollout", "SKILL", "--out", "T", "--goal", "a,b,c"], "--goal: expected comma-separated numbers"),
     (["rollout", "SKILL", "--out", "T", "--dt", "-1"], "must be a positive number"),
-    (["fit", "DEMO", "--out", "S", "--basis", "1"], "needs at least 2 basis functions"),
+    (["fit", "DEMO", "--out", "S", "--basis", "1"], "--basis: n_basis must be at least 2"),
     (["rollout", "NOSKILL", "--out", "T"], "no such file"),
     (["run", "no_such_scenario"], "not a bundled scenario"),
     (["frobnicate"], "invalid choice"),

@@ -5,11 +5,12 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from hlcmp_drake.builders import fit_demonstration
+from hlcmp_drake.worlds.arm import fit_demonstration
 from hlcmp_drake.experiments import cutting
-from hlcmp_drake.paths import REPO_ROOT
-from hlcmp_drake.report import cutting_markdown
-from hlcmp_drake.scenario import ArmTask, HlcmpConfig, load_scenario
+from hlcmp_drake.io.paths import REPO_ROOT
+from hlcmp_drake.present.report import results_markdown
+from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.config.scenario import ArmTask, HlcmpConfig
 
 CONTROLLERS = ["hlcmp", "const_500", "const_1000"]
 
@@ -43,7 +44,8 @@ def test_run_writes_the_contract_and_its_metrics_agree(cutting_run):
     for name in CONTROLLERS:
         series = {key.split("/", 1)[1]: data[key] for key in data.files if key.startswith(f"{name}/")}
         assert series["f_ext"].shape == (len(data["t"]), 3)
-        assert cutting.controller_metrics(SimpleNamespace(t=data["t"], series=series), scenario) == \
+        assert cutting.controller_metrics(SimpleNamespace(t=data["t"], series=series),
+                                          scenario.controllers[name], scenario) == \
             metrics["controllers"][name]
     for figure in ("fig11_profiles_xyz.png", "fig12_force_z_smoothness.png"):
         assert (cutting_run / "figures" / figure).read_bytes()[:4] == b"\x89PNG"
@@ -65,4 +67,4 @@ def test_readme_results_come_from_this_run(cutting_run):
     metrics = json.loads((cutting_run / "metrics.json").read_text())
     readme = (REPO_ROOT / "README.md").read_text()
     block = readme.split("<!-- BEGIN cutting results -->\n")[1].split("<!-- END cutting results -->")[0]
-    assert block == cutting_markdown(metrics)
+    assert block == results_markdown(metrics, cutting.EXPERIMENT)

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from hlcmp_drake.dmp import (Dmp, DmpSettings, basis_centers_and_widths, forcing_basis,
+from hlcmp_drake.core.dmp import (Dmp, DmpSettings, basis_centers_and_widths, forcing_basis,
                              forcing_target, normalized_basis, phase_at, rbf_activations,
                              resample_and_differentiate, transformation_rates)
 
@@ -113,7 +113,10 @@ def test_resampling_gives_a_uniform_grid_and_smooth_derivatives():
 def test_settings_validation():
     with pytest.raises(ValueError):
         DmpSettings(n_basis=1)
-    assert DmpSettings(alpha=40).beta == 10
+    assert DmpSettings(alpha=40).beta_value == 10
+    settings = DmpSettings()
+    settings.alpha = 40   # as the YAML loader sets it: beta follows alpha
+    assert settings.beta_value == 10
 
 
 def test_a_tremor_demonstration_stays_at_its_goal_after_tau(smooth_demo):

@@ -8,7 +8,7 @@ from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
 
-from hlcmp_drake.paths import MODELS_DIR
+from hlcmp_drake.io.paths import MODELS_DIR
 
 SDF = (MODELS_DIR / "iiwa14.sdf").read_text()
 EFFORT = [320, 320, 176, 176, 110, 40, 40]

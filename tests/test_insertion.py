@@ -9,12 +9,12 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from hlcmp_drake.builders import diagram_factory
+from hlcmp_drake.worlds.build import diagram_factory
 from hlcmp_drake.experiments import insertion
-from hlcmp_drake.paths import DIAGRAMS_DIR, REPO_ROOT
-from hlcmp_drake.scenario import (ArmTask, ConstantImpedanceConfig, DemonstrationConfig,
-                                  HlcmpConfig, load_scenario)
-from hlcmp_drake.simulate import simulate
+from hlcmp_drake.io.paths import DIAGRAMS_DIR, REPO_ROOT
+from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.config.scenario import ArmTask, ConstantImpedanceConfig, DemonstrationConfig, HlcmpConfig
+from hlcmp_drake.run.simulate import simulate
 
 CONTROLLERS = ["hlcmp", "const_500", "const_1000", "const_2000"]
 FIGURES = ["fig4_profiles_z.png", "fig5_position_force.png", "fig6_position_error.png",
@@ -35,6 +35,7 @@ def test_scenario_file_loads_with_the_paper_values():
         assert isinstance(config, ConstantImpedanceConfig) and config.stiffness_N_per_m == [k] * 3
 
 
+@pytest.mark.slow
 def test_tool_touches_the_foam_and_the_force_opposes_the_push():
     scenario, _ = load_scenario("insertion")
     scenario.duration_s = 4.2   # into the plank: contact starts at about 3.4 s
@@ -77,7 +78,7 @@ def test_run_metrics_agree_with_its_time_series(insertion_run):
     for name in CONTROLLERS:
         series = {key.split("/", 1)[1]: data[key] for key in data.files if key.startswith(f"{name}/")}
         run = SimpleNamespace(t=data["t"], series=series)
-        assert insertion.controller_metrics(run, scenario) == metrics["controllers"][name]
+        assert insertion.controller_metrics(run, scenario.controllers[name], scenario) == metrics["controllers"][name]
 
 
 def test_build_insertion_diagram_by_hand(tmp_path):
@@ -99,9 +100,9 @@ def test_the_tool_goes_through_the_plank_and_back_with_constant_stiffness(insert
 
 
 def test_readme_results_come_from_this_run(insertion_run):
-    from hlcmp_drake.report import insertion_markdown
+    from hlcmp_drake.present.report import results_markdown
 
     metrics = json.loads((insertion_run / "metrics.json").read_text())
     readme = (REPO_ROOT / "README.md").read_text()
     block = readme.split("<!-- BEGIN insertion results -->\n")[1].split("<!-- END insertion results -->")[0]
-    assert block == insertion_markdown(metrics)
+    assert block == results_markdown(metrics, insertion.EXPERIMENT)

@@ -2,9 +2,9 @@
 
 import numpy as np
 
-from hlcmp_drake.adaptation import adaptation_rates, compliant_profiles
-from hlcmp_drake.baselines import duan_adaptation_step, duan_admittance_acceleration
-from hlcmp_drake.control_law import (commanded_force, impedance_force, nominal_force,
+from hlcmp_drake.core.adaptation import adaptation_rates, compliant_profiles
+from hlcmp_drake.core.duan2018 import duan_adaptation_step, duan_admittance_acceleration
+from hlcmp_drake.core.control_law import (commanded_force, impedance_force, nominal_force,
                                      reference_motion, sliding_error, tracking_errors)
 
 

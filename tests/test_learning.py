@@ -6,31 +6,27 @@ import numpy as np
 import pytest
 
 from hlcmp_drake.cli import main
-from hlcmp_drake.dmp import basis_centers_and_widths, normalized_basis, phase_at
-from hlcmp_drake.paths import DIAGRAMS_DIR
-from hlcmp_drake.skill import load_skill
+from hlcmp_drake.core.dmp import basis_centers_and_widths, normalized_basis, phase_at
+from hlcmp_drake.io.paths import DIAGRAMS_DIR
+from hlcmp_drake.io.skill import load_skill
 
 DEMO = DIAGRAMS_DIR / "demos" / "insertion_demo.csv"
 
 
 @pytest.fixture(scope="module")
-def short_world(tmp_path_factory):
-    """The insertion world cut to 4.5 s (approach and the start of the push)."""
-    path = tmp_path_factory.mktemp("world") / "short_insertion.yaml"
-    text = (DIAGRAMS_DIR / "insertion.yaml").read_text()
-    path.write_text(text.replace("duration_s: 9.5", "duration_s: 4.5")
-                    .replace("file: demos/insertion_demo.csv", f"file: {DEMO}"))
-    return path
+def short_world():
+    """The insertion world cut to 4.5 s (approach and the start of the push), as arguments."""
+    return ["--scenario", "insertion", "--set", "duration_s=4.5"]
 
 
 @pytest.fixture(scope="module")
 def learned(short_world, tmp_path_factory):
     out = tmp_path_factory.mktemp("learned")
-    assert main(["learn", str(DEMO), "--scenario", str(short_world), "--trials", "2",
-                 "--out", str(out), "--quiet"]) == 0
+    assert main(["learn", str(DEMO), *short_world, "--trials", "2", "--out", str(out), "--quiet"]) == 0
     return out
 
 
+@pytest.mark.slow
 def test_two_trials_each_continuing_from_the_last(learned):
     metrics = json.loads((learned / "metrics.json").read_text())
     assert metrics["status"] == "ok" and [row["trial"] for row in metrics["trials"]] == [1, 2]
@@ -46,9 +42,10 @@ def test_two_trials_each_continuing_from_the_last(learned):
     assert skill.theta_k.shape == (3, 30) and np.abs(skill.theta_k).max() > 0
 
 
+@pytest.mark.slow
 def test_frozen_reproduction_keeps_the_learned_profiles(learned, short_world, tmp_path):
     out = tmp_path / "replay"
-    assert main(["reproduce", str(learned / "skill.npz"), "--scenario", str(short_world), "--freeze",
+    assert main(["reproduce", str(learned / "skill.npz"), *short_world, "--freeze",
                  "--out", str(out), "--quiet"]) == 0
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["adaptation"] == "frozen" and not (out / "skill.npz").exists()
@@ -66,8 +63,7 @@ def test_a_skill_of_other_axes_is_refused(tmp_path, short_world, capsys):
     demo.write_text("t,x,z\n" + "".join(f"{k * 0.1:.1f},{0.6 + 0.001 * k:.3f},0.4\n" for k in range(20)))
     assert main(["fit", str(demo), "--out", str(tmp_path / "xz.npz")]) == 0
     capsys.readouterr()
-    assert main(["reproduce", str(tmp_path / "xz.npz"), "--scenario", str(short_world),
-                 "--out", str(tmp_path / "o")]) == 2
+    assert main(["reproduce", str(tmp_path / "xz.npz"), *short_world, "--out", str(tmp_path / "o")]) == 2
     error = capsys.readouterr().err.strip().splitlines()
     assert len(error) == 1 and "the skill's axes (x,z) do not match" in error[0]
 
@@ -75,7 +71,7 @@ def test_a_skill_of_other_axes_is_refused(tmp_path, short_world, capsys):
 def test_effort_and_improvement_by_hand():
     from types import SimpleNamespace
 
-    from hlcmp_drake.learning import effort, improvement
+    from hlcmp_drake.run.learning import effort, improvement
 
     run = SimpleNamespace(series={"u": np.array([[1.0, -2.0, 0.0], [3.0, 0.0, 1.0]]),
                                   "v": np.array([[1.0, 0.0, 0.0], [-1.0, 0.0, 1.0]])})

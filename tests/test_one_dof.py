@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from hlcmp_drake.experiments import one_dof
-from hlcmp_drake.paths import REPO_ROOT
-from hlcmp_drake.report import one_dof_markdown
-from hlcmp_drake.scenario import load_scenario
+from hlcmp_drake.io.paths import REPO_ROOT
+from hlcmp_drake.present.report import results_markdown
+from hlcmp_drake.config.loading import load_scenario
 
 CONTROLLERS = ["hlcmp", "vic_fd_0.5", "vic_fd_1.5", "vic_fd_5.0"]
 
@@ -44,7 +44,7 @@ def test_metrics_agree_with_the_time_series(run_dir):
     scenario, _ = load_scenario("one_dof")
     for name in CONTROLLERS:
         run = SimpleNamespace(t=data["t"], series={"x": data[f"{name}/x"]})
-        assert one_dof.controller_metrics(run, scenario) == metrics["controllers"][name]
+        assert one_dof.controller_metrics(run, scenario.controllers[name], scenario) == metrics["controllers"][name]
     assert one_dof.claims(metrics["controllers"], scenario) == metrics["claims"]
 
 
@@ -72,4 +72,4 @@ def test_readme_results_come_from_this_run(run_dir):
     metrics = json.loads((run_dir / "metrics.json").read_text())
     readme = (REPO_ROOT / "README.md").read_text()
     block = readme.split("<!-- BEGIN one_dof results -->\n")[1].split("<!-- END one_dof results -->")[0]
-    assert block == one_dof_markdown(metrics)
+    assert block == results_markdown(metrics, one_dof.EXPERIMENT)

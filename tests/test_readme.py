@@ -2,7 +2,7 @@
 
 import re
 
-from hlcmp_drake.paths import REPO_ROOT
+from hlcmp_drake.io.paths import REPO_ROOT
 
 README = (REPO_ROOT / "README.md").read_text()
 

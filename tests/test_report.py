@@ -8,7 +8,7 @@ import subprocess
 
 import pytest
 
-from hlcmp_drake.report import report_page
+from hlcmp_drake.present.report import report_page
 
 
 @pytest.fixture(scope="session")
@@ -56,6 +56,7 @@ def test_the_page_renders_in_chromium_with_every_image(report, tmp_path):
     assert result.stdout.count("<h2 id=") == 3
 
 
+@pytest.mark.slow
 def test_report_command_runs_the_scenarios(tmp_path):
     from hlcmp_drake.cli import main
 
@@ -65,11 +66,12 @@ def test_report_command_runs_the_scenarios(tmp_path):
 
 
 def test_readme_claims_summary_comes_from_the_runs(one_dof_run, insertion_run, cutting_run):
-    from hlcmp_drake.paths import REPO_ROOT
-    from hlcmp_drake.report import claims_summary_markdown
+    from hlcmp_drake.io.paths import REPO_ROOT
+    from hlcmp_drake.present.report import claims_summary_table
+    from hlcmp_drake.present.tables import to_markdown
 
     runs = {"one_dof": one_dof_run, "insertion": insertion_run, "cutting": cutting_run}
     metrics = {name: json.loads((run / "metrics.json").read_text()) for name, run in runs.items()}
     readme = (REPO_ROOT / "README.md").read_text()
     block = readme.split("<!-- BEGIN claims summary -->\n")[1].split("<!-- END claims summary -->")[0]
-    assert block == claims_summary_markdown(metrics)
+    assert block == to_markdown(claims_summary_table(metrics), code_first_column=False)

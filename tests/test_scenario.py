@@ -2,9 +2,10 @@ import re
 
 import pytest
 
-from hlcmp_drake.errors import InputError
-from hlcmp_drake.paths import DIAGRAMS_DIR
-from hlcmp_drake.scenario import HlcmpConfig, VariableImpedanceConfig, load_scenario
+from hlcmp_drake.io.errors import InputError
+from hlcmp_drake.io.paths import DIAGRAMS_DIR
+from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.config.scenario import HlcmpConfig, VariableImpedanceConfig
 
 ONE_DOF = (DIAGRAMS_DIR / "one_dof.yaml").read_text()
 
@@ -57,7 +58,7 @@ def test_unknown_key_points_at_its_line(tmp_path):
 
 
 def test_drake_models_variant_swaps_the_arm_and_the_flange_weld():
-    from hlcmp_drake.scenario import DRAKE_MODELS_IIWA, use_drake_models_iiwa
+    from hlcmp_drake.config.variants import DRAKE_MODELS_IIWA, use_drake_models_iiwa
 
     scenario, _ = load_scenario("insertion")
     variant = use_drake_models_iiwa(scenario)

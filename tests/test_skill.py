@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
 
-from hlcmp_drake.dmp import Dmp
-from hlcmp_drake.errors import InputError
-from hlcmp_drake.skill import FORMAT_VERSION, Skill, load_skill, save_skill
+from hlcmp_drake.core.dmp import Dmp
+from hlcmp_drake.io.errors import InputError
+from hlcmp_drake.io.skill import FORMAT_VERSION, Skill, load_skill, save_skill
 
 
 @pytest.fixture

@@ -6,8 +6,8 @@ from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
 
-from hlcmp_drake.adaptation import adaptation_rates, compliant_profiles
-from hlcmp_drake.dmp import Dmp, basis_centers_and_widths, normalized_basis
+from hlcmp_drake.core.adaptation import adaptation_rates, compliant_profiles
+from hlcmp_drake.core.dmp import Dmp, basis_centers_and_widths, normalized_basis
 from hlcmp_drake.systems.baselines import ConstantImpedanceController, VariableImpedanceController
 from hlcmp_drake.systems.environment import UnilateralSpring
 from hlcmp_drake.systems.hlcmp_controller import HlcmpController, HlcmpGains

@@ -2,8 +2,11 @@
 
 The per-axis metrics are the insertion's (Figs. 6-8 there, Fig. 12b here)."""
 
-# The runner asks every experiment module for controller_metrics, claims, table, figures.
-from hlcmp_drake.experiments.insertion import AXES, controller_metrics, table  # noqa: F401
+from hlcmp_drake.config.scenario import ArmTask, Scenario
+from hlcmp_drake.experiments.plots import new_figure
+from hlcmp_drake.experiments.claims import constant_impedances, learner, smoother_force
+from hlcmp_drake.experiments.experiment import Experiment
+from hlcmp_drake.experiments.insertion import AXES, controller_metrics, table
 
 
 PAPER_SAYS = {
@@ -12,15 +15,29 @@ PAPER_SAYS = {
 }
 
 
-def claims(metrics, scenario, runs=None):
-    constants = [name for name in metrics if name.startswith("const_")]
-    hl = metrics["hlcmp"]
-    smooth = {n: metrics[n]["force_smoothness_N"]["z"] for n in ["hlcmp", *constants]}
-    result = {"C2": {
-        "holds": all(smooth["hlcmp"] < smooth[n] for n in constants),
-        "evidence": "sum |second difference of f_z| (Fig. 12b): " + ", ".join(
-            f"{n} {v:.2f} N" for n, v in smooth.items()) + ".",
-    }}
+def claims(metrics: dict, scenario: Scenario, runs: dict | None = None) -> dict:
+    """C2 and C3 for cutting; without a learner, no claims.
+
+    Parameters
+    ----------
+    metrics : dict
+        {controller label: controller metrics}.
+    scenario : Scenario
+        The controllers' configs, by which the learner and the baselines are found.
+    runs : dict of str to RunResult, optional
+        The runs themselves, for claims judged on time series.
+
+    Returns
+    -------
+    dict
+        {claim: {"holds", "evidence", "paper_says", ...}}.
+    """
+    name = learner(scenario)
+    if name is None:
+        return {}
+    hl = metrics[name]
+    result = {"C2": smoother_force(metrics, name, constant_impedances(scenario),
+                                   "sum |second difference of f_z| (Fig. 12b)", PAPER_SAYS["C2"])}
     # C3 for cutting: the profiles adapt most on the axis where the task pushes back most.
     force = hl["mean_abs_force_N"]
     hardest = max(AXES, key=force.get)
@@ -32,16 +49,27 @@ def claims(metrics, scenario, runs=None):
                      f"peak learned stiffness x/y/z {k['x']:.1f}/{k['y']:.1f}/{k['z']:.1f} N/m (most: {most_k}); "
                      f"peak |feed-forward| x/y/z {v['x']:.2f}/{v['y']:.2f}/{v['z']:.2f} N (most: {most_v})."),
     }
-    for name, claim in result.items():
-        claim["paper_says"] = PAPER_SAYS[name]
+    for claim_name, claim in result.items():
+        claim["paper_says"] = PAPER_SAYS[claim_name]
     return result
 
 
-def figures(runs, scenario):
-    from hlcmp_drake.plots import new_figure
+def figures(runs: dict, scenario: Scenario) -> dict:
+    """Figs. 11 and 12.
 
+    Parameters
+    ----------
+    runs : dict of str to RunResult
+        By controller label.
+    scenario : Scenario
+
+    Returns
+    -------
+    dict of str to Figure
+        {file name: matplotlib Figure}.
+    """
     out = {}
-    hl = runs.get("hlcmp")
+    hl = runs.get(learner(scenario))
     if hl is not None:
         rows = [("position [m]", None), ("FF v [N]", "v"), ("stiffness [N/m]", "Ks"),
                 ("damping [Ns/m]", "Kd"), ("CF u + v [N]", "cf")]
@@ -74,7 +102,8 @@ def figures(runs, scenario):
     axes[0].set_title("(a) endpoint force in z")
     axes[0].grid(alpha=0.3)
     axes[0].legend(fontsize=8)
-    smooth = [controller_metrics(run, scenario)["force_smoothness_N"]["z"] for run in runs.values()]
+    smooth = [controller_metrics(run, scenario.controllers[name], scenario)["force_smoothness_N"]["z"]
+              for name, run in runs.items()]
     axes[1].bar(range(len(runs)), smooth, color=[f"C{i}" for i in range(len(runs))])
     axes[1].set_xticks(range(len(runs)), list(runs))
     axes[1].set_ylabel("sum |second difference of f_z| [N]")
@@ -83,3 +112,8 @@ def figures(runs, scenario):
     fig.suptitle("Cutting: measured z force (paper Fig. 12)")
     out["fig12_force_z_smoothness.png"] = fig
     return out
+
+
+EXPERIMENT = Experiment(
+    name="cutting", title="Cutting a soft block (iiwa14)", paper_section="V-E", paper_figures="Figs. 11-12",
+    world=ArmTask, controller_metrics=controller_metrics, claims=claims, table=table, figures=figures)

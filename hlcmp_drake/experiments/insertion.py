@@ -2,8 +2,14 @@
 
 import numpy as np
 
-from hlcmp_drake.metrics import (force_smoothness, max_abs_force, mean_abs_force,
-                                 mean_abs_position_error)
+from hlcmp_drake.config.scenario import ArmTask, ControllerConfig, HlcmpConfig, Scenario
+from hlcmp_drake.core.metrics import (force_smoothness, max_abs_force, mean_abs_force,
+                                      mean_abs_position_error)
+from hlcmp_drake.experiments.plots import bar_chart, new_figure
+from hlcmp_drake.experiments.claims import constant_impedances, learner, smoother_force
+from hlcmp_drake.experiments.experiment import Experiment
+from hlcmp_drake.experiments.table import Table, number, per_axis
+from hlcmp_drake.io.runs import RunResult
 
 AXES = ("x", "y", "z")
 CONTACT_FORCE_N = 0.5      # |f_ext| above this counts as contact
@@ -22,13 +28,26 @@ def _per_axis(values):
     return {axis: float(v) for axis, v in zip(AXES, values)}
 
 
-def contact_mask(run):
+def contact_mask(run: RunResult) -> np.ndarray:
+    """(T,) bool: the samples where |f_ext| exceeds CONTACT_FORCE_N (the tool is in contact).
+
+    Parameters
+    ----------
+    run : RunResult
+        With the series "f_ext" (T, 3) [N].
+    """
     return np.linalg.norm(run.series["f_ext"], axis=1) > CONTACT_FORCE_N
 
 
-def ff_to_commanded_ratio_z(run):
+def ff_to_commanded_ratio_z(run: RunResult) -> float | None:
     """The paper's observation u ~ v ~ f_c / 2 (Eq. 3: f_c = -(u + v)): mean v_z over mean
-    (u_z + v_z), over the samples in contact. None without contact."""
+    (u_z + v_z), over the samples in contact. None without contact.
+
+    Parameters
+    ----------
+    run : RunResult
+        An Hl-CMP run, with the series "u", "v" and "f_ext" (T, 3) [N].
+    """
     mask = contact_mask(run)
     if not mask.any():
         return None
@@ -37,10 +56,25 @@ def ff_to_commanded_ratio_z(run):
     return None if total == 0 else float(np.mean(v) / total)
 
 
-def controller_metrics(run, scenario):
-    """Per axis: mean |x - x_d| (Fig. 6), mean |f| (Fig. 7), sum |second difference of f|
-    (Fig. 8), max |f|; for the Hl-CMP also the peaks of its learned profiles and the ratio
-    of feed-forward to commanded force in z."""
+def controller_metrics(run: RunResult, config: ControllerConfig, scenario: Scenario) -> dict:
+    """Per axis: mean |x - x_d| [m] (Fig. 6), mean |f| [N] (Fig. 7), sum |second
+    difference of f| [N] (Fig. 8), max |f| [N]; for a learning controller (an Hl-CMP
+    config) also the peaks of its learned profiles and the ratio of feed-forward to
+    commanded force in z.
+
+    Parameters
+    ----------
+    run : RunResult
+        The run's logged series (x, xd, f_ext; Ks, v, u for an Hl-CMP), each (T, M).
+    config : controller config
+        The run's controller config; its kind decides which metrics apply.
+    scenario : Scenario
+
+    Returns
+    -------
+    dict
+        The controller's entry of metrics.json.
+    """
     x, xd, f = run.series["x"], run.series["xd"], run.series["f_ext"]
     metrics = {
         "mean_abs_position_error_m": _per_axis(mean_abs_position_error(x, xd)),
@@ -48,7 +82,7 @@ def controller_metrics(run, scenario):
         "force_smoothness_N": _per_axis(force_smoothness(f)),
         "max_abs_force_N": _per_axis(max_abs_force(f)),
     }
-    if "Ks" in run.series:
+    if isinstance(config, HlcmpConfig):
         metrics["max_stiffness_N_per_m"] = _per_axis(np.max(run.series["Ks"], axis=0))
         metrics["max_abs_feedforward_N"] = _per_axis(np.max(np.abs(run.series["v"]), axis=0))
         metrics["ff_to_commanded_force_ratio_z"] = ff_to_commanded_ratio_z(run)
@@ -69,10 +103,21 @@ def _phase_times(run):
     return onset, pierce, deepest
 
 
-def rise_and_fall(run):
+def rise_and_fall(run: RunResult) -> dict | None:
     """C4 in numbers: K_s,z and v_z at contact onset, at the pierce and at the end of the
     push, and their peak in between. C4 holds when both rise from onset to pierce and
-    fall from their peak to the end of the push by at least CHANGE_FRACTION of the peak."""
+    fall from their peak to the end of the push by at least CHANGE_FRACTION of the peak.
+
+    Parameters
+    ----------
+    run : RunResult
+        An Hl-CMP run (series Ks, v, xd, f_ext).
+
+    Returns
+    -------
+    dict or None
+        The phase times [s] and the values [N/m, N]; None without a contact phase.
+    """
     phases = _phase_times(run)
     if phases is None:
         return None
@@ -85,10 +130,27 @@ def rise_and_fall(run):
     return out
 
 
-def claims(metrics, scenario, runs=None):
-    constants = sorted((name for name in metrics if name.startswith("const_")),
-                       key=lambda n: float(n.split("_")[1]))
-    hl = metrics.get("hlcmp")
+def claims(metrics: dict, scenario: Scenario, runs: dict | None = None) -> dict:
+    """C1-C4 from {label: controller metrics}; the learner and the constant impedances
+    are found by their config kind, the constants ordered by their configured stiffness.
+
+    Parameters
+    ----------
+    metrics : dict
+        {controller label: controller metrics}.
+    scenario : Scenario
+        The controllers' configs, by which the learner and the baselines are found.
+    runs : dict of str to RunResult, optional
+        The runs themselves, for claims judged on time series.
+
+    Returns
+    -------
+    dict
+        {claim: {"holds", "evidence", "paper_says", ...}}.
+    """
+    constants = constant_impedances(scenario)
+    name = learner(scenario)
+    hl = metrics.get(name)
     result = {}
     # C1: a stiffer constant impedance tracks better.
     errors = [sum(metrics[n]["mean_abs_position_error_m"].values()) for n in constants]
@@ -101,12 +163,7 @@ def claims(metrics, scenario, runs=None):
         result["C1"]["paper_says"] = PAPER_SAYS["C1"]
         return result
     # C2: the Hl-CMP's contact force is smoother than every constant impedance's (z axis).
-    smooth = {n: metrics[n]["force_smoothness_N"]["z"] for n in ["hlcmp", *constants]}
-    result["C2"] = {
-        "holds": all(smooth["hlcmp"] < smooth[n] for n in constants),
-        "evidence": "sum |second difference of f_z|: " + ", ".join(
-            f"{n} {v:.2f} N" for n, v in smooth.items()) + ".",
-    }
+    result["C2"] = smoother_force(metrics, name, constants, "sum |second difference of f_z|", PAPER_SAYS["C2"])
     # C3: only the task-relevant axis (z) adapts noticeably.
     k, v = hl["max_stiffness_N_per_m"], hl["max_abs_feedforward_N"]
     selective = all(k[a] <= SELECTIVE_FRACTION * k["z"] and v[a] <= SELECTIVE_FRACTION * v["z"]
@@ -118,7 +175,7 @@ def claims(metrics, scenario, runs=None):
                      f"(holds if x and y stay within {SELECTIVE_FRACTION:.0%} of z)."),
     }
     # C4: stiffness and feed-forward rise while pushing in and fall after the pierce.
-    phases = rise_and_fall(runs["hlcmp"]) if runs else None
+    phases = rise_and_fall(runs[name]) if runs else None
     if phases is None:
         result["C4"] = {"holds": False, "evidence": "no contact phase found in the Hl-CMP run."}
     else:
@@ -138,27 +195,44 @@ def claims(metrics, scenario, runs=None):
                          f"{'n/a' if ratio is None else f'{ratio:.2f}'} (paper: about 0.5)."),
             "phases": phases,
         }
-    for name, claim in result.items():
-        claim["paper_says"] = PAPER_SAYS[name]
+    for claim_name, claim in result.items():
+        claim["paper_says"] = PAPER_SAYS[claim_name]
     return result
 
 
-def table(metrics):
-    rows = [f"{'controller':<11} {'|e| x/y/z [mm]':>22} {'mean |f| x/y/z [N]':>22} "
-            f"{'smoothness x/y/z [N]':>24} {'max |f_z| [N]':>13}"]
+def table(metrics: dict) -> Table:
+    """Per controller: the per-axis metrics of Figs. 6-8 and the peak z force.
+
+    Parameters
+    ----------
+    metrics : dict
+        {controller label: controller metrics}.
+    """
+    result = Table(["controller", "mean |e| x/y/z [mm]", "mean |f| x/y/z [N]", "smoothness x/y/z [N]",
+                    "max |f_z| [N]"])
     for name, m in metrics.items():
-        e = "/".join(f"{m['mean_abs_position_error_m'][a] * 1000:.2f}" for a in AXES)
-        f = "/".join(f"{m['mean_abs_force_N'][a]:.2f}" for a in AXES)
-        s = "/".join(f"{m['force_smoothness_N'][a]:.1f}" for a in AXES)
-        rows.append(f"{name:<11} {e:>22} {f:>22} {s:>24} {m['max_abs_force_N']['z']:>13.2f}")
-    return "\n".join(rows)
+        result.add(name, per_axis(m["mean_abs_position_error_m"], AXES, 1000),
+                   per_axis(m["mean_abs_force_N"], AXES), per_axis(m["force_smoothness_N"], AXES, digits=1),
+                   number(m["max_abs_force_N"]["z"]))
+    return result
 
 
-def figures(runs, scenario):
-    from hlcmp_drake.plots import bar_chart, new_figure
+def figures(runs: dict, scenario: Scenario) -> dict:
+    """Figs. 4-8.
 
+    Parameters
+    ----------
+    runs : dict of str to RunResult
+        By controller label.
+    scenario : Scenario
+
+    Returns
+    -------
+    dict of str to Figure
+        {file name: matplotlib Figure}.
+    """
     out = {}
-    hl = runs.get("hlcmp")
+    hl = runs.get(learner(scenario))
     if hl is not None:
         fig, axes = new_figure(5, 1, size=(8, 11), sharex=True)
         axes[0].plot(hl.t, hl.series["xd"][:, 2], "k--", label="reference $x_{d,z}$")
@@ -198,7 +272,8 @@ def figures(runs, scenario):
     fig.suptitle("Endpoint position and wrist force during reproduction (paper Fig. 5)")
     out["fig5_position_force.png"] = fig
 
-    metrics = {name: controller_metrics(run, scenario) for name, run in runs.items()}
+    metrics = {name: controller_metrics(run, scenario.controllers[name], scenario)
+               for name, run in runs.items()}
     for file_name, key, label, scale in [
             ("fig6_position_error.png", "mean_abs_position_error_m", "mean |x - x_d| [mm] (paper Fig. 6)", 1000),
             ("fig7_mean_force.png", "mean_abs_force_N", "mean |f| [N] (paper Fig. 7)", 1),
@@ -206,3 +281,9 @@ def figures(runs, scenario):
         values = {name: [m[key][a] * scale for a in AXES] for name, m in metrics.items()}
         out[file_name] = bar_chart(values, AXES, label)
     return out
+
+
+EXPERIMENT = Experiment(
+    name="insertion", title="Insertion of a rod through a foam plank (iiwa14)",
+    paper_section="V-D", paper_figures="Figs. 4-8",
+    world=ArmTask, controller_metrics=controller_metrics, claims=claims, table=table, figures=figures)

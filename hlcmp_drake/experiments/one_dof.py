@@ -1,8 +1,12 @@
 """The 1-DOF comparison (paper Sec. V-B, Fig. 13) and claim C5."""
 
-import numpy as np
-
-from hlcmp_drake.metrics import settle_time, value_at
+from hlcmp_drake.config.scenario import ControllerConfig, Scenario, SliderTask, VariableImpedanceConfig
+from hlcmp_drake.core.metrics import settle_time, value_at
+from hlcmp_drake.experiments.plots import new_figure
+from hlcmp_drake.experiments.claims import learner
+from hlcmp_drake.experiments.experiment import Experiment
+from hlcmp_drake.experiments.table import Table, number
+from hlcmp_drake.io.runs import RunResult
 
 DEPTH_TOLERANCE_M = 0.005
 PAPER_SAYS = {"C5": "Hl-CMPs reach the depth and return faster than [21]; [21] with an improper f_d "
@@ -15,9 +19,23 @@ def _segments(scenario):
     return positions[0][0], times[0], positions[1][0], times[1]
 
 
-def controller_metrics(run, scenario):
+def controller_metrics(run: RunResult, config: ControllerConfig, scenario: Scenario) -> dict:
     """position_at_10s_m, final_position_m, reach_time_s (absolute time), return_time_s
-    (seconds after the return command at t = 10 s); None where never settled."""
+    (seconds after the return command at t = 10 s); None where never settled.
+
+    Parameters
+    ----------
+    run : RunResult
+        The run's logged series (x, xd, f_ext; Ks, v, u for an Hl-CMP), each (T, M).
+    config : controller config
+        The run's controller config; its kind decides which metrics apply.
+    scenario : Scenario
+
+    Returns
+    -------
+    dict
+        The controller's entry of metrics.json.
+    """
     depth, t0, home, t_return = _segments(scenario)
     x = run.series["x"][:, 0]
     reach = settle_time(run.t, x, depth, DEPTH_TOLERANCE_M, t0, t_return)
@@ -39,20 +57,40 @@ def _faster(a, b):
     return a is not None and (b is None or a < b)
 
 
-def claims(metrics, scenario, runs=None):
+def claims(metrics: dict, scenario: Scenario, runs: dict | None = None) -> dict:
     """C5: Hl-CMPs reach the desired depth and return faster than [21]; [21] with an
-    improper f_d fails to reach the depth (0.5 N too shallow, 5 N too deep)."""
+    improper f_d fails to reach the depth (0.5 N too shallow, 5 N too deep).
+
+    The Hl-CMP and the [21] runs are found by their config kind; the [21] run with the
+    smallest desired force must stop too shallow, the one with the largest too deep.
+
+    Parameters
+    ----------
+    metrics : dict
+        {controller label: controller metrics}.
+    scenario : Scenario
+        The controllers' configs, by which the learner and the baselines are found.
+    runs : dict of str to RunResult, optional
+        The runs themselves, for claims judged on time series.
+
+    Returns
+    -------
+    dict
+        {claim: {"holds", "evidence", "paper_says", ...}}.
+    """
     depth = _segments(scenario)[0]
-    hl = metrics["hlcmp"]
-    vic = {name: m for name, m in metrics.items() if name.startswith("vic_fd_")}
+    hl = metrics[learner(scenario)]
+    vic = {name: metrics[name] for name in scenario.controllers_of(VariableImpedanceConfig)}
+    by_force = sorted(vic, key=lambda n: sum(scenario.controllers[n].desired_force_N))
+    weakest, strongest = by_force[0], by_force[-1]
     proper = min(vic, key=lambda n: abs(vic[n]["position_at_10s_m"] - depth))
     parts = {
         "hlcmp_reaches_depth": hl["reach_time_s"] is not None,
         "hlcmp_returns": hl["return_time_s"] is not None,
         "hlcmp_reaches_faster_than_best_vic": _faster(hl["reach_time_s"], vic[proper]["reach_time_s"]),
         "hlcmp_returns_faster_than_best_vic": _faster(hl["return_time_s"], vic[proper]["return_time_s"]),
-        "vic_fd_0.5_too_shallow": vic["vic_fd_0.5"]["position_at_10s_m"] > depth + DEPTH_TOLERANCE_M,
-        "vic_fd_5.0_too_deep": vic["vic_fd_5.0"]["position_at_10s_m"] < depth - DEPTH_TOLERANCE_M,
+        f"{weakest}_too_shallow": vic[weakest]["position_at_10s_m"] > depth + DEPTH_TOLERANCE_M,
+        f"{strongest}_too_deep": vic[strongest]["position_at_10s_m"] < depth - DEPTH_TOLERANCE_M,
     }
     lines = [f"Hl-CMP: x(10 s) = {hl['position_at_10s_m']:.4f} m (target {depth} m), reach "
              f"{_fmt(hl['reach_time_s'])}, return {_fmt(hl['return_time_s'])} after t = 10 s."]
@@ -65,28 +103,44 @@ def claims(metrics, scenario, runs=None):
                    "evidence": " ".join(lines)}}
 
 
-def table(metrics):
-    rows = [f"{'controller':<12} {'x(10 s) [m]':>12} {'final [m]':>10} {'reach [s]':>10} {'return [s]':>11}"]
+def table(metrics: dict) -> Table:
+    """Per controller: x at 10 s, the final x, and the reach and return times.
+
+    Parameters
+    ----------
+    metrics : dict
+        {controller label: controller metrics}.
+    """
+    result = Table(["controller", "x(10 s) [mm]", "final x [mm]", "reach −150 mm ±5 mm at [s]",
+                    "back to 0 ±5 mm after 10 s [s]"])
     for name, m in metrics.items():
-        reach = "never" if m["reach_time_s"] is None else f"{m['reach_time_s']:.2f}"
-        back = "never" if m["return_time_s"] is None else f"{m['return_time_s']:.2f}"
-        rows.append(f"{name:<12} {m['position_at_10s_m']:>12.4f} {m['final_position_m']:>10.4f} "
-                    f"{reach:>10} {back:>11}")
-    return "\n".join(rows)
+        result.add(name, number(1000 * m["position_at_10s_m"], 1), number(1000 * m["final_position_m"], 1),
+                   number(m["reach_time_s"]), number(m["return_time_s"]))
+    return result
 
 
-def figures(runs, scenario):
+def figures(runs: dict, scenario: Scenario) -> dict:
     """Fig. 13: position of every controller and the reference; the contact force; the
-    Hl-CMP's learned stiffness and damping. Returns {file name: matplotlib figure}."""
-    from hlcmp_drake.plots import new_figure
+    Hl-CMP's learned stiffness and damping.
 
+    Parameters
+    ----------
+    runs : dict of str to RunResult
+        By controller label.
+    scenario : Scenario
+
+    Returns
+    -------
+    dict of str to Figure
+        {file name: matplotlib Figure}.
+    """
     fig, axes = new_figure(3, 1, size=(8, 8.5), sharex=True)
     first = next(iter(runs.values()))
     axes[0].plot(first.t, first.series["xd"][:, 0], "k--", lw=1.2, label="reference $x_d$")
     for name, run in runs.items():
         axes[0].plot(run.t, run.series["x"][:, 0], label=name)
         axes[1].plot(run.t, run.series["f_ext"][:, 0], label=name)
-    hl = runs.get("hlcmp")
+    hl = runs.get(learner(scenario))
     if hl is not None:
         axes[2].plot(hl.t, hl.series["Ks"][:, 0], label="Hl-CMP stiffness $K_s$ [N/m]")
         axes[2].plot(hl.t, hl.series["Kd"][:, 0], label="Hl-CMP damping $K_d$ [Ns/m]")
@@ -99,3 +153,9 @@ def figures(runs, scenario):
         axis.grid(alpha=0.3)
         axis.legend(fontsize=8, loc="best")
     return {"one_dof.png": fig}
+
+
+EXPERIMENT = Experiment(
+    name="one_dof", title="1-DOF comparison with a variable-impedance controller",
+    paper_section="V-B", paper_figures="Fig. 13", world=SliderTask,
+    controller_metrics=controller_metrics, claims=claims, table=table, figures=figures)

@@ -6,7 +6,7 @@ from pydrake.common.value import AbstractValue
 from pydrake.math import RotationMatrix
 from pydrake.multibody.plant import ContactResults
 from pydrake.multibody.tree import JacobianWrtVariable
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.framework import BasicVector, Context, LeafSystem
 
 
 class NullSpaceImpedance(LeafSystem):
@@ -72,7 +72,19 @@ class ToolContactForce(LeafSystem):
         self.DeclareVectorOutputPort("force", 3, self._calc_force, prereq)
         self.DeclareVectorOutputPort("task_force", len(self._axes), self._calc_task_force, prereq)
 
-    def force_on_tool(self, context):
+    def force_on_tool(self, context: Context) -> np.ndarray:
+        """The contact force on the tool's body at this context, world frame.
+
+        Parameters
+        ----------
+        context : Context
+            A context of this system (its `contact_results` input is evaluated).
+
+        Returns
+        -------
+        (3,) array
+            Sum of the hydroelastic and point-contact forces acting on `tool_body` [N].
+        """
         results = self.contact_results.Eval(context)
         total = np.zeros(3)
         for i in range(results.num_hydroelastic_contacts()):

@@ -1,14 +1,14 @@
 """Baseline controllers as Drake systems: constant impedance and the variable-impedance
 controller of Duan et al. 2018 standing in for the paper's ref. [21] (see
-`hlcmp_drake.baselines` for its equations and citation)."""
+`hlcmp_drake.core.duan2018` for its equations and citation)."""
 
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
-from hlcmp_drake.baselines import (duan_adaptation_step, duan_admittance_acceleration,
-                                   duan_force_error, inner_position_loop)
-from hlcmp_drake.control_law import (commanded_force, impedance_force, nominal_force,
-                                     reference_motion, sliding_error, tracking_errors)
+from hlcmp_drake.core.control_law import (commanded_force, impedance_force, nominal_command,
+                                          tracking_errors)
+from hlcmp_drake.core.duan2018 import (duan_adaptation_step, duan_admittance_acceleration,
+                                       duan_force_error, inner_position_loop)
 from hlcmp_drake.systems.ports import declare_task_space_inputs
 
 
@@ -30,10 +30,8 @@ class ConstantImpedanceController(LeafSystem):
     def _calc_force(self, context, output):
         x, xdot, xd, xd_dot, xd_ddot = self.inputs.errors_and_reference(context)
         inertia, coriolis, gravity = self.inputs.dynamics(context, self._m)
-        e, edot = tracking_errors(x, xdot, xd, xd_dot)
-        eps = sliding_error(e, edot, self._pi)
-        xe_dot, xe_ddot = reference_motion(xd_dot, xd_ddot, e, edot, self._pi)
-        f0 = nominal_force(inertia, coriolis, gravity, xe_dot, xe_ddot, self._gain_l, eps)
+        e, edot, _, f0 = nominal_command(x, xdot, xd, xd_dot, xd_ddot, inertia, coriolis, gravity,
+                                         self._pi, self._gain_l)
         output.SetFromVector(commanded_force(f0, impedance_force(self._k_s, self._k_d, e, edot),
                                              np.zeros(self._m)))
 

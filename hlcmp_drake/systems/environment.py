@@ -4,9 +4,24 @@ import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 
-def unilateral_spring_force(x, surface, stiffness):
+def unilateral_spring_force(x: float | np.ndarray, surface: float, stiffness: float) -> np.ndarray:
     """Reaction of an elastic object occupying x < surface: k (surface - x) when the body
-    has penetrated it, zero otherwise (the object pulls nothing). 1-DOF experiment, Fig. 13."""
+    has penetrated it, zero otherwise (the object pulls nothing). 1-DOF experiment, Fig. 13.
+
+    Parameters
+    ----------
+    x : float or array
+        Position of the body [m].
+    surface : float
+        Position of the object's surface [m].
+    stiffness : float
+        Stiffness k of the object [N/m].
+
+    Returns
+    -------
+    array
+        Reaction force [N], >= 0 for k >= 0, the shape of `x` (0-d for a scalar).
+    """
     return np.where(x < surface, stiffness * (surface - x), 0.0)
 
 

@@ -4,12 +4,11 @@ from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import BasicVector, LeafSystem, ValueProducer
+from pydrake.systems.framework import BasicVector, Context, LeafSystem, ValueProducer
 
-from hlcmp_drake.adaptation import adaptation_rates, compliant_profiles
-from hlcmp_drake.control_law import (commanded_force, impedance_force, nominal_force,
-                                     reference_motion, sliding_error, tracking_errors)
-from hlcmp_drake.dmp import normalized_basis
+from hlcmp_drake.core.adaptation import adaptation_rates, compliant_profiles
+from hlcmp_drake.core.control_law import commanded_force, impedance_force, nominal_command
+from hlcmp_drake.core.dmp import normalized_basis
 from hlcmp_drake.systems.ports import declare_task_space_inputs
 
 
@@ -55,8 +54,20 @@ class HlcmpController(LeafSystem):
                             ("feedforward", "v"), ("impedance_force", "u"), ("sliding_error", "eps")]:
             self.DeclareVectorOutputPort(name, m, self._output_from(field), {self._terms.ticket()})
 
-    def theta(self, context):
-        """(theta_k, theta_d, theta_v) from a context of this system, each (M, N)."""
+    def theta(self, context: Context) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(theta_k, theta_d, theta_v) from a context of this system, each (M, N).
+
+        Parameters
+        ----------
+        context : Context
+            A context of this system.
+
+        Returns
+        -------
+        theta_k, theta_d, theta_v : (M, N) arrays
+            Weights of the stiffness [N/m], damping [N s/m] and feed-forward force [N]
+            profiles, copied from the continuous state.
+        """
         flat = context.get_continuous_state_vector().CopyToVector()
         return tuple(flat.reshape(3, self._m, self._n))
 
@@ -65,11 +76,9 @@ class HlcmpController(LeafSystem):
         inertia, coriolis, gravity = self.inputs.dynamics(context, self._m)
         g = normalized_basis(self.inputs.phase.Eval(context)[0], self._centers, self._widths)
         theta_k, theta_d, theta_v = self.theta(context)
-        e, edot = tracking_errors(x, xdot, xd, xd_dot)
-        eps = sliding_error(e, edot, self._gains.pi)
+        e, edot, eps, f0 = nominal_command(x, xdot, xd, xd_dot, xd_ddot, inertia, coriolis, gravity,
+                                           self._gains.pi, self._gains.gain_l)
         k_s, k_d, v = compliant_profiles(theta_k, theta_d, theta_v, g)
-        xe_dot, xe_ddot = reference_motion(xd_dot, xd_ddot, e, edot, self._gains.pi)
-        f0 = nominal_force(inertia, coriolis, gravity, xe_dot, xe_ddot, self._gains.gain_l, eps)
         terms = abstract_value.get_mutable_value()
         u = impedance_force(k_s, k_d, e, edot)
         terms.force[:] = commanded_force(f0, u, v)

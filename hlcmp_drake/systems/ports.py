@@ -2,7 +2,8 @@
 
 from dataclasses import dataclass
 
-from pydrake.systems.framework import BasicVector, InputPort, LeafSystem
+import numpy as np
+from pydrake.systems.framework import BasicVector, Context, InputPort, LeafSystem
 
 
 @dataclass(frozen=True)
@@ -19,14 +20,45 @@ class TaskSpaceInputs:
     coriolis: InputPort
     gravity: InputPort
 
-    def errors_and_reference(self, context):
-        """Evaluate the measured and desired motion: (x, x', x_d, x_d', x_d'')."""
+    def errors_and_reference(
+            self, context: Context) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Evaluate the measured and desired motion: (x, x', x_d, x_d', x_d'').
+
+        Parameters
+        ----------
+        context : Context
+            A context of the system that declared these ports.
+
+        Returns
+        -------
+        x, xdot : (M,) arrays
+            Measured position [m] and velocity [m/s].
+        xd, xd_dot, xd_ddot : (M,) arrays
+            Desired position [m], velocity [m/s] and acceleration [m/s^2].
+        """
         return (self.position.Eval(context), self.velocity.Eval(context),
                 self.desired_position.Eval(context), self.desired_velocity.Eval(context),
                 self.desired_acceleration.Eval(context))
 
-    def dynamics(self, context, n_axes):
-        """Evaluate the task-space M (M x M), C (M x M) and G (M,) supplied by Drake."""
+    def dynamics(self, context: Context, n_axes: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Evaluate the task-space M (M x M), C (M x M) and G (M,) supplied by Drake.
+
+        Parameters
+        ----------
+        context : Context
+            A context of the system that declared these ports.
+        n_axes : int
+            M, the number of task-space axes.
+
+        Returns
+        -------
+        inertia : (M, M) array
+            Task-space inertia [kg].
+        coriolis : (M, M) array
+            Task-space Coriolis matrix [kg/s].
+        gravity : (M,) array
+            Task-space gravity force [N].
+        """
         return (self.inertia.Eval(context).reshape(n_axes, n_axes),
                 self.coriolis.Eval(context).reshape(n_axes, n_axes),
                 self.gravity.Eval(context))
@@ -38,6 +70,21 @@ def declare_task_space_inputs(system: LeafSystem, n_axes: int) -> TaskSpaceInput
     position, velocity: measured task-space x, x'. desired_*: x_d, x_d', x_d'' from the
     reference (DMP source). phase: the canonical phase s. inertia, coriolis: row-major
     M x M task-space matrices, gravity: the task-space G, all from TaskSpaceDynamics.
+
+    Parameters
+    ----------
+    system : LeafSystem
+        The controller to declare the ports on.
+    n_axes : int
+        M, the number of task-space axes.
+
+    Returns
+    -------
+    TaskSpaceInputs
+        The declared vector ports: size M for the positions [m], velocities [m/s],
+        acceleration [m/s^2] and gravity [N]; 1 for the phase [-]; M * M for the inertia
+        [kg] and Coriolis matrix [kg/s]. Each port is named as its field, except
+        task_inertia, task_coriolis and task_gravity.
     """
     def vec(name, size):
         return system.DeclareVectorInputPort(name, BasicVector(size))

@@ -8,7 +8,7 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, LeafSystem, ValueProducer
 
-from hlcmp_drake.dmp import Dmp, canonical_phase_rate
+from hlcmp_drake.core.dmp import Dmp, canonical_phase_rate
 
 
 class DmpSource(LeafSystem):
@@ -36,7 +36,8 @@ class DmpSource(LeafSystem):
         self.DeclareVectorOutputPort("phase", 1, self._calc_phase, state)
 
     @property
-    def tau(self):
+    def tau(self) -> float:
+        """The time constant tau [s] this source runs with."""
         return self._tau
 
     def _state(self, context):
@@ -85,7 +86,20 @@ class StepReference(LeafSystem):
         self.DeclareVectorOutputPort("desired_acceleration", m, lambda c, o: o.SetZero(), zero)
         self.DeclareVectorOutputPort("phase", 1, self._calc_phase, {self.all_state_ticket()})
 
-    def position_at(self, t):
+    def position_at(self, t: float) -> np.ndarray:
+        """The set-point in force at time t: the last row of `positions` whose switch
+        time is <= t (the first row before times[0]).
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        (M,) array
+            Desired position x_d [m].
+        """
         index = np.searchsorted(self._times, t, side="right") - 1
         return self._positions[max(index, 0)]
 

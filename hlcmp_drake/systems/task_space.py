@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.multibody.tree import JacobianWrtVariable
-from pydrake.systems.framework import BasicVector, LeafSystem, ValueProducer
+from pydrake.systems.framework import BasicVector, Context, LeafSystem, ValueProducer
 
 
 @dataclass
@@ -66,7 +66,21 @@ class TaskSpaceDynamics(LeafSystem):
                                   ("joint_gravity", nv, "joint_gravity")]:
             self.DeclareVectorOutputPort(name, size, self._output_from(field), prereq)
 
-    def terms(self, context) -> TaskSpaceTerms:
+    def terms(self, context: Context) -> TaskSpaceTerms:
+        """All task-space terms at this context, from the cache entry.
+
+        Parameters
+        ----------
+        context : Context
+            A context of this system (its `plant_state` input is evaluated).
+
+        Returns
+        -------
+        TaskSpaceTerms
+            Position [m] and velocity [m/s] (M,), Jacobian (M, nv), inertia [kg] and
+            Coriolis [kg/s] (M, M), gravity [N] (M,), null-space projector (nv, nv) and
+            joint gravity G(q) (nv,) in the joints' units.
+        """
         return self._terms.Eval(context)
 
     def _output_from(self, field):

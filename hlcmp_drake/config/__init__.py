@@ -1,0 +1,1 @@
+"""The typed scenario configuration, loaded from YAML with overrides and validated."""

@@ -1,0 +1,293 @@
+"""Loading a scenario: a bundled name or a YAML file, layered with overrides, validated.
+
+Overrides are layered the way Drake's own `LoadScenario` does it: the file is read with
+`yaml_load_typed`, then each override is read with the result so far as `defaults`, so
+an override changes only what it names. An override is ``dotted.key=YAML value``, e.g.
+``controllers.hlcmp.q_k=[300,300,300]`` or ``duration_s=4``; a dict of YAML-able values
+works too. Every problem is one InputError naming the file and line, or the override.
+"""
+
+from __future__ import annotations
+
+import copy
+import re
+import typing
+from pathlib import Path
+from typing import Sequence, Union
+
+from pydrake.common.yaml import yaml_load_typed
+
+from hlcmp_drake.config.scenario import DemonstrationConfig, Scenario
+from hlcmp_drake.config.validation import validate_scenario
+from hlcmp_drake.io.errors import InputError
+from hlcmp_drake.io.paths import DIAGRAMS_DIR, bundled_scenarios
+
+
+def resolve_scenario_path(name_or_path: str | Path) -> Path:
+    """The YAML file of a bundled scenario name (diagrams/NAME.yaml) or of a path.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        A path ending in .yaml/.yml (used as is), else a bundled scenario's name.
+
+    Returns
+    -------
+    Path
+        The scenario file, which exists.
+
+    Raises
+    ------
+    InputError
+        When the .yaml path is not a file, or the name is no bundled scenario.
+    """
+    path = Path(name_or_path)
+    if path.suffix in (".yaml", ".yml"):
+        if not path.is_file():
+            raise InputError(f"{path}: no such scenario file")
+        return path
+    bundled = DIAGRAMS_DIR / f"{name_or_path}.yaml"
+    if bundled.is_file():
+        return bundled
+    raise InputError(f"{name_or_path}: not a bundled scenario ({', '.join(bundled_scenarios())}) "
+                     "nor a .yaml file")
+
+
+def line_of(text: str, dotted_key: str) -> int | None:
+    """The 1-based line where the YAML `text` sets `dotted_key`.
+
+    Each part of the key is looked for after the line of the part before it; a label with
+    dots in it ("vic_fd_0.5") is matched whole.
+
+    Parameters
+    ----------
+    text : str
+        The YAML file's text.
+    dotted_key : str
+        A dotted path such as "controllers.hlcmp.q_k".
+
+    Returns
+    -------
+    int or None
+        The line number, or None if some part is not found.
+    """
+    lines = text.splitlines()
+    parts = dotted_key.split(".")
+    start, found, i = 0, None, 0
+    while i < len(parts):
+        for j in range(len(parts), i, -1):   # the longest run of parts that names a key
+            pattern = re.compile(rf"\s*(- )?{re.escape('.'.join(parts[i:j]))}\s*:")
+            found = next((n for n in range(start, len(lines)) if pattern.match(lines[n])), None)
+            if found is not None:
+                start, i = found + 1, j
+                break
+        else:
+            return None
+    return None if found is None else found + 1
+
+
+class _Source:
+    """Where the scenario's values came from: the file's text and the overrides."""
+
+    def __init__(self, path: Path, text: str, overrides: list[tuple[str, str]]):
+        self.path, self.text, self.overrides = path, text, overrides
+
+    def error(self, dotted_key: str, problem: str) -> InputError:
+        """`override 'k=v': key: problem` when an override set the key, else
+        `file:line: key: problem` (the line omitted when it cannot be found)."""
+        leaf = dotted_key.split(".")[-1]
+        for label, key in reversed(self.overrides):
+            if key == dotted_key or key.startswith(dotted_key + ".") or dotted_key.startswith(key + "."):
+                return InputError(f"override '{label}': {leaf}: {problem}")
+        line = line_of(self.text, dotted_key) or line_of(self.text, leaf)
+        where = f"{self.path}:{line}" if line else f"{self.path}"
+        return InputError(f"{where}: {leaf}: {problem}")
+
+    def fail(self, dotted_key: str, problem: str) -> None:
+        raise self.error(dotted_key, problem)
+
+    def fail_model(self, file: str) -> None:
+        line = next((n for n, row in enumerate(self.text.splitlines(), 1) if file in row), None)
+        where = f"{self.path}:{line}" if line else f"{self.path}"
+        raise InputError(f"{where}: file: model file '{file}' does not exist")
+
+
+def _yaml_error(path, text, error) -> InputError:
+    """One line `file:line: problem` for whatever the YAML parser or the schema raised."""
+    mark = getattr(error, "problem_mark", None) or getattr(error, "context_mark", None)
+    if mark is not None:  # a YAML syntax error: PyYAML knows the line
+        problem = " ".join(filter(None, [getattr(error, "context", None), getattr(error, "problem", None)]))
+        return InputError(f"{path}:{mark.line + 1}: {problem}")
+    message = " ".join(str(error).split())
+    line = None
+    field = re.search(r"\['([^']+)'|for '([^']+)'|options for '([^']+)'", message)
+    value = re.search(r": '([^']*)'$", message)
+    if field:
+        line = line_of(text, next(g for g in field.groups() if g))
+    elif value:  # a value of the wrong type: find the line that holds it
+        line = next((n for n, row in enumerate(text.splitlines(), 1)
+                     if re.search(rf":\s*{re.escape(value.group(1))}\s*(#.*)?$", row)), None)
+    return InputError(f"{path}:{line}: {message}" if line else f"{path}: {message}")
+
+
+def _union_members(owner_type, field_name) -> tuple:
+    """The dataclasses a field may hold through a tagged union (its own type, or a dict's
+    value type); empty when the field is not a union."""
+    hint = typing.get_type_hints(owner_type).get(field_name)
+    if typing.get_origin(hint) is dict:
+        hint = typing.get_args(hint)[1]
+    return typing.get_args(hint) if typing.get_origin(hint) is Union else ()
+
+
+def _split_key(node, parts, i):
+    """(key, next index) of the field or map entry that parts[i:] starts with: for a map,
+    the longest run of parts that is one of its keys (labels may hold dots), else the
+    whole rest (a new entry)."""
+    if isinstance(node, dict):
+        for j in range(len(parts), i, -1):
+            if ".".join(parts[i:j]) in node:
+                return ".".join(parts[i:j]), j
+        return ".".join(parts[i:]), len(parts)
+    return parts[i], i + 1
+
+
+def override_yaml(scenario: Scenario, dotted_key: str, value_yaml: str) -> str:
+    """The YAML text that sets `dotted_key` to `value_yaml` over `scenario`.
+
+    One nested mapping per part, with the type tag of every tagged-union value on the way
+    (so that an override of `controllers.const_500.pi` stays a !ConstantImpedanceConfig).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario so far, which the override is read over (as `defaults`).
+    dotted_key : str
+        The field to set, e.g. "controllers.hlcmp.q_k"; a map key may hold dots.
+    value_yaml : str
+        The new value as YAML text, e.g. "[300,300,300]".
+
+    Returns
+    -------
+    str
+        The YAML document, ending in a newline.
+
+    Raises
+    ------
+    KeyError
+        With the part (its only argument) that names no field of a dataclass.
+    """
+    parts = dotted_key.split(".")
+    lines, node, i, depth = [], scenario, 0, 0
+    while i < len(parts):
+        owner = node
+        key, i = _split_key(owner, parts, i)
+        if isinstance(owner, dict):
+            node = owner.get(key)
+            members = _union_members(type(scenario), "controllers") if owner is scenario.controllers else ()
+        elif owner is not None and hasattr(owner, "__dataclass_fields__"):
+            if key not in owner.__dataclass_fields__:
+                raise KeyError(key)
+            node = getattr(owner, key)
+            members = _union_members(type(owner), key)
+        else:
+            raise KeyError(key)
+        last = i == len(parts)
+        tag = f" !{type(node).__name__}" if members and type(node) in members and not last else ""
+        lines.append("  " * depth + f"{_yaml_key(key)}:{tag}" + (f" {value_yaml}" if last else ""))
+        depth += 1
+    return "\n".join(lines) + "\n"
+
+
+def _yaml_key(key: str) -> str:
+    """A map key as YAML reads it back as the same string (quoted when it looks like a number)."""
+    return f"'{key}'" if re.fullmatch(r"[0-9.eE+-]+", key) else key
+
+
+def _parse_override(override) -> list[tuple[str, str, str]]:
+    """[(label, dotted key, YAML value)] from 'a.b=value' or a dict {dotted key: value}."""
+    if isinstance(override, dict):
+        import yaml
+
+        return [(f"{k}={v}", k, yaml.safe_dump(v, default_flow_style=True).strip().removesuffix("...").strip())
+                for k, v in override.items()]
+    key, sep, value = str(override).partition("=")
+    if not sep or not key.strip() or not re.fullmatch(r"[A-Za-z0-9_.\-]+", key.strip()):
+        raise InputError(f"override '{override}': expected KEY=VALUE with a dotted KEY, "
+                         "e.g. controllers.hlcmp.q_k=[300,300,300]")
+    return [(str(override), key.strip(), value.strip())]
+
+
+def load_scenario(name_or_path: str | Path, overrides: Sequence[str | dict] = ()) -> tuple[Scenario, Path]:
+    """Load, override and validate a scenario.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        A bundled scenario's name (e.g. "insertion") or a path to a YAML file.
+    overrides : sequence of str or dict
+        Each ``dotted.key=YAML value`` (or a dict of them), layered in order over the
+        file, e.g. ``["duration_s=4", "controllers.hlcmp.q_k=[300,300,300]"]``.
+
+    Returns
+    -------
+    (Scenario, Path)
+        The scenario (its demonstration file resolved to an absolute path) and the file.
+
+    Raises
+    ------
+    InputError
+        One line naming the file and line, or the override, and what is wrong.
+    """
+    path = resolve_scenario_path(name_or_path)
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as error:
+        raise InputError(f"{path}: cannot be read as text ({error.__class__.__name__})") from None
+    try:
+        scenario = yaml_load_typed(schema=Scenario, data=text)
+    except Exception as error:  # yaml errors come as several exception types
+        raise _yaml_error(path, text, error) from None
+    applied = []
+    for override in overrides:
+        for label, key, value in _parse_override(override):
+            try:
+                data = override_yaml(scenario, key, value)
+            except KeyError as error:
+                raise InputError(f"override '{label}': no field '{error.args[0]}' in the scenario") from None
+            try:
+                scenario = yaml_load_typed(schema=Scenario, data=data, defaults=copy.deepcopy(scenario))
+            except Exception as error:
+                message = " ".join(str(getattr(error, "problem", None) or error).split())
+                raise InputError(f"override '{label}': {message}") from None
+            applied.append((label, key))
+    source = _Source(path, text, applied)
+    validate_scenario(scenario, path.parent, source.fail, source.fail_model)
+    if isinstance(scenario.reference, DemonstrationConfig):
+        # Resolve the demonstration next to the scenario file, once, for every later user.
+        scenario.reference.file = str((path.parent / scenario.reference.file).resolve())
+    return scenario, path
+
+
+def scenario_error(path: Path, dotted_key: str, problem: str) -> InputError:
+    """An InputError for a problem found after loading (by a world or an experiment).
+
+    Parameters
+    ----------
+    path : Path
+        The scenario file (an unreadable file gives a message without a line).
+    dotted_key : str
+        The dotted path of the field at fault, e.g. "controllers.hlcmp.q_k".
+    problem : str
+        What is wrong with it.
+
+    Returns
+    -------
+    InputError
+        Not raised: ``file:line: leaf: problem``, with the line where `path` sets
+        `dotted_key` (omitted when it cannot be found) and the key's last part.
+    """
+    try:
+        text = Path(path).read_text()
+    except (OSError, UnicodeDecodeError):
+        text = ""
+    return _Source(Path(path), text, []).error(dotted_key, problem)

@@ -1,0 +1,322 @@
+"""Typed scenario configuration: what a YAML scenario file holds.
+
+A scenario reuses Drake's own config structs where one exists (MultibodyPlantConfig,
+SimulatorConfig, ModelDirective) and the DMP's own settings (DmpSettings), and adds only
+what is this project's own: the task, the reference motion and the controllers to
+compare. Controllers are a label -> tagged config map, e.g.
+``hlcmp: !HlcmpConfig {q_k: [2000], ...}``; the label is free text, the config's type
+says what the controller is.
+
+Each controller config checks its own values (`check`), so adding a controller kind means
+adding its config class here and its factory in `hlcmp_drake.worlds.controllers`.
+"""
+
+import dataclasses as dc
+import math
+from typing import Callable, Union
+
+from pydrake.multibody.parsing import ModelDirective
+from pydrake.multibody.plant import MultibodyPlantConfig
+from pydrake.systems.analysis import SimulatorConfig
+
+from hlcmp_drake.core.dmp import DmpSettings
+
+# fail(key, problem): raises the InputError that names where `key` -- a dotted path such as
+# "controllers.hlcmp.q_k" -- was set (the file's line, or the override).
+Fail = Callable[[str, str], None]
+
+
+def check_per_axis(config: object, name: str, key: str, m: int, fail: Fail, nonnegative: bool = True,
+                   positive: bool = False) -> None:
+    """Check that controller `name`'s list field `key` holds one finite value per axis.
+
+    Parameters
+    ----------
+    config : controller config dataclass
+        Holds the list field `key`.
+    name : str
+        The controller's label in the scenario (for the message and the dotted key).
+    key : str
+        The field's name, e.g. "q_k".
+    m : int
+        The number of task-space axes M: the list's required length.
+    fail : callable(dotted_key: str, problem: str)
+        Raises the InputError that names where the key was set.
+    nonnegative : bool
+        Require every value >= 0.
+    positive : bool
+        Require every value > 0 (takes precedence in the message).
+
+    Raises
+    ------
+    InputError
+        Through `fail`, for the first problem found.
+    """
+    values = getattr(config, key)
+    if len(values) != m:
+        fail(f"controllers.{name}.{key}",
+             f"controller '{name}' needs {m} value(s), one per axis, got {len(values)}")
+    for value in values:
+        if not math.isfinite(value) or (nonnegative and value < 0) or (positive and value <= 0):
+            kind = "positive" if positive else "non-negative"
+            fail(f"controllers.{name}.{key}",
+                 f"controller '{name}': every value must be {kind} and finite, got {value}")
+
+
+def _check_sliding_gains(config, name: str, m: int, fail: Fail):
+    if not config.pi > 0:
+        fail(f"controllers.{name}.pi", f"controller '{name}': pi must be > 0 (Eq. 29), got {config.pi}")
+    check_per_axis(config, name, "gain_l", m, fail)
+
+
+@dc.dataclass
+class StepReferenceConfig:
+    """Piecewise-constant set-points: positions_m[k] holds from times_s[k] on."""
+
+    times_s: list[float] = dc.field(default_factory=lambda: [0.0])
+    positions_m: list[list[float]] = dc.field(default_factory=lambda: [[0.0]])
+
+
+@dc.dataclass
+class HlcmpConfig:
+    """The Hl-CMP learner: learning rates Q per axis (Eq. 31), pi (Eq. 29), L (Eq. 34),
+    and the initial value of every weight of theta_k, theta_d, theta_v."""
+
+    q_k: list[float] = dc.field(default_factory=list)
+    q_d: list[float] = dc.field(default_factory=list)
+    q_v: list[float] = dc.field(default_factory=list)
+    pi: float = 5.0
+    gain_l: list[float] = dc.field(default_factory=list)
+    theta_k0: float = 0.0
+    theta_d0: float = 0.0
+    theta_v0: float = 0.0
+
+    def check(self, name: str, m: int, fail: Fail) -> None:
+        """Check Q per axis non-negative (Eq. 31), pi > 0 (Eq. 29) and L per axis (Eq. 34).
+
+        Parameters
+        ----------
+        name : str
+            The controller's label in the scenario.
+        m : int
+            The number of task-space axes M: the length every per-axis list needs.
+        fail : callable(dotted_key: str, problem: str)
+            Raises the InputError that names where the key was set.
+
+        Raises
+        ------
+        InputError
+            Through `fail`, for the first problem found.
+        """
+        _check_sliding_gains(self, name, m, fail)
+        for key in ("q_k", "q_d", "q_v"):
+            check_per_axis(self, name, key, m, fail)
+
+
+@dc.dataclass
+class ConstantImpedanceConfig:
+    """Fixed diagonal stiffness/damping in the same structure (Eqs. 33-34 with v = 0)."""
+
+    stiffness_N_per_m: list[float] = dc.field(default_factory=list)
+    damping_Ns_per_m: list[float] = dc.field(default_factory=list)
+    pi: float = 5.0
+    gain_l: list[float] = dc.field(default_factory=list)
+
+    def check(self, name: str, m: int, fail: Fail) -> None:
+        """Check stiffness and damping per axis non-negative, pi > 0 and L per axis.
+
+        Parameters
+        ----------
+        name : str
+            The controller's label in the scenario.
+        m : int
+            The number of task-space axes M: the length every per-axis list needs.
+        fail : callable(dotted_key: str, problem: str)
+            Raises the InputError that names where the key was set.
+
+        Raises
+        ------
+        InputError
+            Through `fail`, for the first problem found.
+        """
+        _check_sliding_gains(self, name, m, fail)
+        check_per_axis(self, name, "stiffness_N_per_m", m, fail)
+        check_per_axis(self, name, "damping_Ns_per_m", m, fail)
+
+
+@dc.dataclass
+class VariableImpedanceConfig:
+    """Duan et al. 2018 force-tracking variable impedance (the paper's ref. [21]).
+
+    desired_force_N is the desired reaction force per axis while the task asks for force
+    (the reference segments listed in `force_segments`); elsewhere f_d = 0."""
+
+    desired_force_N: list[float] = dc.field(default_factory=list)
+    force_segments: list[int] = dc.field(default_factory=lambda: [0])
+    mass_kg: list[float] = dc.field(default_factory=list)
+    damping_Ns_per_m: list[float] = dc.field(default_factory=list)
+    free_stiffness_N_per_m: list[float] = dc.field(default_factory=list)
+    sigma: float = 0.002
+    sample_period_s: float = 0.001
+    kp: list[float] = dc.field(default_factory=list)
+    kv: list[float] = dc.field(default_factory=list)
+
+    def check(self, name: str, m: int, fail: Fail) -> None:
+        """Check per-axis values of the right sign, sigma >= 0 and a positive sample period.
+
+        Parameters
+        ----------
+        name : str
+            The controller's label in the scenario.
+        m : int
+            The number of task-space axes M: the length every per-axis list needs.
+        fail : callable(dotted_key: str, problem: str)
+            Raises the InputError that names where the key was set.
+
+        Raises
+        ------
+        InputError
+            Through `fail`, for the first problem found.
+        """
+        check_per_axis(self, name, "desired_force_N", m, fail, nonnegative=False)
+        check_per_axis(self, name, "mass_kg", m, fail, positive=True)
+        check_per_axis(self, name, "damping_Ns_per_m", m, fail, positive=True)
+        for key in ("free_stiffness_N_per_m", "kp", "kv"):
+            check_per_axis(self, name, key, m, fail)
+        if not (self.sigma >= 0 and self.sample_period_s > 0):
+            fail(f"controllers.{name}.sigma",
+                 f"controller '{name}': sigma >= 0 and sample_period_s > 0 are required")
+
+
+ControllerConfig = Union[HlcmpConfig, ConstantImpedanceConfig, VariableImpedanceConfig]
+
+
+@dc.dataclass
+class SliderTask:
+    """A single-joint world (the 1-DOF experiment): the task space is the joint's body
+    position along `axis`; the elastic object is a unilateral spring at the surface."""
+
+    body: str = "body"
+    axis: int = 0
+    environment_stiffness_N_per_m: float = 10.0
+    surface_position_m: float = 0.0
+
+
+@dc.dataclass
+class ArmTask:
+    """A torque-controlled arm (the iiwa) whose task space is the translation of a tool
+    point. The start posture comes from inverse kinematics at the demonstration's start
+    with the tool frame's +z axis along `tool_direction` (world; the rotation about it is
+    left to the solver, near the seed `ik_seed_rad`) -- or, for a tool whose rotation
+    about its axis matters (a blade), with the whole tool orientation `tool_rpy_rad`
+    (world roll, pitch, yaw) when given; that orientation and posture are then held below
+    the translational task (NullSpaceImpedance)."""
+
+    tool_frame: str = "insertion_tool::tip"
+    axes: list[int] = dc.field(default_factory=lambda: [0, 1, 2])
+    tool_direction: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, -1.0])
+    tool_rpy_rad: list[float] = dc.field(default_factory=list)
+    ik_seed_rad: list[float] = dc.field(default_factory=lambda: [0.0, 0.6, 0.0, -1.5, 0.0, 1.0, 0.0])
+    orientation_stiffness_Nm_per_rad: float = 100.0
+    orientation_damping_Nms_per_rad: float = 10.0
+    posture_stiffness_Nm_per_rad: float = 20.0
+    posture_damping_Nms_per_rad: float = 5.0
+    max_contact_force_N: float = 200.0
+    max_saturation_s: float = 0.25
+
+    def check(self, fail: Fail) -> None:
+        """Check axes distinct in {0, 1, 2}, the tool direction and orientation, gains >= 0
+        and positive safety limits.
+
+        Parameters
+        ----------
+        fail : callable(dotted_key: str, problem: str)
+            Raises the InputError that names where the key (e.g. "task.axes") was set.
+
+        Raises
+        ------
+        InputError
+            Through `fail`, for the first problem found.
+        """
+        if not self.axes or any(a not in (0, 1, 2) for a in self.axes) or len(set(self.axes)) != len(self.axes):
+            fail("task.axes", f"task axes must be distinct values of 0 (x), 1 (y), 2 (z), got {self.axes}")
+        if len(self.tool_direction) != 3 or not any(self.tool_direction):
+            fail("task.tool_direction", "needs a non-zero 3-vector")
+        if len(self.tool_rpy_rad) not in (0, 3):
+            fail("task.tool_rpy_rad", "needs three angles (roll, pitch, yaw), or none")
+        for key in ("orientation_stiffness_Nm_per_rad", "orientation_damping_Nms_per_rad",
+                    "posture_stiffness_Nm_per_rad", "posture_damping_Nms_per_rad"):
+            if not (math.isfinite(getattr(self, key)) and getattr(self, key) >= 0):
+                fail(f"task.{key}", f"must be non-negative, got {getattr(self, key)}")
+        if not self.max_contact_force_N > 0:
+            fail("task.max_contact_force_N", "must be positive")
+        if not self.max_saturation_s > 0:
+            fail("task.max_saturation_s", "must be positive")
+
+
+@dc.dataclass
+class DemonstrationConfig:
+    """The reference is a DMP fitted at start-up to a demonstration CSV (t,x,y,z; world
+    frame, metres). `file` is relative to the scenario file's folder. The DMP's shape
+    (N, alpha, alpha_s, smoothing) is the scenario's `dmp`; `duration_s` > 0 replays it
+    at another tau (temporal scaling)."""
+
+    file: str = ""
+    duration_s: float = 0.0
+
+
+@dc.dataclass
+class RecordingConfig:
+    """The offline 3-D recording: the runs' copies of the world stand `spacing_m` apart
+    along +y; the camera is placed relative to the middle copy."""
+
+    spacing_m: float = 0.6
+    camera_position_m: list[float] = dc.field(default_factory=lambda: [1.6, -1.8, 1.2])
+    camera_target_m: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.2])
+    frames_per_second: float = 30.0
+
+
+@dc.dataclass
+class Scenario:
+    """A whole scenario: the world (models, plant and simulator configs, task), the
+    reference motion, the DMP settings and the controllers to compare.
+
+    `name` names the outputs; `experiment` says how the runs are evaluated: one of the
+    experiments registered in `hlcmp_drake.experiments` (their metrics, claims, figures).
+    `max_abs_position_m` stops a run whose joint positions run away (unstable)."""
+
+    name: str = ""
+    experiment: str = ""
+    duration_s: float = 1.0
+    log_period_s: float = 0.01
+    directives: list[ModelDirective] = dc.field(default_factory=list)
+    plant_config: MultibodyPlantConfig = dc.field(default_factory=MultibodyPlantConfig)
+    simulator_config: SimulatorConfig = dc.field(default_factory=SimulatorConfig)
+    task: Union[SliderTask, ArmTask] = dc.field(default_factory=SliderTask)
+    reference: Union[StepReferenceConfig, DemonstrationConfig] = dc.field(default_factory=StepReferenceConfig)
+    dmp: DmpSettings = dc.field(default_factory=DmpSettings)
+    controllers: dict[str, ControllerConfig] = dc.field(default_factory=dict)
+    max_abs_position_m: float = 10.0
+    recording: RecordingConfig = dc.field(default_factory=RecordingConfig)
+
+    @property
+    def n_axes(self) -> int:
+        """M, the number of task-space axes the controllers act on."""
+        if isinstance(self.task, ArmTask):
+            return len(self.task.axes)
+        return len(self.reference.positions_m[0])
+
+    def controllers_of(self, kind: type) -> list[str]:
+        """The labels of the controllers whose config is of type `kind`, in file order.
+
+        Parameters
+        ----------
+        kind : type
+            A controller config class, e.g. HlcmpConfig.
+
+        Returns
+        -------
+        list of str
+            The matching labels of `controllers`.
+        """
+        return [name for name, config in self.controllers.items() if isinstance(config, kind)]

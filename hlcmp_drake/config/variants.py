@@ -1,0 +1,49 @@
+"""Variants of a loaded scenario that swap a model for another."""
+
+import dataclasses as dc
+
+from pydrake.common.schema import Transform
+from pydrake.math import RigidTransform
+from pydrake.multibody.parsing import AddModel, AddWeld, ModelDirective
+
+from hlcmp_drake.config.scenario import Scenario
+
+
+OWN_IIWA = "package://hlcmp_drake/models/iiwa14.sdf"
+DRAKE_MODELS_IIWA = "package://drake_models/iiwa_description/sdf/iiwa14_no_collision.sdf"
+FLANGE_OFFSET_M = 0.045   # our model's "flange" frame, along link 7's +z
+
+
+def use_drake_models_iiwa(scenario: Scenario) -> Scenario:
+    """The same scenario with Drake's official iiwa14 in place of ours.
+
+    The official model comes from drake_models, which Drake downloads on first use (needs
+    internet). Its links have the same names; it has no "flange" frame, so welds to
+    iiwa::flange go to iiwa::iiwa_link_7 + 0.045 m (FLANGE_OFFSET_M) along its +z.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        A loaded scenario; it is not modified.
+
+    Returns
+    -------
+    Scenario
+        A new Scenario with a new directives list; its other fields are shared with
+        `scenario`, not copied.
+    """
+    directives = []
+    for directive in scenario.directives:
+        model, weld = directive.add_model, directive.add_weld
+        if model is not None and model.file == OWN_IIWA:
+            directive = ModelDirective(add_model=AddModel(
+                file=DRAKE_MODELS_IIWA, name=model.name,
+                default_joint_positions=model.default_joint_positions,
+                default_free_body_pose=model.default_free_body_pose))
+        elif weld is not None and weld.parent.endswith("::flange"):
+            x_pc = weld.X_PC.GetDeterministicValue() if weld.X_PC is not None else RigidTransform()
+            directive = ModelDirective(add_weld=AddWeld(
+                parent=weld.parent[: -len("flange")] + "iiwa_link_7", child=weld.child,
+                X_PC=Transform(RigidTransform([0.0, 0.0, FLANGE_OFFSET_M]) @ x_pc)))
+        directives.append(directive)
+    return dc.replace(scenario, directives=directives)

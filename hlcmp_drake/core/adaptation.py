@@ -1,0 +1,58 @@
+"""The Hl-CMP compliant profiles and the biomimetic adaptation law (paper Eqs. 14, 31).
+
+Pure numpy. theta_k, theta_d, theta_v are (M, N) arrays: one row of N basis weights per
+Cartesian axis; g is the (N,) normalized basis g(s) of Eq. 16 at the current phase.
+"""
+
+import numpy as np
+
+
+def compliant_profiles(theta_k: np.ndarray, theta_d: np.ndarray, theta_v: np.ndarray,
+                       g: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Eq. 14: K_s,m = theta_k,m . g(s), K_d,m = theta_d,m . g(s), v_m = theta_v,m . g(s).
+
+    Parameters
+    ----------
+    theta_k, theta_d, theta_v : (M, N) arrays
+        Basis weights of the stiffness [N/m], damping [N s/m] and feed-forward force [N]
+        profiles, one row per axis.
+    g : (N,) array
+        Normalized basis g(s) at the current phase [-].
+
+    Returns
+    -------
+    k_s, k_d, v : (M,) arrays
+        Diagonals of K_s [N/m] and K_d [N s/m], and the feed-forward force v [N].
+    """
+    return theta_k @ g, theta_d @ g, theta_v @ g
+
+
+def adaptation_rates(eps: np.ndarray, e: np.ndarray, edot: np.ndarray, g: np.ndarray,
+                     q_k: np.ndarray, q_d: np.ndarray,
+                     q_v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Eq. 31, per axis m:
+
+        theta_k,m' = Q_k,m eps_m e_m g(s)
+        theta_d,m' = Q_d,m eps_m e'_m g(s)
+        theta_v,m' = Q_v,m eps_m g(s)
+
+    Q_v = 0 is allowed (the feed-forward force then stays at its initial profile).
+
+    Parameters
+    ----------
+    eps : (M,) array
+        Sliding error [m/s].
+    e, edot : (M,) arrays
+        Position error [m] and velocity error [m/s].
+    g : (N,) array
+        Normalized basis g(s) at the current phase [-].
+    q_k, q_d, q_v : (M,) arrays
+        Per-axis learning rates Q_k, Q_d, Q_v (>= 0).
+
+    Returns
+    -------
+    theta_k_dot, theta_d_dot, theta_v_dot : (M, N) arrays
+        Time derivatives of theta_k [N/(m s)], theta_d [N/m] and theta_v [N/s].
+    """
+    eps = np.asarray(eps, dtype=float)
+    return (np.outer(q_k * eps * e, g), np.outer(q_d * eps * edot, g), np.outer(q_v * eps, g))

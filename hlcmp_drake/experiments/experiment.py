@@ -1,0 +1,44 @@
+"""What an experiment module declares: its name and title, the world it runs in, and how
+its runs become metrics, claims, a table and figures."""
+
+from __future__ import annotations
+
+import dataclasses as dc
+from typing import Callable
+
+
+@dc.dataclass(frozen=True)
+class Experiment:
+    """One of the paper's experiments, as the registry knows it.
+
+    Attributes
+    ----------
+    name : str
+        What a scenario's `experiment` field names.
+    title : str
+        A heading for the report and README.
+    paper_section : str
+        Its section of the paper, e.g. "V-D"; experiments are listed in this order.
+    paper_figures : str
+        The paper's figures it reproduces, e.g. "Figs. 4-8".
+    world : type
+        The task config type its scenarios use (SliderTask, ArmTask).
+    controller_metrics : callable(run, config, scenario) -> dict
+        One controller's metrics from its RunResult and its config.
+    claims : callable(metrics, scenario, runs) -> dict
+        {claim: {"holds", "evidence", "paper_says", ...}} from every controller's metrics.
+    table : callable(metrics) -> Table
+        The controllers' metrics as rows.
+    figures : callable(runs, scenario) -> dict
+        {file name: matplotlib Figure}.
+    """
+
+    name: str
+    title: str
+    paper_section: str
+    paper_figures: str
+    world: type
+    controller_metrics: Callable
+    claims: Callable
+    table: Callable
+    figures: Callable

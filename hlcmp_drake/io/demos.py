@@ -1,0 +1,139 @@
+"""Demonstration and trajectory CSV files: reading with validation, and writing.
+
+Format: a header line `t,x,y,z` -- `t` in seconds first, then 1 to 3 position columns
+named from x, y, z (metres, in that order) -- and one sample per line, time strictly
+increasing, at least MIN_SAMPLES samples. Trajectory files may add velocity columns
+`vx,vy,vz` after the positions. Every problem is an InputError naming file and line.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from hlcmp_drake.io.errors import InputError, located
+
+MIN_SAMPLES = 10
+AXES = ("x", "y", "z")
+
+
+def read_demonstration(path: str | Path, with_lines: bool = False) -> tuple:
+    """Returns (t (T,), positions (T, M), axis names), and with `with_lines` also each
+    sample's line number in the file. Raises InputError on bad input.
+
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file (format in the module docstring).
+    with_lines : bool
+        Also return the line number of each sample.
+
+    Returns
+    -------
+    t : (T,) array
+        Sample times [s], strictly increasing, T >= MIN_SAMPLES.
+    positions : (T, M) array
+        Positions [m], one column per axis; velocity columns are not returned.
+    axes : tuple of M str
+        The position columns' names, from ("x", "y", "z").
+    lines : list of T int
+        Only with `with_lines`: each sample's 1-based line number in the file.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise InputError(f"{path}: no such file")
+    if path.is_dir():
+        raise InputError(f"{path}: is a directory, not a CSV file")
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as error:
+        raise InputError(f"{path}: cannot be read as text ({error.__class__.__name__})") from None
+    lines = [(n, line) for n, line in enumerate(text.splitlines(), start=1) if line.strip()]
+    if not lines:
+        raise InputError(f"{path}: the file is empty (expected a header line 't,x,y,z')")
+    header_line, header_text = lines[0]
+    header = [name.strip() for name in next(csv.reader([header_text]))]
+    axes = _check_header(path, header_line, header)
+    rows = []
+    for number, line in lines[1:]:
+        fields = [f.strip() for f in next(csv.reader([line]))]
+        if len(fields) != len(header):
+            raise located(path, number, f"expected {len(header)} values ({','.join(header)}), "
+                                        f"found {len(fields)}")
+        values = []
+        for name, field in zip(header, fields):
+            try:
+                value = float(field)
+            except ValueError:
+                raise located(path, number, f"column '{name}' is not a number: '{field}'") from None
+            if not math.isfinite(value):
+                raise located(path, number, f"column '{name}' is not finite: '{field}'")
+            values.append(value)
+        if rows and values[0] <= rows[-1][1][0]:
+            raise located(path, number, f"time must increase strictly: t = {values[0]} after "
+                                        f"t = {rows[-1][1][0]} (line {rows[-1][0]})")
+        rows.append((number, values))
+    if len(rows) < MIN_SAMPLES:
+        raise InputError(f"{path}: {len(rows)} samples; a demonstration needs at least {MIN_SAMPLES}")
+    data = np.array([values for _, values in rows])
+    if with_lines:
+        return data[:, 0], data[:, 1 : 1 + len(axes)], axes, [number for number, _ in rows]
+    return data[:, 0], data[:, 1 : 1 + len(axes)], axes
+
+
+def _check_header(path, line, header):
+    if not header or header[0] != "t":
+        raise located(path, line, f"the first column must be 't' (time in seconds), found "
+                                  f"'{header[0] if header else ''}'; expected a header like 't,x,y,z'")
+    positions = [name for name in header[1:] if not name.startswith("v")]
+    velocities = header[1 + len(positions):]
+    for name in header[1:]:
+        if name not in AXES and name not in tuple("v" + a for a in AXES):
+            raise located(path, line, f"unknown column '{name}' (allowed: t, x, y, z, vx, vy, vz)")
+    if not positions:
+        raise located(path, line, "no position column: expected one or more of x, y, z after t")
+    if len(set(header)) != len(header):
+        raise located(path, line, "a column name appears twice")
+    if positions != [a for a in AXES if a in positions]:
+        raise located(path, line, "position columns must be in the order x, y, z")
+    if velocities and velocities != ["v" + a for a in positions]:
+        raise located(path, line, f"velocity columns must be {','.join('v' + a for a in positions)} "
+                                  "after the positions")
+    return tuple(positions)
+
+
+def write_trajectory(path: str | Path, t: np.ndarray, positions: np.ndarray, axes: Sequence[str],
+                     velocities: np.ndarray | None = None) -> Path:
+    """Write a trajectory CSV (same format; velocity columns when given), atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write; its folder is created when missing.
+    t : (T,) array
+        Sample times [s].
+    positions : (T, M) array
+        Positions [m].
+    axes : sequence of M str
+        Column names of the positions, e.g. ("x", "y", "z").
+    velocities : (T, M) array, optional
+        Velocities [m/s], written as columns `v` + axis name.
+
+    Returns
+    -------
+    Path
+        The path written.
+    """
+    from hlcmp_drake.io.outputs import write_text
+
+    header = ["t", *axes] + ([f"v{a}" for a in axes] if velocities is not None else [])
+    columns = [np.asarray(t)[:, None], np.asarray(positions)]
+    if velocities is not None:
+        columns.append(np.asarray(velocities))
+    data = np.hstack(columns)
+    body = "\n".join(",".join(f"{v:.9g}" for v in row) for row in data)
+    return write_text(path, ",".join(header) + "\n" + body + "\n")

@@ -1,0 +1,161 @@
+"""Writing results so that nothing already in the output folder is lost or half-written:
+every file goes to a temporary name in the same folder and is moved into place."""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from collections.abc import Callable, Mapping
+from pathlib import Path
+
+import numpy as np
+
+
+_UMASK = os.umask(0)
+os.umask(_UMASK)
+WRITTEN = []   # every path written in this process, in order (for the interrupt message)
+
+
+def atomic_write(path: str | Path, write: Callable[[str], object]) -> Path:
+    """Write `path` through a temporary file in its folder, then move it into place.
+
+    The folder is created when missing; the file gets the permissions the umask allows
+    (not mkstemp's 0600), and its path is appended to `WRITTEN`. If `write` fails, the
+    temporary file is removed, any existing file at `path` is left as it was, and the
+    error propagates.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write.
+    write : callable
+        Called with the temporary file's name (str); writes the whole content there.
+
+    Returns
+    -------
+    Path
+        The path written.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    handle, temp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    os.close(handle)
+    try:
+        write(temp)
+        os.chmod(temp, 0o666 & ~_UMASK)  # mkstemp makes 0600; results are for sharing
+        os.replace(temp, path)
+        WRITTEN.append(path)
+    except BaseException:
+        Path(temp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def write_json(path: str | Path, data: object) -> Path:
+    """Write `data` as indented JSON (keys in their given order) and a final newline, atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write.
+    data : object
+        Anything `json.dump` accepts.
+
+    Returns
+    -------
+    Path
+        The path written.
+    """
+    def write(temp):
+        with open(temp, "w") as stream:
+            json.dump(data, stream, indent=2, sort_keys=False)
+            stream.write("\n")
+    return atomic_write(path, write)
+
+
+def write_npz(path: str | Path, arrays: Mapping[str, np.ndarray]) -> Path:
+    """Write arrays to a compressed NumPy .npz, atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write.
+    arrays : mapping of str to array
+        The arrays by name (any shapes and units).
+
+    Returns
+    -------
+    Path
+        The path written.
+    """
+    def write(temp):
+        with open(temp, "wb") as stream:
+            np.savez_compressed(stream, **arrays)
+    return atomic_write(path, write)
+
+
+def save_figure(path: str | Path, figure: object) -> Path:
+    """Save a matplotlib Figure (PNG unless the suffix says otherwise), atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write; its suffix names the format (110 dpi).
+    figure : matplotlib.figure.Figure
+        The figure.
+
+    Returns
+    -------
+    Path
+        The path written.
+    """
+    def write(temp):
+        figure.savefig(temp, format=Path(path).suffix.lstrip(".") or "png", dpi=110)
+    return atomic_write(path, write)
+
+
+def write_text(path: str | Path, text: str) -> Path:
+    """Write a text file, atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write.
+    text : str
+        Its whole content.
+
+    Returns
+    -------
+    Path
+        The path written.
+    """
+    def write(temp):
+        Path(temp).write_text(text)
+    return atomic_write(path, write)
+
+
+def write_diagram_graph(out_dir: str | Path, diagram: object) -> Path:
+    """The wired diagram as Drake draws it (GetGraphvizString): diagram.svg where Graphviz's
+    `dot` is installed, else diagram.dot. Returns the path written.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        The folder to write into.
+    diagram : pydrake.systems.framework.Diagram
+        The built diagram, drawn to depth 1.
+
+    Returns
+    -------
+    Path
+        The path written.
+    """
+    import shutil
+    import subprocess
+
+    dot = diagram.GetGraphvizString(max_depth=1)
+    if shutil.which("dot"):
+        svg = subprocess.run(["dot", "-Tsvg"], input=dot, capture_output=True, text=True, check=True)
+        return write_text(Path(out_dir) / "diagram.svg", svg.stdout)
+    return write_text(Path(out_dir) / "diagram.dot", dot)

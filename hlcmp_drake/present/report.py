@@ -1,0 +1,154 @@
+"""The README's generated blocks and the offline report page, both made from runs'
+metrics.json files (no number in the README is typed by hand), through the experiments
+registry and the one Table model."""
+
+from __future__ import annotations
+
+import html
+import json
+from pathlib import Path
+
+from hlcmp_drake.experiments import EXPERIMENTS, Experiment
+from hlcmp_drake.experiments.claims import claims_table
+from hlcmp_drake.experiments.table import Table
+from hlcmp_drake.present.tables import to_html, to_markdown
+
+
+def results_markdown(metrics: dict, experiment: Experiment) -> str:
+    """A scenario's README block: its controllers' table and its claims table.
+
+    Parameters
+    ----------
+    metrics : dict
+        A run's metrics.json content.
+    experiment : Experiment
+        The experiment the scenario names.
+    """
+    return (to_markdown(experiment.table(metrics["controllers"])) + "\n"
+            + to_markdown(claims_table(metrics["claims"]), code_first_column=False))
+
+
+def claims_summary_table(all_metrics: dict) -> Table:
+    """One row per claim per scenario.
+
+    Parameters
+    ----------
+    all_metrics : dict
+        {scenario name: its metrics.json content}, in the order of the rows.
+    """
+    table = Table(["claim", "experiment", "the paper says", "reproduced here"])
+    for name, metrics in all_metrics.items():
+        for claim_name, claim in metrics["claims"].items():
+            table.add(claim_name, name, claim["paper_says"], "**yes**" if claim["holds"] else "**no**")
+    return table
+
+
+def replace_block(text: str, name: str, body: str) -> str:
+    """Replace the text between `<!-- BEGIN name -->` and `<!-- END name -->`.
+
+    Parameters
+    ----------
+    text : str
+        The document.
+    name : str
+        The block's name.
+    body : str
+        The new content (ending with a newline).
+    """
+    begin, end = f"<!-- BEGIN {name} -->", f"<!-- END {name} -->"
+    head, rest = text.split(begin, 1)
+    _, tail = rest.split(end, 1)
+    return f"{head}{begin}\n{body}{end}{tail}"
+
+
+def update_readme(readme_path: Path, run_dirs: dict) -> None:
+    """Rewrite the README's `<name> results` blocks, and the claims summary when every
+    registered experiment is given.
+
+    Parameters
+    ----------
+    readme_path : Path
+    run_dirs : dict of str to Path
+        {bundled scenario name: its run folder}; each bundled scenario is named after its
+        experiment.
+    """
+    text = Path(readme_path).read_text()
+    all_metrics = {name: json.loads((Path(run_dir) / "metrics.json").read_text())
+                   for name, run_dir in run_dirs.items()}
+    for name, metrics in all_metrics.items():
+        text = replace_block(text, f"{name} results", results_markdown(metrics, EXPERIMENTS[name]))
+    if set(all_metrics) == set(EXPERIMENTS):
+        ordered = {name: all_metrics[name] for name in EXPERIMENTS}
+        text = replace_block(text, "claims summary", to_markdown(claims_summary_table(ordered),
+                                                                code_first_column=False))
+    Path(readme_path).write_text(text)
+
+
+def write_block(readme_path: Path, block: str, body: str) -> None:
+    """Write `body` into a document's generated `block` (sweep scripts, benchmark).
+
+    Parameters
+    ----------
+    readme_path : Path
+        The document (README.md, docs/performance.md).
+    block : str
+        The block's name.
+    body : str
+        Its new content.
+    """
+    text = Path(readme_path).read_text()
+    Path(readme_path).write_text(replace_block(text, block, body))
+
+
+PAGE_STYLE = """
+body { font-family: sans-serif; max-width: 1100px; margin: 2em auto; padding: 0 1em; color: #222; }
+table { border-collapse: collapse; margin: 1em 0; font-size: 0.92em; }
+th, td { border: 1px solid #bbb; padding: 0.3em 0.6em; vertical-align: top; text-align: left; }
+th { background: #eee; }
+td.yes { background: #dff3df; font-weight: bold; } td.no { background: #f8dcdc; font-weight: bold; }
+img { max-width: 100%; border: 1px solid #ddd; margin: 0.5em 0; }
+img.missing { border: 3px solid red; min-height: 2em; }
+code { background: #f4f4f4; padding: 0 0.2em; }
+"""
+
+
+def report_page(out_dir: Path, sections: list) -> str:
+    """index.html text of the report. Every link and image is relative to out_dir, so the
+    page works offline.
+
+    Parameters
+    ----------
+    out_dir : Path
+        Where index.html goes; the run folders lie below it.
+    sections : list of (str, Path, float)
+        (bundled scenario name, its run folder, wall seconds); each scenario is named
+        after its experiment.
+    """
+    out_dir = Path(out_dir)
+    parts = ["<!DOCTYPE html><html><head><meta charset='utf-8'><title>hlcmp-drake: the paper's "
+             f"experiments</title><style>{PAGE_STYLE}</style></head><body>",
+             "<h1>Hl-CMPs on Drake: the paper's experiments, reproduced in simulation</h1>",
+             "<p>Zeng et al., <i>An Approach for Robotic Learning Inspired by Biomimetic Adaptive "
+             "Control</i>, IEEE TII 18(3), 2022. Every number below comes from the runs linked "
+             "with it; each claim of the paper is marked reproduced or not.</p>",
+             "<h2>Contents</h2><ul>"]
+    parts += [f"<li><a href='#{name}'>{html.escape(EXPERIMENTS[name].title)}</a></li>" for name, _, _ in sections]
+    parts.append("</ul>")
+    for name, run_dir, seconds in sections:
+        experiment = EXPERIMENTS[name]
+        metrics = json.loads((Path(run_dir) / "metrics.json").read_text())
+        rel = Path(run_dir).resolve().relative_to(out_dir.resolve()).as_posix()
+        parts.append(f"<h2 id='{name}'>{html.escape(experiment.title)} (paper {experiment.paper_figures})</h2>")
+        parts.append(f"<p>Status: <b>{metrics['status']}</b>; ran in {seconds:.0f} s. "
+                     f"<a href='{rel}/recording.html'>3-D recording (offline)</a> · "
+                     f"<a href='{rel}/metrics.json'>metrics.json</a> · "
+                     f"<a href='{rel}/timeseries.npz'>timeseries.npz</a></p>")
+        parts.append("<h3>Claims</h3>" + to_html(claims_table(metrics.get("claims", {})),
+                                                  code_first_column=False, verdict_column="reproduced"))
+        parts.append("<h3>Metrics</h3>" + to_html(experiment.table(metrics["controllers"])))
+        parts.append("<h3>Figures</h3>")
+        for figure in sorted((Path(run_dir) / "figures").glob("*.png")):
+            parts.append(f"<img src='{rel}/figures/{figure.name}' alt='{figure.stem}' "
+                         "onerror=\"this.classList.add('missing')\">")
+    parts.append("</body></html>")
+    return "\n".join(parts) + "\n"

@@ -1,0 +1,162 @@
+"""Run every controller of a scenario, evaluate the runs, and write metrics, time
+series, figures, the recording and the diagram's graph."""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import time
+from pathlib import Path
+from typing import Callable, Sequence
+
+from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.config.scenario import Scenario
+from hlcmp_drake.config.variants import use_drake_models_iiwa
+from hlcmp_drake.experiments import Experiment, experiment_of
+from hlcmp_drake.experiments.table import Table
+from hlcmp_drake.io import outputs
+from hlcmp_drake.io.runs import RunResult, instability_record, timeseries_arrays
+from hlcmp_drake.present.progress import SILENT, Progress
+from hlcmp_drake.present.recording import record_runs
+from hlcmp_drake.run.simulate import simulate
+from hlcmp_drake.worlds.build import diagram_factory
+
+
+def run_one(build: Callable, scenario: Scenario, controller: str, label: str | None = None,
+            theta0: tuple | None = None, reporter: Progress = SILENT) -> RunResult:
+    """Build the diagram of `controller`, simulate it, and report its real-time factor and
+    status.
+
+    Parameters
+    ----------
+    build : callable(label, theta0) -> BuiltDiagram
+        From `diagram_factory`.
+    scenario : Scenario
+    controller : str
+        The controller's label.
+    label : str, optional
+        The RunResult's name (default the controller's label; a trial's name in learning).
+    theta0 : tuple of three (M, N) arrays, optional
+        A learner's initial weights.
+    reporter : Progress, optional
+    """
+    label = label or controller
+    start = time.perf_counter()
+    run = simulate(build(controller, theta0), scenario, label, reporter.step)
+    wall_s = time.perf_counter() - start
+    reporter.say(f"{run.controller}: {run.t[-1]:.2f} s simulated in {wall_s:.1f} s "
+                 f"({run.t[-1] / wall_s:.2f}x real time), {run.status}"
+                 + (f": {run.reason} at t = {run.stop_time:.3f} s" if run.status != "ok" else ""))
+    return run
+
+
+def run_controllers(scenario: Scenario, reporter: Progress = SILENT,
+                    build: Callable | None = None) -> dict[str, RunResult]:
+    """Build and simulate one diagram per controller.
+
+    Parameters
+    ----------
+    scenario : Scenario
+    reporter : Progress, optional
+    build : callable, optional
+        A `diagram_factory(scenario)` to reuse (made here when not given).
+
+    Returns
+    -------
+    dict of str to RunResult
+        By controller label, in the scenario's order.
+    """
+    build = build or diagram_factory(scenario)
+    return {name: run_one(build, scenario, name, reporter=reporter) for name in scenario.controllers}
+
+
+def evaluate(runs: dict[str, RunResult], scenario: Scenario, experiment: Experiment) -> dict:
+    """The metrics.json content: status, every controller's metrics, and the claims
+    (none when a run was unstable: its `instability` says where and why).
+
+    Parameters
+    ----------
+    runs : dict of str to RunResult
+    scenario : Scenario
+    experiment : Experiment
+        How the runs are evaluated.
+    """
+    unstable = instability_record(runs.values())
+    metrics = {
+        "scenario": scenario.name,
+        "status": "unstable" if unstable else "ok",
+        "controllers": {n: experiment.controller_metrics(r, scenario.controllers[n], scenario)
+                        for n, r in runs.items()},
+    }
+    if unstable:
+        metrics["instability"] = unstable
+        metrics["claims"] = {}
+    else:
+        metrics["claims"] = experiment.claims(metrics["controllers"], scenario, runs)
+    return metrics
+
+
+def write_results(out_dir: Path, scenario: Scenario, runs: dict, metrics: dict, figures: dict,
+                  diagram: object | None = None) -> None:
+    """Everything a run leaves in out_dir, each file written atomically; metrics.json comes
+    last, so a metrics.json next to older files never describes them.
+
+    Parameters
+    ----------
+    out_dir : Path
+    scenario : Scenario
+        For the recording.
+    runs : dict of str to RunResult
+    metrics : dict
+        The metrics.json content.
+    figures : dict of str to Figure
+        Written under figures/.
+    diagram : Diagram, optional
+        Drawn as diagram.svg (or .dot).
+    """
+    outputs.write_npz(out_dir / "timeseries.npz", timeseries_arrays(runs))
+    for file_name, figure in figures.items():
+        outputs.save_figure(out_dir / "figures" / file_name, figure)
+    outputs.write_text(out_dir / "recording.html", record_runs(scenario, runs))
+    if diagram is not None:
+        outputs.write_diagram_graph(out_dir, diagram)
+    outputs.write_json(out_dir / "metrics.json", metrics)
+
+
+@dc.dataclass
+class ScenarioResult:
+    """What `run_scenario` returns: the metrics.json content, where the files went, and
+    the controllers' metrics as a Table."""
+
+    metrics: dict
+    out_dir: Path
+    table: Table
+
+
+def run_scenario(name_or_path: str | Path, out_dir: str | Path | None = None, reporter: Progress = SILENT,
+                 drake_models_iiwa: bool = False, overrides: Sequence[str] = ()) -> ScenarioResult:
+    """Load, run, evaluate and write one scenario.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        A bundled scenario or a YAML file.
+    out_dir : str or Path, optional
+        Where to write (default out/<scenario name>).
+    reporter : Progress, optional
+        Receives progress (silent by default).
+    drake_models_iiwa : bool
+        Use Drake's official iiwa14 model instead of ours (needs internet).
+    overrides : sequence of str
+        ``dotted.key=value`` overrides layered over the file (see `load_scenario`).
+    """
+    scenario, path = load_scenario(name_or_path, overrides)
+    experiment = experiment_of(scenario, path)
+    if drake_models_iiwa:
+        scenario = use_drake_models_iiwa(scenario)
+    out_dir = Path(out_dir or Path("out") / scenario.name)
+    build = diagram_factory(scenario)
+    runs = run_controllers(scenario, reporter, build)
+    metrics = evaluate(runs, scenario, experiment)
+    figures = experiment.figures(runs, scenario) if metrics["status"] == "ok" else {}
+    write_results(out_dir, scenario, runs, metrics, figures, build(next(iter(scenario.controllers))).diagram)
+    return ScenarioResult(metrics, out_dir, experiment.table(metrics["controllers"]))

@@ -1,0 +1,189 @@
+"""The controller registry: a controller config's type -> how to build its system, what
+else to wire to it and what to log. This is the one place that dispatches on a
+controller's kind; labels in the YAML are free text.
+
+Adding a controller kind: its config class in `hlcmp_drake.config.scenario` (with a
+`check`), its LeafSystem in `hlcmp_drake.systems`, and one entry in CONTROLLER_KINDS.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+from typing import TYPE_CHECKING, Callable
+
+import numpy as np
+
+from hlcmp_drake.config.scenario import (ConstantImpedanceConfig, HlcmpConfig, Scenario,
+                                         StepReferenceConfig, VariableImpedanceConfig)
+from hlcmp_drake.core.dmp import basis_centers_and_widths
+from hlcmp_drake.systems.baselines import ConstantImpedanceController, VariableImpedanceController
+from hlcmp_drake.systems.hlcmp_controller import HlcmpController, HlcmpGains
+
+if TYPE_CHECKING:
+    from pydrake.systems.framework import DiagramBuilder
+
+# The task-space inputs every controller reads (systems.ports), and where they come from.
+REFERENCE_INPUTS = ("desired_position", "desired_velocity", "desired_acceleration", "phase")
+TASK_SPACE_INPUTS = ("position", "velocity", "task_inertia", "task_coriolis", "task_gravity")
+
+
+@dc.dataclass(frozen=True)
+class WorldPorts:
+    """What a world offers a controller.
+
+    Attributes
+    ----------
+    reference : System
+        The desired-motion source (DMP source or steps): x_d, x_d', x_d'', s.
+    task_space : TaskSpaceDynamics
+        Measured x, x' and the task-space M, C, G.
+    contact_force : OutputPort
+        The measured reaction force of the environment on the tool, (M,) [N].
+    initial_position : (M,) array
+        The task-space position at t = 0 [m].
+    """
+
+    reference: object
+    task_space: object
+    contact_force: object
+    initial_position: np.ndarray
+
+
+@dc.dataclass
+class AddedController:
+    """A controller in a diagram: its system, the series to log from it (name -> output
+    port) and, for a learning controller, a reader of its theta from the root context."""
+
+    system: object
+    logs: dict
+    read_theta: Callable | None = None
+
+
+def hlcmp_controller(config: HlcmpConfig, scenario: Scenario,
+                     theta0: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> HlcmpController:
+    """An Hl-CMP (Eqs. 14, 16, 29, 31, 33-34) on the scenario's phase basis.
+
+    Parameters
+    ----------
+    config : HlcmpConfig
+        The learning rates, pi, L and the uniform initial weights.
+    scenario : Scenario
+        Its number of axes M and its DMP settings (the N basis functions, alpha_s).
+    theta0 : tuple of three (M, N) arrays, optional
+        (theta_k, theta_d, theta_v) in place of the configured uniform initial weights:
+        a learned skill, or the previous trial's result.
+
+    Returns
+    -------
+    HlcmpController
+        The system (not yet added to a diagram).
+    """
+    m = scenario.n_axes
+    centers, widths = basis_centers_and_widths(scenario.dmp.n_basis, scenario.dmp.alpha_s)
+    gains = HlcmpGains(np.asarray(config.q_k, float), np.asarray(config.q_d, float),
+                       np.asarray(config.q_v, float), config.pi, np.asarray(config.gain_l, float))
+    n = len(centers)
+    if theta0 is None:
+        theta0 = np.concatenate([np.full(m * n, config.theta_k0), np.full(m * n, config.theta_d0),
+                                 np.full(m * n, config.theta_v0)])
+    return HlcmpController(centers, widths, gains, np.concatenate([np.ravel(t) for t in theta0]))
+
+
+def _make_constant(config: ConstantImpedanceConfig, scenario: Scenario, initial_position, theta0):
+    return ConstantImpedanceController(config.stiffness_N_per_m, config.damping_Ns_per_m,
+                                       config.pi, config.gain_l)
+
+
+def desired_force_schedule(config: VariableImpedanceConfig,
+                           reference: StepReferenceConfig) -> Callable[[float], np.ndarray]:
+    """f_d(t): the configured force during the listed reference segments, 0 elsewhere.
+
+    Parameters
+    ----------
+    config : VariableImpedanceConfig
+        desired_force_N, (M,) [N], and force_segments, indices k of the segments
+        [times_s[k], times_s[k + 1]) (the last one open-ended).
+    reference : StepReferenceConfig
+        Its times_s [s] bound the segments.
+
+    Returns
+    -------
+    callable(t) -> (M,) array
+        The desired force [N] at time t [s].
+    """
+    edges = list(reference.times_s) + [float("inf")]
+    windows = [(edges[k], edges[k + 1]) for k in config.force_segments]
+    force, zero = np.asarray(config.desired_force_N, dtype=float), np.zeros(len(config.desired_force_N))
+
+    def schedule(t):
+        return force if any(start <= t < end for start, end in windows) else zero
+
+    return schedule
+
+
+def _make_variable(config: VariableImpedanceConfig, scenario: Scenario, initial_position, theta0):
+    return VariableImpedanceController(
+        config.mass_kg, config.damping_Ns_per_m, config.free_stiffness_N_per_m, config.sigma,
+        config.sample_period_s, config.kp, config.kv,
+        desired_force_schedule(config, scenario.reference), initial_position)
+
+
+@dc.dataclass(frozen=True)
+class ControllerKind:
+    """How to add one kind of controller: `make(config, scenario, x0, theta0)` builds the
+    system; `logs` are (series name, output port) pairs to log besides the common ones;
+    `uses_contact_force` wires the world's measured force to its `external_force` input;
+    `learns` marks a controller whose theta is continuous state (read back after a run)."""
+
+    make: Callable
+    logs: tuple = ()
+    uses_contact_force: bool = False
+    learns: bool = False
+
+
+CONTROLLER_KINDS: dict[type, ControllerKind] = {
+    HlcmpConfig: ControllerKind(
+        lambda config, scenario, initial_position, theta0: hlcmp_controller(config, scenario, theta0), logs=(("Ks", "stiffness"), ("Kd", "damping"), ("v", "feedforward"),
+                           ("u", "impedance_force"), ("eps", "sliding_error")), learns=True),
+    ConstantImpedanceConfig: ControllerKind(_make_constant),
+    VariableImpedanceConfig: ControllerKind(_make_variable, uses_contact_force=True),
+}
+
+
+def add_controller(builder: DiagramBuilder, scenario: Scenario, name: str, world: WorldPorts,
+                   theta0: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> AddedController:
+    """Add the scenario's controller `name` to `builder` and wire it to `world`.
+
+    Parameters
+    ----------
+    builder : DiagramBuilder
+    scenario : Scenario
+    name : str
+        A label of `scenario.controllers`.
+    world : WorldPorts
+        The reference, task-space and force ports the controller reads.
+    theta0 : tuple of three (M, N) arrays, optional
+        Initial weights of a learning controller (ignored by the others).
+
+    Returns
+    -------
+    AddedController
+        The added system (named `name`), the series to log from it and, for a learning
+        controller, its theta reader.
+    """
+    config = scenario.controllers[name]
+    kind = CONTROLLER_KINDS[type(config)]
+    system = builder.AddSystem(kind.make(config, scenario, world.initial_position, theta0))
+    system.set_name(name)
+    for port in REFERENCE_INPUTS:
+        builder.Connect(world.reference.GetOutputPort(port), system.GetInputPort(port))
+    for port in TASK_SPACE_INPUTS:
+        builder.Connect(world.task_space.GetOutputPort(port), system.GetInputPort(port))
+    if kind.uses_contact_force:
+        builder.Connect(world.contact_force, system.GetInputPort("external_force"))
+    def read_theta(root_context):
+        return system.theta(system.GetMyContextFromRoot(root_context))
+
+    return AddedController(system, {series: system.GetOutputPort(port) for series, port in kind.logs},
+                           read_theta if kind.learns else None)
+

@@ -1,0 +1,130 @@
+"""Loading a scenario's models into a MultibodyPlant, and inverse kinematics for a tool."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+from pydrake.math import RollPitchYaw, RotationMatrix
+from pydrake.multibody.inverse_kinematics import InverseKinematics
+from pydrake.multibody.parsing import ModelDirectives, Parser, ProcessModelDirectives
+from pydrake.multibody.plant import AddMultibodyPlant
+from pydrake.solvers import Solve
+
+from hlcmp_drake.config.scenario import ArmTask, Scenario
+from hlcmp_drake.io.errors import InputError
+from hlcmp_drake.io.paths import register_package
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+    from pydrake.geometry import SceneGraph
+    from pydrake.multibody.plant import MultibodyPlant
+    from pydrake.multibody.tree import Frame
+    from pydrake.systems.framework import DiagramBuilder
+
+
+def load_models(plant: MultibodyPlant, scenario: Scenario) -> None:
+    """Add the scenario's model directives to `plant`, then finalize it.
+
+    Parameters
+    ----------
+    plant : MultibodyPlant
+        Not yet finalized.
+    scenario : Scenario
+        Its `directives` (package://hlcmp_drake/... resolves to the bundled models).
+
+    Raises
+    ------
+    InputError
+        When Drake cannot load a model (the first line of Drake's message).
+    """
+    parser = Parser(plant)
+    register_package(parser.package_map())
+    try:
+        ProcessModelDirectives(ModelDirectives(directives=scenario.directives), plant, parser)
+    except RuntimeError as error:
+        first = next((line for line in str(error).splitlines() if line.strip()), "")
+        hint = " (drake_models is downloaded on first use: is there internet?)" if "drake_models" in str(error) else ""
+        raise InputError(f"{scenario.name}: the models could not be loaded{hint}: {first}") from None
+    plant.Finalize()
+
+
+def add_plant(builder: DiagramBuilder, scenario: Scenario) -> tuple[MultibodyPlant, SceneGraph]:
+    """MultibodyPlant + SceneGraph from the scenario's plant config and model directives.
+
+    Parameters
+    ----------
+    builder : DiagramBuilder
+        Receives the plant and the scene graph.
+    scenario : Scenario
+        Its `plant_config` and `directives`.
+
+    Returns
+    -------
+    (MultibodyPlant, SceneGraph)
+        Both added to `builder`; the plant is finalized.
+
+    Raises
+    ------
+    InputError
+        When Drake cannot load a model.
+    """
+    plant, scene_graph = AddMultibodyPlant(scenario.plant_config, builder)
+    load_models(plant, scenario)
+    return plant, scene_graph
+
+
+def scoped_frame(plant: MultibodyPlant, scoped_name: str) -> Frame:
+    """The frame named 'model::frame' (or a unique 'frame') of a finalized `plant`.
+
+    Parameters
+    ----------
+    plant : MultibodyPlant
+        Finalized.
+    scoped_name : str
+        E.g. "insertion_tool::tip"; the part after the last "::" is the frame.
+
+    Returns
+    -------
+    Frame
+        The frame (Drake raises RuntimeError when there is no such model or frame).
+    """
+    model, _, name = scoped_name.rpartition("::")
+    return plant.GetFrameByName(name, plant.GetModelInstanceByName(model)) if model else plant.GetFrameByName(name)
+
+
+def solve_ik_for_tool(plant: MultibodyPlant, task: ArmTask, tip_position: ArrayLike,
+                      seed: ArrayLike) -> np.ndarray | None:
+    """Inverse kinematics: the tool point at `tip_position`, pointing as the task asks.
+
+    Parameters
+    ----------
+    plant : MultibodyPlant
+        Finalized, with the arm and the tool.
+    task : ArmTask
+        The tool frame, and its +z along `tool_direction` (or the whole orientation
+        `tool_rpy_rad` when given).
+    tip_position : (3,) array
+        World position of the tool point [m] (held within 0.1 mm).
+    seed : (nq,) array
+        Joint positions [rad] to start from and stay close to.
+
+    Returns
+    -------
+    (nq,) array or None
+        The joint positions, or None if there is no such posture.
+    """
+    frame = scoped_frame(plant, task.tool_frame)
+    ik = InverseKinematics(plant)
+    ik.AddPositionConstraint(frame, np.zeros(3), plant.world_frame(),
+                             np.asarray(tip_position) - 1e-4, np.asarray(tip_position) + 1e-4)
+    if task.tool_rpy_rad:
+        ik.AddOrientationConstraint(plant.world_frame(), RotationMatrix(RollPitchYaw(task.tool_rpy_rad)),
+                                    frame, RotationMatrix(), 1e-3)
+    else:
+        ik.AddAngleBetweenVectorsConstraint(plant.world_frame(), np.asarray(task.tool_direction, float),
+                                            frame, np.array([0.0, 0.0, 1.0]), 0.0, 1e-3)
+    seed = np.asarray(seed, dtype=float)
+    ik.get_mutable_prog().AddQuadraticErrorCost(np.eye(len(seed)), seed, ik.q())
+    result = Solve(ik.prog(), seed)
+    return result.GetSolution(ik.q()) if result.is_success() else None

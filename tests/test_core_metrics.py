@@ -1,0 +1,33 @@
+"""The metrics of the paper's figures, by hand (hlcmp_drake.core.metrics)."""
+
+import numpy as np
+import pytest
+
+from hlcmp_drake.core.metrics import (force_smoothness, max_abs_force, mean_abs_force,
+                                      mean_abs_position_error, settle_time, value_at)
+
+
+def test_settle_time_is_the_start_of_the_last_stretch_inside():
+    t = np.arange(0.0, 1.0, 0.1)
+    x = np.array([0.0, 0.5, 0.9, 1.0, 1.2, 1.0, 1.0, 1.0, 1.0, 1.0])
+    assert settle_time(t, x, 1.0, 0.05, 0.0, 2.0) == pytest.approx(0.5)   # 1.2 at 0.4 s breaks it
+    assert settle_time(t, x, 1.0, 0.25, 0.0, 2.0) == pytest.approx(0.2)
+    assert settle_time(t, x, 2.0, 0.05, 0.0, 2.0) is None                  # never there
+    assert settle_time(t, x, 1.0, 0.05, 0.0, 0.45) is None                 # not inside at the window's end
+
+
+def test_value_at_interpolates():
+    assert value_at([0.0, 1.0], [0.0, 2.0], 0.25) == pytest.approx(0.5)
+
+
+def test_per_axis_means_and_peaks():
+    x = np.array([[1.0, 0.0], [3.0, -2.0]])
+    np.testing.assert_allclose(mean_abs_position_error(x, np.array([2.0, 0.0])), [1.0, 1.0])
+    np.testing.assert_allclose(mean_abs_force(x), [2.0, 1.0])
+    np.testing.assert_allclose(max_abs_force(x), [3.0, 2.0])
+
+
+def test_smoothness_is_the_sum_of_second_differences():
+    f = np.array([[0.0], [1.0], [4.0], [9.0]])     # second differences 2, 2
+    assert force_smoothness(f)[0] == pytest.approx(4.0)
+    assert force_smoothness(np.linspace(0, 5, 20)[:, None])[0] == pytest.approx(0.0, abs=1e-12)
