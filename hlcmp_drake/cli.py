@@ -229,6 +229,11 @@ def build_parser():
                            help="override a scenario value, e.g. duration_s=4 or "
                                 "controllers.hlcmp.q_k=[300,300,300] (repeatable)")
 
+    world = argparse.ArgumentParser(add_help=False)   # where learn and reproduce run, and write
+    world.add_argument("--scenario", required=True, help="the world: insertion, cutting, or a YAML path")
+    world.add_argument("--out", required=True,
+                       help="output folder (metrics, figures, recording; and skill.npz when learning)")
+
     parser = _Parser(prog="hlcmp", description="Hl-CMPs: learn human-like compliant skills on Drake.",
                      parents=[common])
     parser.add_argument("--version", action="version", version=f"hlcmp_drake {own_version}")
@@ -255,21 +260,17 @@ def build_parser():
     bench.add_argument("--quick", action="store_true", help="a few iterations of everything (CI smoke mode)")
     bench.set_defaults(func=cmd_bench)
 
-    learn = sub.add_parser("learn", parents=[common, quiet, overrides],
+    learn = sub.add_parser("learn", parents=[common, quiet, overrides, world],
                            help="learn a skill from your demonstration by reproducing it in a scenario")
     learn.add_argument("demo", help="demonstration CSV (t,x,y,z; world frame of the scenario, metres)")
-    learn.add_argument("--scenario", required=True, help="the world: insertion, cutting, or a YAML path")
-    learn.add_argument("--out", required=True, help="output folder (skill.npz, metrics, figures, recording)")
     learn.add_argument("--trials", type=_trial_count, default=1, help="reproductions, each continuing "
                        "from the previous one's learned profiles (default 1)")
     learn.add_argument("--skill", help="start from this saved skill's profiles instead of theta = 0")
     learn.set_defaults(func=cmd_learn)
 
-    reproduce = sub.add_parser("reproduce", parents=[common, quiet, overrides],
+    reproduce = sub.add_parser("reproduce", parents=[common, quiet, overrides, world],
                                help="replay a learned skill in a scenario")
     reproduce.add_argument("skill", help="skill file (.npz) from hlcmp learn or fit")
-    reproduce.add_argument("--scenario", required=True, help="the world: insertion, cutting, or a YAML path")
-    reproduce.add_argument("--out", required=True, help="output folder")
     reproduce.add_argument("--freeze", action="store_true", help="no adaptation: the learned profiles as they are")
     reproduce.set_defaults(func=cmd_reproduce)
 

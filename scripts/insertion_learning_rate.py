@@ -9,18 +9,16 @@ markdown table of the numbers behind the claims.
     python scripts/insertion_learning_rate.py [--update-readme]
 """
 
-import argparse
 import dataclasses as dc
-from pathlib import Path
 
 import numpy as np
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.experiments import insertion
-from hlcmp_drake.present.report import write_block
 from hlcmp_drake.run.runner import run_controllers
 
-ROOT = Path(__file__).resolve().parent.parent
+import readme_table  # scripts/readme_table.py, beside this file
+
 PLANK_BOTTOM_Z = 0.30   # diagrams/insertion.yaml: top face at 0.33, 3 cm thick
 
 
@@ -57,15 +55,5 @@ def markdown(rows):
     return "\n".join(lines) + "\n"
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--update-readme", action="store_true")
-    args = parser.parse_args()
-    table = markdown(sweep())
-    print(table)
-    if args.update_readme:
-        write_block(ROOT / "README.md", "insertion learning rate", table)
-
-
 if __name__ == "__main__":
-    main()
+    readme_table.main(__doc__.splitlines()[0], lambda: markdown(sweep()), "insertion learning rate")

@@ -5,19 +5,16 @@ learning rates, run only the 10 s cutting phase, and print a markdown table.
     python scripts/one_dof_sensitivity.py [--update-readme]
 """
 
-import argparse
 import dataclasses as dc
 import itertools
-from pathlib import Path
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.core.metrics import settle_time, value_at
 from hlcmp_drake.experiments.one_dof import DEPTH_TOLERANCE_M
-from hlcmp_drake.present.report import write_block
 from hlcmp_drake.run.simulate import simulate
 from hlcmp_drake.worlds import slider
 
-ROOT = Path(__file__).resolve().parent.parent
+import readme_table  # scripts/readme_table.py, beside this file
 
 
 def sweep(basis_counts=(2, 10, 30), slopes=(1.0, 5.0, 20.0), gains=(1.0, 10.0)):
@@ -46,15 +43,5 @@ def markdown(rows):
     return "\n".join(lines) + "\n"
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--update-readme", action="store_true")
-    args = parser.parse_args()
-    table = markdown(sweep())
-    print(table)
-    if args.update_readme:
-        write_block(ROOT / "README.md", "one_dof sensitivity", table)
-
-
 if __name__ == "__main__":
-    main()
+    readme_table.main(__doc__.splitlines()[0], lambda: markdown(sweep()), "one_dof sensitivity")

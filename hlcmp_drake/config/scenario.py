@@ -26,8 +26,7 @@ from hlcmp_drake.core.dmp import DmpSettings
 Fail = Callable[[str, str], None]
 
 
-def check_per_axis(config: object, name: str, key: str, m: int, fail: Fail, nonnegative: bool = True,
-                   positive: bool = False) -> None:
+def check_per_axis(config: object, name: str, key: str, m: int, fail: Fail, rule: str = ">= 0") -> None:
     """Check that controller `name`'s list field `key` holds one finite value per axis.
 
     Parameters
@@ -42,10 +41,8 @@ def check_per_axis(config: object, name: str, key: str, m: int, fail: Fail, nonn
         The number of task-space axes M: the list's required length.
     fail : callable(dotted_key: str, problem: str)
         Raises the InputError that names where the key was set.
-    nonnegative : bool
-        Require every value >= 0.
-    positive : bool
-        Require every value > 0 (takes precedence in the message).
+    rule : str
+        ">= 0" (non-negative), "> 0" (positive) or "any" (finite is enough).
 
     Raises
     ------
@@ -57,16 +54,45 @@ def check_per_axis(config: object, name: str, key: str, m: int, fail: Fail, nonn
         fail(f"controllers.{name}.{key}",
              f"controller '{name}' needs {m} value(s), one per axis, got {len(values)}")
     for value in values:
-        if not math.isfinite(value) or (nonnegative and value < 0) or (positive and value <= 0):
-            kind = "positive" if positive else "non-negative"
+        if not math.isfinite(value) or (rule == ">= 0" and value < 0) or (rule == "> 0" and value <= 0):
+            kind = {"> 0": "positive", ">= 0": "non-negative"}.get(rule, "a number")
             fail(f"controllers.{name}.{key}",
                  f"controller '{name}': every value must be {kind} and finite, got {value}")
 
 
-def _check_sliding_gains(config, name: str, m: int, fail: Fail):
-    if not config.pi > 0:
-        fail(f"controllers.{name}.pi", f"controller '{name}': pi must be > 0 (Eq. 29), got {config.pi}")
-    check_per_axis(config, name, "gain_l", m, fail)
+class ControllerChecks:
+    """What every controller config shares: `check` validates the per-axis lists its class
+    names in PER_AXIS (field -> sign rule, in the order checked) after the class's own
+    scalar rules (`_check_scalars`). PER_AXIS is a plain class attribute, not a field, so
+    the YAML never sets it."""
+
+    PER_AXIS: dict = {}
+
+    def check(self, name: str, m: int, fail: Fail) -> None:
+        """Check this controller's values.
+
+        Parameters
+        ----------
+        name : str
+            The controller's label in the scenario.
+        m : int
+            The number of task-space axes M: the length every per-axis list needs.
+        fail : callable(dotted_key: str, problem: str)
+            Raises the InputError that names where the key was set.
+
+        Raises
+        ------
+        InputError
+            Through `fail`, for the first problem found.
+        """
+        self._check_scalars(name, fail)
+        for key, rule in self.PER_AXIS.items():
+            check_per_axis(self, name, key, m, fail, rule)
+
+    def _check_scalars(self, name: str, fail: Fail) -> None:
+        """The sliding-surface slope of Eq. 29, for the configs that have one."""
+        if not self.pi > 0:
+            fail(f"controllers.{name}.pi", f"controller '{name}': pi must be > 0 (Eq. 29), got {self.pi}")
 
 
 @dc.dataclass
@@ -78,9 +104,12 @@ class StepReferenceConfig:
 
 
 @dc.dataclass
-class HlcmpConfig:
+class HlcmpConfig(ControllerChecks):
     """The Hl-CMP learner: learning rates Q per axis (Eq. 31), pi (Eq. 29), L (Eq. 34),
-    and the initial value of every weight of theta_k, theta_d, theta_v."""
+    and the initial value of every weight of theta_k, theta_d, theta_v. Checked: pi > 0,
+    L and every Q per axis and non-negative."""
+
+    PER_AXIS = {"gain_l": ">= 0", "q_k": ">= 0", "q_d": ">= 0", "q_v": ">= 0"}
 
     q_k: list[float] = dc.field(default_factory=list)
     q_d: list[float] = dc.field(default_factory=list)
@@ -91,65 +120,30 @@ class HlcmpConfig:
     theta_d0: float = 0.0
     theta_v0: float = 0.0
 
-    def check(self, name: str, m: int, fail: Fail) -> None:
-        """Check Q per axis non-negative (Eq. 31), pi > 0 (Eq. 29) and L per axis (Eq. 34).
-
-        Parameters
-        ----------
-        name : str
-            The controller's label in the scenario.
-        m : int
-            The number of task-space axes M: the length every per-axis list needs.
-        fail : callable(dotted_key: str, problem: str)
-            Raises the InputError that names where the key was set.
-
-        Raises
-        ------
-        InputError
-            Through `fail`, for the first problem found.
-        """
-        _check_sliding_gains(self, name, m, fail)
-        for key in ("q_k", "q_d", "q_v"):
-            check_per_axis(self, name, key, m, fail)
-
 
 @dc.dataclass
-class ConstantImpedanceConfig:
-    """Fixed diagonal stiffness/damping in the same structure (Eqs. 33-34 with v = 0)."""
+class ConstantImpedanceConfig(ControllerChecks):
+    """Fixed diagonal stiffness/damping in the same structure (Eqs. 33-34 with v = 0). Checked: pi > 0; L, stiffness and damping per axis and non-negative."""
+
+    PER_AXIS = {"gain_l": ">= 0", "stiffness_N_per_m": ">= 0", "damping_Ns_per_m": ">= 0"}
 
     stiffness_N_per_m: list[float] = dc.field(default_factory=list)
     damping_Ns_per_m: list[float] = dc.field(default_factory=list)
     pi: float = 5.0
     gain_l: list[float] = dc.field(default_factory=list)
 
-    def check(self, name: str, m: int, fail: Fail) -> None:
-        """Check stiffness and damping per axis non-negative, pi > 0 and L per axis.
-
-        Parameters
-        ----------
-        name : str
-            The controller's label in the scenario.
-        m : int
-            The number of task-space axes M: the length every per-axis list needs.
-        fail : callable(dotted_key: str, problem: str)
-            Raises the InputError that names where the key was set.
-
-        Raises
-        ------
-        InputError
-            Through `fail`, for the first problem found.
-        """
-        _check_sliding_gains(self, name, m, fail)
-        check_per_axis(self, name, "stiffness_N_per_m", m, fail)
-        check_per_axis(self, name, "damping_Ns_per_m", m, fail)
-
 
 @dc.dataclass
-class VariableImpedanceConfig:
+class VariableImpedanceConfig(ControllerChecks):
     """Duan et al. 2018 force-tracking variable impedance (the paper's ref. [21]).
 
     desired_force_N is the desired reaction force per axis while the task asks for force
-    (the reference segments listed in `force_segments`); elsewhere f_d = 0."""
+    (the reference segments listed in `force_segments`); elsewhere f_d = 0. Checked: one
+    value per axis (mass and damping positive, the others non-negative, the force any),
+    sigma >= 0 and a positive sample period."""
+
+    PER_AXIS = {"desired_force_N": "any", "mass_kg": "> 0", "damping_Ns_per_m": "> 0",
+                "free_stiffness_N_per_m": ">= 0", "kp": ">= 0", "kv": ">= 0"}
 
     desired_force_N: list[float] = dc.field(default_factory=list)
     force_segments: list[int] = dc.field(default_factory=lambda: [0])
@@ -161,28 +155,8 @@ class VariableImpedanceConfig:
     kp: list[float] = dc.field(default_factory=list)
     kv: list[float] = dc.field(default_factory=list)
 
-    def check(self, name: str, m: int, fail: Fail) -> None:
-        """Check per-axis values of the right sign, sigma >= 0 and a positive sample period.
-
-        Parameters
-        ----------
-        name : str
-            The controller's label in the scenario.
-        m : int
-            The number of task-space axes M: the length every per-axis list needs.
-        fail : callable(dotted_key: str, problem: str)
-            Raises the InputError that names where the key was set.
-
-        Raises
-        ------
-        InputError
-            Through `fail`, for the first problem found.
-        """
-        check_per_axis(self, name, "desired_force_N", m, fail, nonnegative=False)
-        check_per_axis(self, name, "mass_kg", m, fail, positive=True)
-        check_per_axis(self, name, "damping_Ns_per_m", m, fail, positive=True)
-        for key in ("free_stiffness_N_per_m", "kp", "kv"):
-            check_per_axis(self, name, key, m, fail)
+    def _check_scalars(self, name: str, fail: Fail) -> None:
+        """sigma >= 0 and a positive sample period (the adaptation's lambda)."""
         if not (self.sigma >= 0 and self.sample_period_s > 0):
             fail(f"controllers.{name}.sigma",
                  f"controller '{name}': sigma >= 0 and sample_period_s > 0 are required")

@@ -71,10 +71,8 @@ def reference_motion(xd_dot: np.ndarray, xd_ddot: np.ndarray, e: np.ndarray, edo
     ----------
     xd_dot, xd_ddot : (M,) arrays
         Desired velocity [m/s] and acceleration [m/s^2].
-    e, edot : (M,) arrays
-        Position error [m] and velocity error [m/s].
-    pi : float
-        Slope of the sliding surface [1/s], > 0.
+    e, edot, pi
+        As for `sliding_error`.
 
     Returns
     -------
@@ -90,10 +88,8 @@ def nominal_force(inertia: np.ndarray, coriolis: np.ndarray, gravity: np.ndarray
 
     Parameters
     ----------
-    inertia, coriolis : (M, M) arrays
-        Task-space inertia [kg] and Coriolis matrix [kg/s], from Drake.
-    gravity : (M,) array
-        Task-space gravity force [N].
+    inertia, coriolis, gravity : (M, M), (M, M), (M,) arrays
+        Task-space M [kg], C [kg/s] and G [N] of Eq. 2, from Drake.
     xe_dot, xe_ddot : (M,) arrays
         Reference velocity [m/s] and acceleration [m/s^2] (see `reference_motion`).
     gain_l : (M,) array

@@ -167,10 +167,8 @@ def normalized_basis(s: float | np.ndarray, centers: np.ndarray, widths: np.ndar
 
     Parameters
     ----------
-    s : float or (T,) array
-        Phase [-].
-    centers, widths : (N,) arrays
-        Centres c_n [-] and widths h_n [-] (see `basis_centers_and_widths`).
+    s, centers, widths
+        As for `rbf_activations`.
 
     Returns
     -------
@@ -190,10 +188,8 @@ def forcing_basis(s: float | np.ndarray, centers: np.ndarray, widths: np.ndarray
 
     Parameters
     ----------
-    s : float or (T,) array
-        Phase [-].
-    centers, widths : (N,) arrays
-        Centres c_n [-] and widths h_n [-] (see `basis_centers_and_widths`).
+    s, centers, widths
+        As for `rbf_activations`.
     amplitude : (M,) array
         The amplitude per axis [m].
 
@@ -254,10 +250,8 @@ def forcing_target(p: np.ndarray, pdot: np.ndarray, pddot: np.ndarray, goal: flo
         Demonstrated position [m], velocity [m/s] and acceleration [m/s^2] of one axis.
     goal : float
         Goal g [m] of that axis.
-    tau : float
-        Time constant [s].
-    alpha, beta : float
-        Gains of the transformation system [-].
+    tau, alpha, beta : float
+        The demonstration's duration [s] and the gains of Eq. 15 [-].
 
     Returns
     -------

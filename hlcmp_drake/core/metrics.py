@@ -80,12 +80,12 @@ def mean_abs_force(f: np.ndarray) -> np.ndarray:
     Parameters
     ----------
     f : (T, M) array
-        Force samples [N].
+        The logged force, one row per sample [N].
 
     Returns
     -------
     (M,) array
-        Mean absolute force [N].
+        The mean of |f| on each axis [N].
     """
     return np.mean(np.abs(f), axis=0)
 
@@ -97,7 +97,7 @@ def force_smoothness(f: np.ndarray) -> np.ndarray:
     Parameters
     ----------
     f : (T, M) array
-        Force samples [N].
+        Force at the log period [N]; T >= 3 for a second difference.
 
     Returns
     -------
@@ -113,11 +113,11 @@ def max_abs_force(f: np.ndarray) -> np.ndarray:
     Parameters
     ----------
     f : (T, M) array
-        Force samples [N].
+        Logged force [N].
 
     Returns
     -------
     (M,) array
-        Peak absolute force [N].
+        Per axis, the largest |f| of the run [N].
     """
     return np.max(np.abs(f), axis=0)

@@ -21,16 +21,16 @@ def claims(metrics: dict, scenario: Scenario, runs: dict | None = None) -> dict:
     Parameters
     ----------
     metrics : dict
-        {controller label: controller metrics}.
+        The insertion's per-axis metrics, for each label.
     scenario : Scenario
-        The controllers' configs, by which the learner and the baselines are found.
-    runs : dict of str to RunResult, optional
-        The runs themselves, for claims judged on time series.
+        The learner and the constant impedances are read off its configs.
+    runs : dict, optional
+        Not needed for cutting's claims.
 
     Returns
     -------
     dict
-        {claim: {"holds", "evidence", "paper_says", ...}}.
+        {"C2": ..., "C3": ...}, each {"holds", "evidence", "paper_says"}.
     """
     name = learner(scenario)
     if name is None:
@@ -60,13 +60,13 @@ def figures(runs: dict, scenario: Scenario) -> dict:
     Parameters
     ----------
     runs : dict of str to RunResult
-        By controller label.
+        By label; the Hl-CMP's run draws Fig. 11.
     scenario : Scenario
 
     Returns
     -------
-    dict of str to Figure
-        {file name: matplotlib Figure}.
+    dict
+        fig11_profiles_xyz.png and fig12_force_z_smoothness.png as Figures.
     """
     out = {}
     hl = runs.get(learner(scenario))

@@ -137,16 +137,16 @@ def claims(metrics: dict, scenario: Scenario, runs: dict | None = None) -> dict:
     Parameters
     ----------
     metrics : dict
-        {controller label: controller metrics}.
+        Every controller's Figs. 6-8 metrics, by label.
     scenario : Scenario
-        The controllers' configs, by which the learner and the baselines are found.
+        Whose configs say which label is the Hl-CMP and which are constant impedances.
     runs : dict of str to RunResult, optional
-        The runs themselves, for claims judged on time series.
+        Needed for C4, which reads the Hl-CMP's profiles over time.
 
     Returns
     -------
     dict
-        {claim: {"holds", "evidence", "paper_says", ...}}.
+        C1 (always), and C2-C4 when there is a learner: {"holds", "evidence", "paper_says"}.
     """
     constants = constant_impedances(scenario)
     name = learner(scenario)
@@ -223,13 +223,13 @@ def figures(runs: dict, scenario: Scenario) -> dict:
     Parameters
     ----------
     runs : dict of str to RunResult
-        By controller label.
+        By label; the learner's run draws Fig. 4.
     scenario : Scenario
 
     Returns
     -------
     dict of str to Figure
-        {file name: matplotlib Figure}.
+        fig4_profiles_z.png ... fig8_smoothness.png.
     """
     out = {}
     hl = runs.get(learner(scenario))

@@ -26,15 +26,16 @@ def controller_metrics(run: RunResult, config: ControllerConfig, scenario: Scena
     Parameters
     ----------
     run : RunResult
-        The run's logged series (x, xd, f_ext; Ks, v, u for an Hl-CMP), each (T, M).
+        Only its "x" series (T, 1) [m] is read.
     config : controller config
-        The run's controller config; its kind decides which metrics apply.
+        Unused: every controller gets the same four numbers.
     scenario : Scenario
+        Its step reference gives the depth, the return target and their times.
 
     Returns
     -------
     dict
-        The controller's entry of metrics.json.
+        x(10 s) and the final x [m], the reach and return times [s].
     """
     depth, t0, home, t_return = _segments(scenario)
     x = run.series["x"][:, 0]
@@ -67,16 +68,16 @@ def claims(metrics: dict, scenario: Scenario, runs: dict | None = None) -> dict:
     Parameters
     ----------
     metrics : dict
-        {controller label: controller metrics}.
+        Reach and return times and x(10 s) of every controller, by label.
     scenario : Scenario
-        The controllers' configs, by which the learner and the baselines are found.
-    runs : dict of str to RunResult, optional
-        The runs themselves, for claims judged on time series.
+        Its step reference sets the depth; its configs tell the Hl-CMP from the [21] runs.
+    runs : dict, optional
+        Not needed: C5 reads the metrics only.
 
     Returns
     -------
     dict
-        {claim: {"holds", "evidence", "paper_says", ...}}.
+        {"C5": {"holds", "paper_says", "parts", "evidence"}}.
     """
     depth = _segments(scenario)[0]
     hl = metrics[learner(scenario)]
@@ -109,7 +110,7 @@ def table(metrics: dict) -> Table:
     Parameters
     ----------
     metrics : dict
-        {controller label: controller metrics}.
+        The 1-DOF metrics of each label (positions in m, shown in mm).
     """
     result = Table(["controller", "x(10 s) [mm]", "final x [mm]", "reach −150 mm ±5 mm at [s]",
                     "back to 0 ±5 mm after 10 s [s]"])
@@ -126,13 +127,13 @@ def figures(runs: dict, scenario: Scenario) -> dict:
     Parameters
     ----------
     runs : dict of str to RunResult
-        By controller label.
+        Every controller's run, by label.
     scenario : Scenario
 
     Returns
     -------
-    dict of str to Figure
-        {file name: matplotlib Figure}.
+    dict
+        {"one_dof.png": the Figure}.
     """
     fig, axes = new_figure(3, 1, size=(8, 8.5), sharex=True)
     first = next(iter(runs.values()))

@@ -121,7 +121,7 @@ def write_text(path: str | Path, text: str) -> Path:
     Parameters
     ----------
     path : str or Path
-        The file to write.
+        Where; missing folders are made.
     text : str
         Its whole content.
 

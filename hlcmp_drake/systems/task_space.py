@@ -72,7 +72,7 @@ class TaskSpaceDynamics(LeafSystem):
         Parameters
         ----------
         context : Context
-            A context of this system (its `plant_state` input is evaluated).
+            This system's context; the terms are computed once per plant state and cached.
 
         Returns
         -------

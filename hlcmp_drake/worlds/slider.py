@@ -45,12 +45,10 @@ def build(scenario: Scenario, controller_name: str, setup: None = None,
     ----------
     scenario : Scenario
         With a SliderTask and a StepReferenceConfig.
-    controller_name : str
-        The label of the controller to build.
+    controller_name, theta0
+        As for `hlcmp_drake.worlds.arm.build`.
     setup : None
         Unused (the arm's shared set-up has no slider counterpart).
-    theta0 : tuple of three (M, N) arrays, optional
-        A learning controller's initial weights (theta_k, theta_d, theta_v).
 
     Returns
     -------
