@@ -8,13 +8,15 @@ import subprocess
 
 import pytest
 
-from hlcmp_drake.present.report import report_page
+from hlcmp_drake.experiments import EXPERIMENTS
+from hlcmp_drake.present.report import ReportSection, report_page
 
 
 @pytest.fixture(scope="session")
 def report(one_dof_run, insertion_run, cutting_run, tmp_path_factory):
     base = tmp_path_factory.getbasetemp()   # the three run folders live below it
-    sections = [("one_dof", one_dof_run, 1.0), ("insertion", insertion_run, 1.0), ("cutting", cutting_run, 1.0)]
+    sections = [ReportSection(name, run, 1.0, EXPERIMENTS[name]) for name, run in
+                [("one_dof", one_dof_run), ("insertion", insertion_run), ("cutting", cutting_run)]]
     page = base / "index.html"
     page.write_text(report_page(base, sections))
     return page, sections
@@ -34,8 +36,8 @@ def test_every_local_link_and_image_resolves(report):
 def test_every_number_is_the_runs_own(report):
     page, sections = report
     text = page.read_text()
-    for _, run_dir, _ in sections:
-        metrics = json.loads((run_dir / "metrics.json").read_text())
+    for section in sections:
+        metrics = json.loads((section.run_dir / "metrics.json").read_text())
         for name, claim in metrics["claims"].items():
             assert html.escape(claim["evidence"]) in text
 

@@ -4,11 +4,13 @@ registry and the one Table model."""
 
 from __future__ import annotations
 
+import dataclasses as dc
 import html
 import json
 from pathlib import Path
 
-from hlcmp_drake.experiments import EXPERIMENTS, Experiment
+from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.experiments import EXPERIMENTS, Experiment, experiment_of
 from hlcmp_drake.experiments.claims import claims_table
 from hlcmp_drake.experiments.table import Table
 from hlcmp_drake.present.tables import to_html, to_markdown
@@ -76,7 +78,8 @@ def update_readme(readme_path: Path, run_dirs: dict) -> None:
     all_metrics = {name: json.loads((Path(run_dir) / "metrics.json").read_text())
                    for name, run_dir in run_dirs.items()}
     for name, metrics in all_metrics.items():
-        text = replace_block(text, f"{name} results", results_markdown(metrics, EXPERIMENTS[name]))
+        experiment = experiment_of(load_scenario(name)[0])
+        text = replace_block(text, f"{name} results", results_markdown(metrics, experiment))
     if set(all_metrics) == set(EXPERIMENTS):
         ordered = {name: all_metrics[name] for name in EXPERIMENTS}
         text = replace_block(text, "claims summary", to_markdown(claims_summary_table(ordered),
@@ -112,6 +115,17 @@ code { background: #f4f4f4; padding: 0 0.2em; }
 """
 
 
+@dc.dataclass
+class ReportSection:
+    """One scenario's part of the report: its name, run folder, wall time [s], and the
+    experiment that evaluated it."""
+
+    name: str
+    run_dir: Path
+    wall_s: float
+    experiment: Experiment
+
+
 def report_page(out_dir: Path, sections: list) -> str:
     """index.html text of the report. Every link and image is relative to out_dir, so the
     page works offline.
@@ -120,9 +134,8 @@ def report_page(out_dir: Path, sections: list) -> str:
     ----------
     out_dir : Path
         Where index.html goes; the run folders lie below it.
-    sections : list of (str, Path, float)
-        (bundled scenario name, its run folder, wall seconds); each scenario is named
-        after its experiment.
+    sections : list of ReportSection
+        One per scenario run, in page order.
     """
     out_dir = Path(out_dir)
     parts = ["<!DOCTYPE html><html><head><meta charset='utf-8'><title>hlcmp-drake: the paper's "
@@ -132,14 +145,14 @@ def report_page(out_dir: Path, sections: list) -> str:
              "Control</i>, IEEE TII 18(3), 2022. Every number below comes from the runs linked "
              "with it; each claim of the paper is marked reproduced or not.</p>",
              "<h2>Contents</h2><ul>"]
-    parts += [f"<li><a href='#{name}'>{html.escape(EXPERIMENTS[name].title)}</a></li>" for name, _, _ in sections]
+    parts += [f"<li><a href='#{s.name}'>{html.escape(s.experiment.title)}</a></li>" for s in sections]
     parts.append("</ul>")
-    for name, run_dir, seconds in sections:
-        experiment = EXPERIMENTS[name]
+    for section in sections:
+        name, run_dir, experiment = section.name, section.run_dir, section.experiment
         metrics = json.loads((Path(run_dir) / "metrics.json").read_text())
         rel = Path(run_dir).resolve().relative_to(out_dir.resolve()).as_posix()
         parts.append(f"<h2 id='{name}'>{html.escape(experiment.title)} (paper {experiment.paper_figures})</h2>")
-        parts.append(f"<p>Status: <b>{metrics['status']}</b>; ran in {seconds:.0f} s. "
+        parts.append(f"<p>Status: <b>{metrics['status']}</b>; ran in {section.wall_s:.0f} s. "
                      f"<a href='{rel}/recording.html'>3-D recording (offline)</a> · "
                      f"<a href='{rel}/metrics.json'>metrics.json</a> · "
                      f"<a href='{rel}/timeseries.npz'>timeseries.npz</a></p>")

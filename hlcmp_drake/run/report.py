@@ -8,23 +8,23 @@ from pathlib import Path
 
 from hlcmp_drake.io.outputs import write_text
 from hlcmp_drake.present.progress import SILENT, Progress
-from hlcmp_drake.present.report import report_page
+from hlcmp_drake.present.report import ReportSection, report_page
 from hlcmp_drake.run.runner import run_scenario
 
 
 @dc.dataclass
 class ReportResult:
-    """The page written, each scenario's (name, run folder, wall seconds, status), and
-    the total wall time [s]."""
+    """The page written, each scenario's section and status, and the total wall time [s]."""
 
     page: Path
     sections: list
+    statuses: list
     wall_s: float
 
     @property
     def all_ok(self) -> bool:
         """Whether every scenario's runs ended "ok"."""
-        return all(status == "ok" for *_, status in self.sections)
+        return all(status == "ok" for status in self.statuses)
 
 
 def run_report(out_dir: str | Path, scenarios: list[str], reporter: Progress = SILENT) -> ReportResult:
@@ -39,11 +39,12 @@ def run_report(out_dir: str | Path, scenarios: list[str], reporter: Progress = S
     reporter : Progress, optional
     """
     out_dir = Path(out_dir)
-    sections, start = [], time.perf_counter()
+    sections, statuses, start = [], [], time.perf_counter()
     for name in scenarios:
         reporter.say(f"running {name} ...")
         began = time.perf_counter()
         result = run_scenario(name, out_dir / name, reporter)
-        sections.append((name, result.out_dir, time.perf_counter() - began, result.metrics["status"]))
-    page = write_text(out_dir / "index.html", report_page(out_dir, [s[:3] for s in sections]))
-    return ReportResult(page, sections, time.perf_counter() - start)
+        sections.append(ReportSection(name, result.out_dir, time.perf_counter() - began, result.experiment))
+        statuses.append(result.metrics["status"])
+    page = write_text(out_dir / "index.html", report_page(out_dir, sections))
+    return ReportResult(page, sections, statuses, time.perf_counter() - start)

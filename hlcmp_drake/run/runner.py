@@ -124,12 +124,13 @@ def write_results(out_dir: Path, scenario: Scenario, runs: dict, metrics: dict, 
 
 @dc.dataclass
 class ScenarioResult:
-    """What `run_scenario` returns: the metrics.json content, where the files went, and
-    the controllers' metrics as a Table."""
+    """What `run_scenario` returns: the metrics.json content, where the files went, the
+    controllers' metrics as a Table, and the experiment that evaluated the runs."""
 
     metrics: dict
     out_dir: Path
     table: Table
+    experiment: Experiment
 
 
 def run_scenario(name_or_path: str | Path, out_dir: str | Path | None = None, reporter: Progress = SILENT,
@@ -159,4 +160,4 @@ def run_scenario(name_or_path: str | Path, out_dir: str | Path | None = None, re
     metrics = evaluate(runs, scenario, experiment)
     figures = experiment.figures(runs, scenario) if metrics["status"] == "ok" else {}
     write_results(out_dir, scenario, runs, metrics, figures, build(next(iter(scenario.controllers))).diagram)
-    return ScenarioResult(metrics, out_dir, experiment.table(metrics["controllers"]))
+    return ScenarioResult(metrics, out_dir, experiment.table(metrics["controllers"]), experiment)
