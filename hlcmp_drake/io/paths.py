@@ -1,12 +1,29 @@
-"""Where the bundled models and scenarios live, and how Drake finds them."""
+"""Where the bundled models and scenarios live, and how Drake finds them.
+
+The worlds are one folder, the data root: ``package.xml`` with ``models/`` and
+``diagrams/`` beside it. In a checkout (and an editable install) that is the repository's
+top level; an installed wheel carries the same files as ``hlcmp_drake/data/`` (see
+pyproject.toml's package-dir and package-data), and that copy is used when it is there.
+"""
 
 from pathlib import Path
 
-REPO_ROOT = Path(__file__).resolve().parents[2]
-MODELS_DIR = REPO_ROOT / "models"
-DIAGRAMS_DIR = REPO_ROOT / "diagrams"
-PACKAGE_XML = REPO_ROOT / "package.xml"
 PACKAGE_NAME = "hlcmp_drake"
+
+_PACKAGE_DIR = Path(__file__).resolve().parents[1]
+
+
+def _data_root() -> Path:
+    shipped = _PACKAGE_DIR / "data"            # a wheel: site-packages/hlcmp_drake/data
+    if (shipped / "package.xml").is_file():
+        return shipped
+    return _PACKAGE_DIR.parent                 # a checkout: the repository root
+
+
+DATA_ROOT = _data_root()
+MODELS_DIR = DATA_ROOT / "models"
+DIAGRAMS_DIR = DATA_ROOT / "diagrams"
+PACKAGE_XML = DATA_ROOT / "package.xml"
 
 
 def register_package(package_map: object) -> None:
