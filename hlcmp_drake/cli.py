@@ -7,6 +7,7 @@
     hlcmp bench [--out DIR] [--quick]        measure where the time goes
     hlcmp fit DEMO.csv --out SKILL.npz       fit the DMP of a demonstration
     hlcmp rollout SKILL.npz --out TRAJ.csv   roll a skill's DMP out
+    hlcmp sweep SWEEP.yaml [--out DIR] [--engine local|ray] [--address A] [--workers N] [--dry-run]
 
 Exit codes: 0 success, 2 bad input (one line on stderr; --debug shows the traceback),
 3 a simulation went unstable (metrics.json says where and why).
@@ -104,8 +105,10 @@ def print_summary(result) -> None:
     for controller, problem in metrics.get("instability", {}).items():
         print(f"UNSTABLE {controller}: {problem['reason']} at t = {problem['time_s']:.3f} s "
               "(stopped there; its logs up to then are in timeseries.npz)")
-    for claim, verdict in metrics.get("claims", {}).items():
-        print(f"{claim}: {'reproduced' if verdict['holds'] else 'NOT reproduced'} -- {verdict['evidence']}")
+    for learner, claims in metrics.get("claims", {}).items():
+        for claim, verdict in claims.items():
+            print(f"{claim} [{learner}]: {'reproduced' if verdict['holds'] else 'NOT reproduced'} -- "
+                  f"{verdict['evidence']}")
     print(f"status: {metrics['status']}; results in {result.out_dir}")
 
 
@@ -168,6 +171,19 @@ def cmd_bench(args):
     return 0
 
 
+def cmd_probe(args):
+    from hlcmp_drake.run.probe import run_probe
+
+    _quiet_drake(args)
+    result = run_probe(args.scenario, args.out, args.speed, overrides=args.set)
+    readings = result.readings
+    print(f"probe {readings['scenario']} at {readings['speed_m_per_s']:.3f} m/s: peak {readings['peak_force_N']:.2f} N "
+          f"at {1000 * readings['depth_at_peak_m']:.1f} mm, residual {readings['residual_force_N']:.2f} N, "
+          f"max lateral {readings['max_lateral_force_N']:.3f} N; {readings['status']}")
+    print(f"probe.json, probe.png in {result.out_dir}")
+    return 0 if readings["status"] == "ok" else EXIT_UNSTABLE
+
+
 def cmd_fit(args):
     from hlcmp_drake.core.dmp import Dmp
     from hlcmp_drake.io.demos import read_demonstration
@@ -206,6 +222,59 @@ def cmd_rollout(args):
     write_trajectory(args.out, t, p, dmp.axis_names, v)
     print(f"rolled out {len(t)} samples over {t[-1]:.3f} s -> {args.out}")
     return 0
+
+
+def _positive_count(text):
+    value = _whole_number(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def cmd_sweep(args):
+    from pathlib import Path
+
+    from hlcmp_drake.run.sweep import plan_sweep, run_sweep
+
+    if args.dry_run:
+        plan = plan_sweep(args.sweep, args.out)
+        counts = {state: list(plan.states.values()).count(state) for state in ("done", "stale", "pending")}
+        print(f"sweep {plan.sweep.path}: {len(plan.tasks)} tasks of {plan.sweep.scenario_path.name} into "
+              f"{plan.out_dir} ({counts['done']} done, {counts['stale']} to rerun (changed), "
+              f"{counts['pending']} to run)")
+        for task in plan.tasks:
+            print(f"  {plan.states[task.id]:8s} {task.id}   " + " ".join(task.overrides))
+        return 0
+    _quiet_drake(args)
+    try:
+        result = run_sweep(args.sweep, args.out, args.engine, args.workers, args.address, Progress(args.quiet))
+    except KeyboardInterrupt:
+        out = args.out or f"out/sweeps/{Path(args.sweep).stem}"
+        print(f"hlcmp: interrupted; every finished task is kept (listed in {out}/sweep.csv); "
+              "the same command again runs only the rest", file=sys.stderr)
+        return 130
+    counts = result.summary["counts"]
+    _print_table(result.table)
+    for task_id, error in result.failed.items():
+        print(f"FAILED {task_id}: {error}")
+    for task_id in result.unstable:
+        print(f"UNSTABLE {task_id} (its metrics.json says where and why)")
+    for problem in result.missing:
+        print(f"metric not found: {problem}")
+    if not result.ran:
+        print(f"all {counts['tasks']} tasks were already done; nothing to run")
+    else:
+        done = result.already_done
+        print(f"{len(result.ran)} task(s) ran, {done} {'was' if done == 1 else 'were'} already done"
+              + (f", {result.stale} ran again because their scenario changed" if result.stale else "")
+              + (f", {len(result.failed)} failed (a re-run retries them)" if result.failed else "")
+              + f"; {result.wall_s:.1f} s")
+    print(f"results in {result.out_dir}: sweep.csv, sweep.json, plots/, tasks/")
+    if result.failed:
+        return 1
+    if result.missing:
+        return EXIT_BAD_INPUT
+    return EXIT_UNSTABLE if result.unstable else 0
 
 
 def build_parser():
@@ -274,6 +343,13 @@ def build_parser():
     reproduce.add_argument("--freeze", action="store_true", help="no adaptation: the learned profiles as they are")
     reproduce.set_defaults(func=cmd_reproduce)
 
+    probe = sub.add_parser("probe", parents=[common, overrides],
+                           help="measure a scenario's world alone: its tool pushed through its object")
+    probe.add_argument("scenario", help="an arm scenario with a probe section (insertion, cutting) or a YAML path")
+    probe.add_argument("--out", help="output folder (default out/probe_SCENARIO)")
+    probe.add_argument("--speed", type=_positive, help="carriage speed in m/s (default the scenario's)")
+    probe.set_defaults(func=cmd_probe)
+
     fit = sub.add_parser("fit", parents=[common], help="fit the DMP of a demonstration CSV (t,x,y,z)")
     fit.add_argument("demo")
     fit.add_argument("--out", required=True, help="skill file to write (.npz)")
@@ -291,6 +367,20 @@ def build_parser():
     rollout.add_argument("--goal", help="new goal, comma-separated, one value per axis")
     rollout.add_argument("--dt", type=_positive, default=0.01, help="sample period in s (default 0.01)")
     rollout.set_defaults(func=cmd_rollout)
+
+    sweep = sub.add_parser("sweep", parents=[common, quiet],
+                           help="run a scenario over a grid or list of overrides (resumable)")
+    sweep.add_argument("sweep", help="a sweep file (.yaml) or a bundled sweep's name (diagrams/sweeps/)")
+    sweep.add_argument("--out", help="output folder (default out/sweeps/SWEEP): sweep.csv, sweep.json, "
+                                     "plots/, and tasks/ID/ per task; finished tasks there are skipped")
+    sweep.add_argument("--engine", choices=("local", "ray"), default="local",
+                       help="local: a process pool on this machine (default); ray: Ray tasks, "
+                            "needs pip install -e '.[ray]'")
+    sweep.add_argument("--address", help="with --engine ray: join the Ray cluster at this address")
+    sweep.add_argument("--workers", type=_positive_count,
+                       help="tasks at once (local default: the number of CPUs)")
+    sweep.add_argument("--dry-run", action="store_true", help="list the tasks and which are done; run nothing")
+    sweep.set_defaults(func=cmd_sweep)
     return parser
 
 

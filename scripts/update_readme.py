@@ -4,8 +4,10 @@
     hlcmp learn diagrams/demos/insertion_demo.csv --scenario insertion --trials 3 --out out/learn
     hlcmp reproduce out/learn/skill.npz --scenario insertion --freeze --out out/reproduce
     hlcmp bench --out out/bench
+    hlcmp sweep diagrams/sweeps/one_dof_sensitivity.yaml --out out/sweeps/one_dof_sensitivity
+    hlcmp sweep diagrams/sweeps/insertion_learning_rate.yaml --out out/sweeps/insertion_learning_rate
     python scripts/update_readme.py --runs out/report --learn out/learn --reproduce out/reproduce \
-        --bench out/bench
+        --bench out/bench --sweeps out/sweeps
 """
 
 import json
@@ -17,10 +19,14 @@ from pathlib import Path
 from hlcmp_drake.experiments import EXPERIMENTS
 from hlcmp_drake.present.report import update_readme, write_block
 from hlcmp_drake.present.tables import to_markdown
+from hlcmp_drake.present.sweep import sweep_table
 from hlcmp_drake.run.benchmark import table as bench_table
 from hlcmp_drake.run.learning import trials_table
 
 ROOT = Path(__file__).resolve().parent.parent
+# The README's blocks made from bundled sweeps: sweep file name (diagrams/sweeps/NAME.yaml,
+# run into SWEEPS/NAME) -> block name.
+SWEEP_BLOCKS = {"one_dof_sensitivity": "one_dof sensitivity", "insertion_learning_rate": "insertion learning rate"}
 
 
 def main():
@@ -30,7 +36,17 @@ def main():
     parser.add_argument("--learn", type=Path, help="an `hlcmp learn` output folder")
     parser.add_argument("--bench", type=Path, help="an `hlcmp bench` output folder (bench.json)")
     parser.add_argument("--reproduce", type=Path, help="an `hlcmp reproduce --freeze` output folder")
+    parser.add_argument("--sweeps", type=Path, help="a folder with one `hlcmp sweep` output folder per bundled "
+                                                    f"sweep ({', '.join(SWEEP_BLOCKS)}); each found fills its block")
     args = parser.parse_args()
+    if args.sweeps:
+        for name, block in SWEEP_BLOCKS.items():
+            summary_path = args.sweeps / name / "sweep.json"
+            if summary_path.exists():
+                summary = json.loads(summary_path.read_text())
+                if summary["counts"]["pending"] or summary["counts"]["error"]:
+                    parser.error(f"{summary_path}: the sweep is not finished (run it again to complete it)")
+                write_block(ROOT / "README.md", block, to_markdown(sweep_table(summary), code_first_column=False))
     if args.learn:
         learn = json.loads((args.learn / "metrics.json").read_text())
         replay = json.loads((args.reproduce / "metrics.json").read_text()) if args.reproduce else None
@@ -50,6 +66,8 @@ def main():
         target.mkdir(parents=True, exist_ok=True)
         for figure in (run_dir / "figures").glob("*.png"):
             shutil.copy(figure, target / figure.name)
+        if (run_dir / "probe" / "probe.png").exists():   # hlcmp report probes each arm world
+            shutil.copy(run_dir / "probe" / "probe.png", target / "probe.png")
     print(f"README.md and docs/figures updated from {', '.join(map(str, run_dirs.values()))}")
 
 

@@ -31,3 +31,21 @@ def test_smoothness_is_the_sum_of_second_differences():
     f = np.array([[0.0], [1.0], [4.0], [9.0]])     # second differences 2, 2
     assert force_smoothness(f)[0] == pytest.approx(4.0)
     assert force_smoothness(np.linspace(0, 5, 20)[:, None])[0] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_probe_readings_by_hand():
+    from hlcmp_drake.core.metrics import probe_readings
+
+    distance = np.arange(61) * 0.001 - 0.01            # 1 mm steps; contact from sample 11 (1 mm)
+    resisting = np.zeros(61)
+    resisting[10:30] = 500 * distance[10:30]          # rises to 9.5 N at 19 mm ...
+    resisting[30:] = 3.0                               # ... then the foam gives way
+    lateral = np.full(61, 0.1)
+    lateral[40] = -0.4
+    in_push = np.ones(61, bool)
+    readings = probe_readings(distance, resisting, lateral, in_push)
+    assert readings["peak_force_N"] == pytest.approx(9.5)
+    assert readings["depth_at_peak_m"] == pytest.approx(0.018)  # from the first sample above 0.05 N
+    assert readings["residual_force_N"] == pytest.approx(3.0)
+    assert readings["max_lateral_force_N"] == pytest.approx(0.4)
+    assert readings["min_resisting_force_N"] == 0.0

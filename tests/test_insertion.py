@@ -4,6 +4,7 @@
 import json
 import subprocess
 import sys
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -11,12 +12,14 @@ import pytest
 
 from hlcmp_drake.worlds.build import diagram_factory
 from hlcmp_drake.experiments import insertion
-from hlcmp_drake.io.paths import DIAGRAMS_DIR, REPO_ROOT
+from hlcmp_drake.io.paths import DIAGRAMS_DIR
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.scenario import ArmTask, ConstantImpedanceConfig, DemonstrationConfig, HlcmpConfig
 from hlcmp_drake.run.simulate import simulate
 
-CONTROLLERS = ["hlcmp", "const_500", "const_1000", "const_2000"]
+REPO_ROOT = Path(__file__).resolve().parents[1]   # the checkout (README.md, scripts/, .ci/)
+
+CONTROLLERS = ["hlcmp", "hlcmp_per_step", "const_500", "const_1000", "const_2000"]
 FIGURES = ["fig4_profiles_z.png", "fig5_position_force.png", "fig6_position_error.png",
            "fig7_mean_force.png", "fig8_smoothness.png"]
 
@@ -30,6 +33,8 @@ def test_scenario_file_loads_with_the_paper_values():
     assert isinstance(hl, HlcmpConfig)
     assert (hl.q_k, hl.q_d, hl.q_v) == ([3000.0] * 3, [90.0] * 3, [9.0] * 3)
     assert hl.theta_k0 == hl.theta_d0 == hl.theta_v0 == 0.0
+    per_step = scenario.controllers["hlcmp_per_step"]   # the same Q, read per 1 ms control step
+    assert (per_step.q_k, per_step.q_units, per_step.rate_scale()) == (hl.q_k, "per_step", 1000.0)
     for k in (500, 1000, 2000):
         config = scenario.controllers[f"const_{k}"]
         assert isinstance(config, ConstantImpedanceConfig) and config.stiffness_N_per_m == [k] * 3
@@ -56,7 +61,9 @@ def test_run_writes_the_contract(insertion_run):
         for key in ("mean_abs_position_error_m", "mean_abs_force_N", "force_smoothness_N", "max_abs_force_N"):
             assert set(m[key]) == {"x", "y", "z"}
     assert "ff_to_commanded_force_ratio_z" in metrics["controllers"]["hlcmp"]
-    assert set(metrics["claims"]) == {"C1", "C2", "C3", "C4"}
+    assert list(metrics["claims"]) == ["hlcmp", "hlcmp_per_step"]   # one set of claims per reading of Q
+    assert all(set(claims) == {"C1", "C2", "C3", "C4"} for claims in metrics["claims"].values())
+    assert metrics["learners"] == {"hlcmp": {"q_units": "per_second"}, "hlcmp_per_step": {"q_units": "per_step"}}
     data = np.load(insertion_run / "timeseries.npz")
     T = len(data["t"])
     for name in CONTROLLERS:

@@ -52,5 +52,5 @@ def test_one_table_three_renderings():
     assert len({len(line) for line in text[:2]}) == 1          # aligned columns
     markdown = to_markdown(table)
     assert "| `hlcmp` | 1.25 | yes |" in markdown and "mean \\|e\\| [mm]" in markdown
-    html = to_html(table, verdict_column="reproduced")
+    html = to_html(table, verdict_columns=("reproduced",))
     assert "<td class='yes'>yes</td>" in html and "<code>const_500</code>" in html

@@ -1,9 +1,9 @@
 """The README's promises that a test can check."""
 
 import re
+from pathlib import Path
 
-from hlcmp_drake.io.paths import REPO_ROOT
-
+REPO_ROOT = Path(__file__).resolve().parents[1]   # the checkout (README.md, scripts/, .ci/)
 README = (REPO_ROOT / "README.md").read_text()
 
 

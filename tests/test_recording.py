@@ -9,8 +9,8 @@ import pytest
 pytestmark = pytest.mark.slow   # both read the recordings of whole bundled scenarios
 
 RUNS = {
-    "one_dof_run": (["hlcmp", "vic_fd_0.5", "vic_fd_1.5", "vic_fd_5.0"], "body_visual"),
-    "insertion_run": (["hlcmp", "const_500", "const_1000", "const_2000"], "foam_visual"),
+    "one_dof_run": (["hlcmp", "hlcmp_per_step", "vic_fd_0.5", "vic_fd_1.5", "vic_fd_5.0"], "body_visual"),
+    "insertion_run": (["hlcmp", "hlcmp_per_step", "const_500", "const_1000", "const_2000"], "foam_visual"),
 }
 
 

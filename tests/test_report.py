@@ -5,11 +5,14 @@ import json
 import re
 import shutil
 import subprocess
+from pathlib import Path
 
 import pytest
 
 from hlcmp_drake.experiments import EXPERIMENTS
 from hlcmp_drake.present.report import ReportSection, report_page
+
+REPO_ROOT = Path(__file__).resolve().parents[1]   # the checkout (README.md, scripts/, .ci/)
 
 
 @pytest.fixture(scope="session")
@@ -26,7 +29,7 @@ def test_every_local_link_and_image_resolves(report):
     page, _ = report
     text = page.read_text()
     targets = re.findall(r"(?:src|href)='([^'#][^']*)'", text)
-    assert len([t for t in targets if t.endswith(".png")]) == 1 + 5 + 2
+    assert len([t for t in targets if t.endswith(".png")]) == 1 + 6 + 2   # Fig. 4 once per reading of Q
     assert sum(t.endswith("recording.html") for t in targets) == 3
     for target in targets:
         assert not target.startswith(("http:", "https:", "//")), target
@@ -38,7 +41,7 @@ def test_every_number_is_the_runs_own(report):
     text = page.read_text()
     for section in sections:
         metrics = json.loads((section.run_dir / "metrics.json").read_text())
-        for name, claim in metrics["claims"].items():
+        for claim in (c for by_claim in metrics["claims"].values() for c in by_claim.values()):
             assert html.escape(claim["evidence"]) in text
 
 
@@ -52,7 +55,7 @@ def test_the_page_renders_in_chromium_with_every_image(report, tmp_path):
          "--disable-component-update", "--disable-sync", "--no-first-run",
          f"--user-data-dir={tmp_path / 'profile'}", "--virtual-time-budget=5000", "--dump-dom", page.as_uri()],
         capture_output=True, text=True, timeout=180)
-    assert result.stdout.count("<img") == 8
+    assert result.stdout.count("<img") == 9
     images = re.findall(r"<img[^>]*>", result.stdout)
     assert images and not [img for img in images if re.search(r'class="[^"]*missing', img)]
     assert result.stdout.count("<h2 id=") == 3
@@ -68,7 +71,6 @@ def test_report_command_runs_the_scenarios(tmp_path):
 
 
 def test_readme_claims_summary_comes_from_the_runs(one_dof_run, insertion_run, cutting_run):
-    from hlcmp_drake.io.paths import REPO_ROOT
     from hlcmp_drake.present.report import claims_summary_table
     from hlcmp_drake.present.tables import to_markdown
 

@@ -13,7 +13,7 @@ ONE_DOF = (DIAGRAMS_DIR / "one_dof.yaml").read_text()
 def test_bundled_one_dof_loads_into_typed_configs():
     scenario, path = load_scenario("one_dof")
     assert path.name == "one_dof.yaml"
-    assert list(scenario.controllers) == ["hlcmp", "vic_fd_0.5", "vic_fd_1.5", "vic_fd_5.0"]
+    assert list(scenario.controllers) == ["hlcmp", "hlcmp_per_step", "vic_fd_0.5", "vic_fd_1.5", "vic_fd_5.0"]
     hl = scenario.controllers["hlcmp"]
     assert isinstance(hl, HlcmpConfig)
     assert (hl.q_k, hl.q_d, hl.q_v) == ([2000.0], [500.0], [0.0])

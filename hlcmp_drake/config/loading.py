@@ -20,7 +20,41 @@ from pydrake.common.yaml import yaml_load_typed
 from hlcmp_drake.config.scenario import DemonstrationConfig, Scenario
 from hlcmp_drake.config.validation import validate_scenario
 from hlcmp_drake.io.errors import InputError
-from hlcmp_drake.io.paths import DIAGRAMS_DIR, bundled_scenarios
+from hlcmp_drake.io.paths import DIAGRAMS_DIR
+
+
+def resolve_yaml(name_or_path: str | Path, folder: Path, kind: str) -> Path:
+    """The YAML file a user names: a path ending in .yaml/.yml as it is, else a bundled
+    file `folder`/NAME.yaml.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+    folder : Path
+        Where the bundled files of this kind live.
+    kind : str
+        What they are ("scenario", "sweep"), for the message.
+
+    Returns
+    -------
+    Path
+        The file, which exists.
+
+    Raises
+    ------
+    InputError
+        When the path is not a file, or the name is no bundled file (the message lists them).
+    """
+    path = Path(name_or_path)
+    if path.suffix in (".yaml", ".yml"):
+        if not path.is_file():
+            raise InputError(f"{path}: no such {kind} file")
+        return path
+    bundled = folder / f"{name_or_path}.yaml"
+    if bundled.is_file():
+        return bundled
+    names = ", ".join(sorted(p.stem for p in folder.glob("*.yaml")))
+    raise InputError(f"{name_or_path}: not a bundled {kind} ({names}) nor a .yaml file")
 
 
 def resolve_scenario_path(name_or_path: str | Path) -> Path:
@@ -29,28 +63,9 @@ def resolve_scenario_path(name_or_path: str | Path) -> Path:
     Parameters
     ----------
     name_or_path : str or Path
-        A path ending in .yaml/.yml (used as is), else a bundled scenario's name.
-
-    Returns
-    -------
-    Path
-        The scenario file, which exists.
-
-    Raises
-    ------
-    InputError
-        When the .yaml path is not a file, or the name is no bundled scenario.
+        See `resolve_yaml`.
     """
-    path = Path(name_or_path)
-    if path.suffix in (".yaml", ".yml"):
-        if not path.is_file():
-            raise InputError(f"{path}: no such scenario file")
-        return path
-    bundled = DIAGRAMS_DIR / f"{name_or_path}.yaml"
-    if bundled.is_file():
-        return bundled
-    raise InputError(f"{name_or_path}: not a bundled scenario ({', '.join(bundled_scenarios())}) "
-                     "nor a .yaml file")
+    return resolve_yaml(name_or_path, DIAGRAMS_DIR, "scenario")
 
 
 def line_of(text: str, dotted_key: str) -> int | None:
@@ -243,6 +258,38 @@ def load_scenario(name_or_path: str | Path, overrides: Sequence[str | dict] = ()
         text = path.read_text()
     except (OSError, UnicodeDecodeError) as error:
         raise InputError(f"{path}: cannot be read as text ({error.__class__.__name__})") from None
+    return _load_text(text, path, overrides), path
+
+
+def load_scenario_text(text: str, path: str | Path, overrides: Sequence[str | dict] = ()) -> Scenario:
+    """Load, override and validate a scenario given as YAML text (e.g. one that
+    `pydrake.common.yaml.yaml_dump_typed` wrote, as a sweep ships it to its workers).
+
+    Parameters
+    ----------
+    text : str
+        The scenario's YAML document.
+    path : str or Path
+        The file the text stands for: messages name it, and a relative demonstration file
+        is looked up in its folder (the file itself need not exist).
+    overrides : sequence of str or dict
+        As for `load_scenario`.
+
+    Returns
+    -------
+    Scenario
+        The scenario, its demonstration file resolved to an absolute path.
+
+    Raises
+    ------
+    InputError
+        One line naming `path` and the line, or the override, and what is wrong.
+    """
+    return _load_text(text, Path(path), overrides)
+
+
+def _load_text(text: str, path: Path, overrides: Sequence[str | dict]) -> Scenario:
+    """`load_scenario` after the file is read: parse, override, validate, resolve."""
     try:
         scenario = yaml_load_typed(schema=Scenario, data=text)
     except Exception as error:  # yaml errors come as several exception types
@@ -265,7 +312,7 @@ def load_scenario(name_or_path: str | Path, overrides: Sequence[str | dict] = ()
     if isinstance(scenario.reference, DemonstrationConfig):
         # Resolve the demonstration next to the scenario file, once, for every later user.
         scenario.reference.file = str((path.parent / scenario.reference.file).resolve())
-    return scenario, path
+    return scenario
 
 
 def scenario_error(path: Path, dotted_key: str, problem: str) -> InputError:

@@ -107,9 +107,16 @@ class StepReferenceConfig:
 class HlcmpConfig(ControllerChecks):
     """The Hl-CMP learner: learning rates Q per axis (Eq. 31), pi (Eq. 29), L (Eq. 34),
     and the initial value of every weight of theta_k, theta_d, theta_v. Checked: pi > 0,
-    L and every Q per axis and non-negative."""
+    L and every Q per axis and non-negative, `q_units` one of Q_UNITS.
+
+    `q_units` says how to read Q, which the paper leaves open: "per_second" integrates
+    Eq. 31 as written, theta' = Q eps e g; "per_step" is Table I's "for each time step t:
+    compute the increment rates (Eq. 31) ... update these parameters", theta <- theta +
+    Q eps e g once per control step of `control_step_s`, i.e. Q / control_step_s in
+    continuous time. Either way theta is continuous state that Drake integrates."""
 
     PER_AXIS = {"gain_l": ">= 0", "q_k": ">= 0", "q_d": ">= 0", "q_v": ">= 0"}
+    Q_UNITS = ("per_second", "per_step")
 
     q_k: list[float] = dc.field(default_factory=list)
     q_d: list[float] = dc.field(default_factory=list)
@@ -119,6 +126,26 @@ class HlcmpConfig(ControllerChecks):
     theta_k0: float = 0.0
     theta_d0: float = 0.0
     theta_v0: float = 0.0
+    q_units: str = "per_second"
+    control_step_s: float = 0.001
+
+    def rate_scale(self) -> float:
+        """The factor from the configured Q to the rate Drake integrates [1, or 1/s per step].
+
+        Returns
+        -------
+        float
+            1 for "per_second"; 1 / control_step_s for "per_step".
+        """
+        return 1.0 if self.q_units == "per_second" else 1.0 / self.control_step_s
+
+    def _check_scalars(self, name: str, fail: Fail) -> None:
+        super()._check_scalars(name, fail)
+        if self.q_units not in self.Q_UNITS:
+            fail(f"controllers.{name}.q_units",
+                 f"controller '{name}': q_units must be one of {', '.join(self.Q_UNITS)}, got '{self.q_units}'")
+        if not self.control_step_s > 0:
+            fail(f"controllers.{name}.control_step_s", f"controller '{name}': control_step_s must be positive")
 
 
 @dc.dataclass
@@ -177,6 +204,48 @@ class SliderTask:
 
 
 @dc.dataclass
+class PunctureConfig:
+    """A foam that gives way. The paper's insertion rests on it ("after the tool piercing the
+    foam plank ... the external resistance becomes smaller"), but hydroelastic contact is
+    elastic and has no memory of the hole a tool makes: past the mid-plane the field would
+    pull the tool through. So the tear and the torn hole are modelled explicitly:
+
+    - the tear: when the tool point first reaches `depth_m` below the object's top face
+      while moving in, the contact between the tool and the object ends for the rest of
+      the run (a collision filter set in the simulation);
+    - the hole: from then on, while the tool is in it, an axial friction force
+      F = hole_friction_N_per_m * (length of tool inside the object) * tanh(v / sliding_speed_m_per_s)
+      opposes the tool's motion v along its axis (the tool's `tool_direction`).
+
+    `object_frame` names the object's frame at the centre of its top face with +z out of
+    the object; empty means no puncture. The values are chosen with `hlcmp probe` alone
+    (docs/worlds.md): the tear at the mid-plane is where the elastic force peaks, and
+    150 N/m leaves a residual of about a third of the peak."""
+
+    object_frame: str = ""
+    thickness_m: float = 0.03
+    depth_m: float = 0.015
+    hole_friction_N_per_m: float = 150.0
+    sliding_speed_m_per_s: float = 0.002
+
+    def check(self, fail: Fail) -> None:
+        """Positive thickness, a tear depth within it, non-negative friction, positive speed.
+
+        Parameters
+        ----------
+        fail : callable(dotted_key: str, problem: str)
+            Raises the InputError that names where the key was set.
+        """
+        if not self.object_frame:
+            return
+        if not 0 < self.depth_m <= self.thickness_m:
+            fail("task.puncture.depth_m", f"must be in (0, thickness_m = {self.thickness_m}], got {self.depth_m}")
+        if not (self.hole_friction_N_per_m >= 0 and self.sliding_speed_m_per_s > 0):
+            fail("task.puncture.hole_friction_N_per_m",
+                 "hole_friction_N_per_m >= 0 and sliding_speed_m_per_s > 0 are required")
+
+
+@dc.dataclass
 class ArmTask:
     """A torque-controlled arm (the iiwa) whose task space is the translation of a tool
     point. The start posture comes from inverse kinematics at the demonstration's start
@@ -197,6 +266,7 @@ class ArmTask:
     posture_damping_Nms_per_rad: float = 5.0
     max_contact_force_N: float = 200.0
     max_saturation_s: float = 0.25
+    puncture: PunctureConfig = dc.field(default_factory=PunctureConfig)
 
     def check(self, fail: Fail) -> None:
         """Check axes distinct in {0, 1, 2}, the tool direction and orientation, gains >= 0
@@ -226,6 +296,9 @@ class ArmTask:
             fail("task.max_contact_force_N", "must be positive")
         if not self.max_saturation_s > 0:
             fail("task.max_saturation_s", "must be positive")
+        self.puncture.check(fail)
+        if self.puncture.object_frame and list(self.axes) != [0, 1, 2]:
+            fail("task.puncture.object_frame", "a puncture needs the task axes [0, 1, 2] (the tool point in 3-D)")
 
 
 @dc.dataclass
@@ -251,6 +324,26 @@ class RecordingConfig:
 
 
 @dc.dataclass
+class ProbeConfig:
+    """`hlcmp probe`: the scenario's world measured alone. The tool, without the arm, rides a
+    stiff prescribed-motion carriage (no controller under test): from `start_m` (the tool
+    point, world), an unmeasured `approach_m` (e.g. down into the block before a cut), then
+    the measured push `push_m` at `speed_m_per_s`, then back along the same path. The
+    force across the push counts as lateral; with `lateral_axis` only its component along
+    that axis does (cutting: the blade's normal, not the block's upward reaction).
+    `tilt_rad` tilts the tool about the world y axis, to show whether the contact depends
+    on a tilt a controller could cause."""
+
+    arm_model: str = "iiwa"
+    start_m: list[float] = dc.field(default_factory=list)
+    approach_m: list[float] = dc.field(default_factory=list)
+    push_m: list[float] = dc.field(default_factory=list)
+    lateral_axis: list[float] = dc.field(default_factory=list)
+    speed_m_per_s: float = 0.03
+    tilt_rad: float = 0.0
+
+
+@dc.dataclass
 class Scenario:
     """A whole scenario: the world (models, plant and simulator configs, task), the
     reference motion, the DMP settings and the controllers to compare.
@@ -272,6 +365,7 @@ class Scenario:
     controllers: dict[str, ControllerConfig] = dc.field(default_factory=dict)
     max_abs_position_m: float = 10.0
     recording: RecordingConfig = dc.field(default_factory=RecordingConfig)
+    probe: ProbeConfig = dc.field(default_factory=ProbeConfig)
 
     @property
     def n_axes(self) -> int:

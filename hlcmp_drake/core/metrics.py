@@ -121,3 +121,43 @@ def max_abs_force(f: np.ndarray) -> np.ndarray:
         Per axis, the largest |f| of the run [N].
     """
     return np.max(np.abs(f), axis=0)
+
+
+def probe_readings(distance: np.ndarray, resisting: np.ndarray, lateral: np.ndarray,
+                   in_push: np.ndarray, contact_threshold: float = 0.05) -> dict:
+    """What `hlcmp probe` reports of a tool pushed through an object at constant speed.
+
+    Parameters
+    ----------
+    distance : (T,) array
+        The tool point's travel along the push from where the push starts [m].
+    resisting : (T,) array
+        The force on the tool against the push [N] (negative: the object pulls it on).
+    lateral : (T,) array
+        The magnitude of the force across the push (or along the lateral axis) [N].
+    in_push : (T,) bool array
+        The samples of the push itself (not the approach nor the way back).
+    contact_threshold : float
+        Resisting force [N] above which the push counts as in contact.
+
+    Returns
+    -------
+    dict
+        peak_force_N (largest resisting force in the push), depth_at_peak_m (travel from
+        the first contact of the push to the peak), residual_force_N (mean resisting
+        force over the last third of the push after the peak), max_lateral_force_N (over
+        the whole path), min_resisting_force_N (the strongest pull-in, if negative).
+    """
+    push = np.flatnonzero(in_push)
+    peak = push[int(np.argmax(resisting[push]))]
+    touching = push[resisting[push] > contact_threshold]
+    first_contact = touching[0] if touching.size else push[0]
+    after_peak = push[push >= peak]
+    last_third = after_peak[len(after_peak) - max(1, len(after_peak) // 3):]
+    return {
+        "peak_force_N": float(resisting[peak]),
+        "depth_at_peak_m": float(distance[peak] - distance[first_contact]),
+        "residual_force_N": float(np.mean(resisting[last_third])),
+        "max_lateral_force_N": float(np.max(np.abs(lateral))),
+        "min_resisting_force_N": float(np.min(resisting[push])),
+    }

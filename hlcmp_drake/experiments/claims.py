@@ -65,20 +65,56 @@ def smoother_force(metrics: dict, learner_name: str, constants: list[str], label
     }
 
 
-def claims_table(claims: dict) -> Table:
-    """The claims as a Table, one row per claim.
+# How each reading of Q (HlcmpConfig.q_units) is named in tables.
+READINGS = {"per_second": "Q per second (Eq. 31)", "per_step": "Q per control step (Table I)"}
+
+
+def reading_label(name: str, learners: dict) -> str:
+    """A learner's column header: its label and its reading of Q.
+
+    Parameters
+    ----------
+    name : str
+        The learner's label (or the key of claims made without one).
+    learners : dict
+        metrics.json's `learners`: {label: {"q_units": ...}}.
+    """
+    units = learners.get(name, {}).get("q_units")
+    return f"{name}: {READINGS[units]}" if units in READINGS else name
+
+
+def verdicts_table(claims: dict, learners: dict) -> Table:
+    """One row per claim, one verdict column per learner (reading of Q).
 
     Parameters
     ----------
     claims : dict
-        {claim name: {"paper_says", "evidence", "holds", ...}}, as in metrics.json.
-
-    Returns
-    -------
-    Table
-        Columns claim, the paper says, we measured, reproduced ("yes"/"no").
+        metrics.json's `claims`: {learner: {claim: {"paper_says", "holds", ...}}}.
+    learners : dict
+        metrics.json's `learners`.
     """
-    table = Table(["claim", "the paper says", "we measured", "reproduced"])
-    for name, claim in claims.items():
-        table.add(name, claim["paper_says"], claim["evidence"], "yes" if claim["holds"] else "no")
+    names = list(claims)
+    rows = {}
+    for name in names:
+        for claim_name, claim in claims[name].items():
+            rows.setdefault(claim_name, {"paper_says": claim["paper_says"]})[name] = claim["holds"]
+    table = Table(["claim", "the paper says"] + [reading_label(n, learners) for n in names])
+    for claim_name, row in rows.items():
+        table.add(claim_name, row["paper_says"],
+                  *("–" if n not in row else ("yes" if row[n] else "no") for n in names))
+    return table
+
+
+def evidence_table(claims: dict, learners: dict) -> Table:
+    """What was measured for each claim under each reading of Q, one row each.
+
+    Parameters
+    ----------
+    claims, learners : dict
+        As for `verdicts_table`; each claim's "evidence" is shown.
+    """
+    table = Table(["claim", "run", "we measured", "reproduced"])
+    for name, by_claim in claims.items():
+        for claim_name, claim in by_claim.items():
+            table.add(claim_name, reading_label(name, learners), claim["evidence"], "yes" if claim["holds"] else "no")
     return table

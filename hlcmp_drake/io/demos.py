@@ -3,7 +3,9 @@
 Format: a header line `t,x,y,z` -- `t` in seconds first, then 1 to 3 position columns
 named from x, y, z (metres, in that order) -- and one sample per line, time strictly
 increasing, at least MIN_SAMPLES samples. Trajectory files may add velocity columns
-`vx,vy,vz` after the positions. Every problem is an InputError naming file and line.
+`vx,vy,vz` after the positions. Files are UTF-8; a byte-order mark at the start (as
+spreadsheet programs write "CSV UTF-8") is accepted. Every problem is an InputError
+naming file and line.
 """
 
 from __future__ import annotations
@@ -49,7 +51,7 @@ def read_demonstration(path: str | Path, with_lines: bool = False) -> tuple:
     if path.is_dir():
         raise InputError(f"{path}: is a directory, not a CSV file")
     try:
-        text = path.read_text()
+        text = path.read_text(encoding="utf-8-sig")   # a BOM, invisible to the user, is dropped
     except (OSError, UnicodeDecodeError) as error:
         raise InputError(f"{path}: cannot be read as text ({error.__class__.__name__})") from None
     lines = [(n, line) for n, line in enumerate(text.splitlines(), start=1) if line.strip()]

@@ -1,5 +1,10 @@
 """Writing results so that nothing already in the output folder is lost or half-written:
-every file goes to a temporary name in the same folder and is moved into place."""
+every file goes to a temporary name in the same folder and is moved into place.
+
+`check_output_folder` and `check_output_file` say before any work whether a command's
+output path can be written at all (a file where a folder is needed, a folder where a
+file is needed, a folder that cannot be created or written in), as one InputError.
+"""
 
 from __future__ import annotations
 
@@ -11,10 +16,95 @@ from pathlib import Path
 
 import numpy as np
 
+from hlcmp_drake.io.errors import InputError
+
 
 _UMASK = os.umask(0)
 os.umask(_UMASK)
 WRITTEN = []   # every path written in this process, in order (for the interrupt message)
+
+
+def _existing_ancestor(path: Path) -> Path:
+    """`path` itself or its nearest ancestor that exists, as the user wrote it."""
+    for candidate in (path, *path.parents):
+        if os.path.lexists(candidate):
+            return candidate
+    return Path(".")
+
+
+def _check_folder(folder: Path, shown: str, given: Path) -> None:
+    """InputError unless files can be written in `folder` (or in its nearest existing
+    ancestor, where it would be made): creating one is tried, so read-only file systems
+    and root count as they really are."""
+    found = _existing_ancestor(folder)
+    if not found.is_dir():
+        where = "" if found == given else f"{found} "
+        raise InputError(f"{shown}: {where}is a file, not a folder")
+    try:
+        handle, temp = tempfile.mkstemp(prefix=".hlcmp-check.", dir=found)
+    except OSError as error:
+        raise InputError(f"{shown}: cannot write in {found} ({error.strerror or error})") from None
+    os.close(handle)
+    os.unlink(temp)
+
+
+def check_output_folder(path: str | Path, option: str = "--out") -> Path:
+    """Check, before any work, that results can be written into the folder `path`.
+
+    The folder may exist (its files are replaced one by one, atomically) or not (it is
+    made when the first file is written; nothing is created here).
+
+    Parameters
+    ----------
+    path : str or Path
+        The output folder.
+    option : str
+        How the user gave it, for the message (e.g. "--out").
+
+    Returns
+    -------
+    Path
+        `path` as a Path.
+
+    Raises
+    ------
+    InputError
+        ``--out PATH: is a file, not a folder`` when it or one of its parents is a file,
+        ``--out PATH: cannot write in FOLDER (...)`` when the folder (or the nearest one
+        that exists) does not let us create files.
+    """
+    path = Path(path)
+    _check_folder(path, f"{option} {path}", path)
+    return path
+
+
+def check_output_file(path: str | Path, option: str = "--out") -> Path:
+    """Check, before any work, that the file `path` can be written (created or replaced).
+
+    Parameters
+    ----------
+    path : str or Path
+        The output file; an existing file is replaced atomically at the end.
+    option : str
+        How the user gave it, for the message (e.g. "--out").
+
+    Returns
+    -------
+    Path
+        `path` as a Path.
+
+    Raises
+    ------
+    InputError
+        ``--out PATH: is a folder, not a file`` (also for a path ending in a separator),
+        or as `check_output_folder` for the folder it goes in.
+    """
+    shown = f"{option} {path}"
+    if str(path).endswith(("/", os.sep)) or Path(path).is_dir():
+        raise InputError(f"{shown}: is a folder, not a file")
+    path = Path(path)
+    _check_folder(path.parent, shown, path)
+    return path
 
 
 def atomic_write(path: str | Path, write: Callable[[str], object]) -> Path:

@@ -7,6 +7,7 @@ profiles' weights (M x N each). Loading checks the version, the keys and every s
 
 from __future__ import annotations
 
+import codecs
 import dataclasses as dc
 import zipfile
 from pathlib import Path
@@ -17,6 +18,8 @@ from hlcmp_drake.core.dmp import Dmp, DmpSettings
 from hlcmp_drake.io.errors import InputError
 
 FORMAT_VERSION = 1
+NOT_A_SKILL = "not a skill file (a .npz written by hlcmp fit/learn)"
+_ZIP_MAGIC = (b"PK\x03\x04", b"PK\x05\x06")   # a .npz is a zip archive
 
 
 @dc.dataclass(frozen=True)
@@ -109,12 +112,15 @@ def load_skill(path: str | Path) -> Skill:
     def fail(problem):
         return InputError(f"{path}: {problem}")
 
+    _check_is_zip(Path(path), fail)
     try:
         with np.load(path, allow_pickle=False) as data:
             arrays = {key: data[key] for key in data.files}
     except FileNotFoundError:
         raise fail("no such file") from None
     except (OSError, ValueError, zipfile.BadZipFile, EOFError) as error:
+        if "pickle" in str(error):   # numpy's advice (allow_pickle) is not for a skill file
+            raise fail("not a skill file: it holds Python objects, which no skill file does") from None
         raise fail(f"not a readable skill file ({' '.join(str(error).split())[:120]})") from None
     if "format_version" not in arrays:
         raise fail("not a skill file: no 'format_version'")
@@ -151,3 +157,27 @@ def load_skill(path: str | Path) -> Skill:
               arrays["amplitude"].astype(float), arrays["goal_scaled"].astype(bool), axes)
     return Skill(dmp, arrays["theta_k"].astype(float), arrays["theta_d"].astype(float),
                  arrays["theta_v"].astype(float))
+
+
+def _check_is_zip(path, fail):
+    """A skill file is a zip archive (.npz); anything else gets one clear message instead
+    of numpy's, which would guess a pickle and advise allow_pickle."""
+    if not path.exists():
+        raise fail("no such file")
+    if path.is_dir():
+        raise fail(f"is a folder, {NOT_A_SKILL}")
+    try:
+        with open(path, "rb") as stream:
+            head = stream.read(512)
+    except OSError as error:
+        raise fail(f"cannot be read ({error.strerror or error})") from None
+    if head[:4] in _ZIP_MAGIC:
+        return
+    hint = ""
+    if head and b"\0" not in head:
+        try:
+            codecs.getincrementaldecoder("utf-8")().decode(head, final=False)   # may end mid-character
+            hint = "; this is a text file (a demonstration CSV becomes a skill with hlcmp fit)"
+        except UnicodeDecodeError:
+            pass
+    raise fail(("the file is empty, " if not head else "") + NOT_A_SKILL + hint)

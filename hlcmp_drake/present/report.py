@@ -11,7 +11,7 @@ from pathlib import Path
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.experiments import EXPERIMENTS, Experiment, experiment_of
-from hlcmp_drake.experiments.claims import claims_table
+from hlcmp_drake.experiments.claims import evidence_table, reading_label, verdicts_table
 from hlcmp_drake.experiments.table import Table
 from hlcmp_drake.present.tables import to_html, to_markdown
 
@@ -26,22 +26,35 @@ def results_markdown(metrics: dict, experiment: Experiment) -> str:
     experiment : Experiment
         The experiment the scenario names.
     """
+    learners = metrics.get("learners", {})
     return (to_markdown(experiment.table(metrics["controllers"])) + "\n"
-            + to_markdown(claims_table(metrics["claims"]), code_first_column=False))
+            + to_markdown(verdicts_table(metrics["claims"], learners), code_first_column=False) + "\n"
+            + to_markdown(evidence_table(metrics["claims"], learners), code_first_column=False))
 
 
 def claims_summary_table(all_metrics: dict) -> Table:
-    """One row per claim per scenario.
+    """One row per claim per scenario, one verdict column per reading of Q.
 
     Parameters
     ----------
     all_metrics : dict
         {scenario name: its metrics.json content}, in the order of the rows.
     """
-    table = Table(["claim", "experiment", "the paper says", "reproduced here"])
-    for name, metrics in all_metrics.items():
-        for claim_name, claim in metrics["claims"].items():
-            table.add(claim_name, name, claim["paper_says"], "**yes**" if claim["holds"] else "**no**")
+    readings = {}   # column header -> (learner label) in first-seen order
+    for metrics in all_metrics.values():
+        for name in metrics["claims"]:
+            readings.setdefault(reading_label(name, metrics.get("learners", {})), None)
+    headers = list(readings)
+    table = Table(["claim", "experiment", "the paper says"] + headers)
+    for scenario, metrics in all_metrics.items():
+        rows = {}
+        for name, by_claim in metrics["claims"].items():
+            column = reading_label(name, metrics.get("learners", {}))
+            for claim_name, claim in by_claim.items():
+                rows.setdefault(claim_name, {"paper_says": claim["paper_says"]})[column] = claim["holds"]
+        for claim_name, row in rows.items():
+            table.add(claim_name, scenario, row["paper_says"],
+                      *("–" if h not in row else ("**yes**" if row[h] else "**no**") for h in headers))
     return table
 
 
@@ -117,13 +130,27 @@ code { background: #f4f4f4; padding: 0 0.2em; }
 
 @dc.dataclass
 class ReportSection:
-    """One scenario's part of the report: its name, run folder, wall time [s], and the
-    experiment that evaluated it."""
+    """One scenario's part of the report: its name, run folder, wall time [s], the
+    experiment that evaluated it, and the folder of its world's probe (None: no probe)."""
 
     name: str
     run_dir: Path
     wall_s: float
     experiment: Experiment
+    probe_dir: Path | None = None
+
+
+def _probe_html(out_dir: Path, probe_dir: Path) -> str:
+    """The world probe's numbers and figure (see `hlcmp probe`, docs/worlds.md)."""
+    readings = json.loads((probe_dir / "probe.json").read_text())
+    rel = probe_dir.resolve().relative_to(out_dir.resolve()).as_posix()
+    return (f"<h3>The world alone (hlcmp probe)</h3><p>The tool on a stiff carriage, no controller, at "
+            f"{readings['speed_m_per_s']:.3f} m/s: peak resisting force <b>{readings['peak_force_N']:.2f} N</b> "
+            f"{1000 * readings['depth_at_peak_m']:.1f} mm after first contact, residual "
+            f"<b>{readings['residual_force_N']:.2f} N</b>, max lateral force "
+            f"<b>{readings['max_lateral_force_N']:.3f} N</b>; {html.escape(readings['status'])}. "
+            f"<a href='{rel}/probe.json'>probe.json</a></p>"
+            f"<img src='{rel}/probe.png' alt='probe' onerror=\"this.classList.add('missing')\">")
 
 
 def report_page(out_dir: Path, sections: list) -> str:
@@ -156,9 +183,15 @@ def report_page(out_dir: Path, sections: list) -> str:
                      f"<a href='{rel}/recording.html'>3-D recording (offline)</a> · "
                      f"<a href='{rel}/metrics.json'>metrics.json</a> · "
                      f"<a href='{rel}/timeseries.npz'>timeseries.npz</a></p>")
-        parts.append("<h3>Claims</h3>" + to_html(claims_table(metrics.get("claims", {})),
-                                                  code_first_column=False, verdict_column="reproduced"))
+        claims, learners = metrics.get("claims", {}), metrics.get("learners", {})
+        verdicts = verdicts_table(claims, learners)
+        parts.append("<h3>Claims</h3>" + to_html(verdicts, code_first_column=False,
+                                                  verdict_columns=tuple(verdicts.headers[2:]))
+                     + to_html(evidence_table(claims, learners), code_first_column=False,
+                               verdict_columns=("reproduced",)))
         parts.append("<h3>Metrics</h3>" + to_html(experiment.table(metrics["controllers"])))
+        if section.probe_dir is not None:
+            parts.append(_probe_html(out_dir, Path(section.probe_dir)))
         parts.append("<h3>Figures</h3>")
         for figure in sorted((Path(run_dir) / "figures").glob("*.png")):
             parts.append(f"<img src='{rel}/figures/{figure.name}' alt='{figure.stem}' "

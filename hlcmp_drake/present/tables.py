@@ -47,7 +47,7 @@ def to_markdown(table: Table, code_first_column: bool = True) -> str:
     return "\n".join(lines) + "\n"
 
 
-def to_html(table: Table, code_first_column: bool = True, verdict_column: str | None = None) -> str:
+def to_html(table: Table, code_first_column: bool = True, verdict_columns: tuple = ()) -> str:
     """An HTML table, scrolling sideways when wide.
 
     Parameters
@@ -55,10 +55,10 @@ def to_html(table: Table, code_first_column: bool = True, verdict_column: str | 
     table : Table
     code_first_column : bool
         Show the first column's cells as <code>.
-    verdict_column : str, optional
-        The header of a column whose cells get the class of their text ("yes"/"no"), for colour.
+    verdict_columns : tuple of str
+        Headers of columns whose cells get the class of their text ("yes"/"no"), for colour.
     """
-    verdict = table.headers.index(verdict_column) if verdict_column in table.headers else None
+    verdicts = {table.headers.index(h) for h in verdict_columns if h in table.headers}
     head = "".join(f"<th>{html.escape(h)}</th>" for h in table.headers)
     rows = [f"<tr>{head}</tr>"]
     for row in table.rows:
@@ -67,7 +67,7 @@ def to_html(table: Table, code_first_column: bool = True, verdict_column: str | 
             text = html.escape(cell)
             if k == 0 and code_first_column:
                 text = f"<code>{text}</code>"
-            cls = f" class='{html.escape(cell)}'" if k == verdict else ""
+            cls = f" class='{html.escape(cell)}'" if k in verdicts else ""
             cells.append(f"<td{cls}>{text}</td>")
         rows.append(f"<tr>{''.join(cells)}</tr>")
     return "<div style='overflow-x: auto'><table>" + "".join(rows) + "</table></div>"

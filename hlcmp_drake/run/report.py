@@ -9,6 +9,7 @@ from pathlib import Path
 from hlcmp_drake.io.outputs import write_text
 from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.present.report import ReportSection, report_page
+from hlcmp_drake.run.probe import run_probe
 from hlcmp_drake.run.runner import run_scenario
 
 
@@ -44,7 +45,11 @@ def run_report(out_dir: str | Path, scenarios: list[str], reporter: Progress = S
         reporter.say(f"running {name} ...")
         began = time.perf_counter()
         result = run_scenario(name, out_dir / name, reporter)
-        sections.append(ReportSection(name, result.out_dir, time.perf_counter() - began, result.experiment))
+        probe_dir = None
+        if result.scenario.probe.push_m:   # the world alone, no controller (hlcmp probe)
+            probe_dir = run_probe(name, out_dir / name / "probe").out_dir
+        sections.append(ReportSection(name, result.out_dir, time.perf_counter() - began, result.experiment,
+                                      probe_dir))
         statuses.append(result.metrics["status"])
     page = write_text(out_dir / "index.html", report_page(out_dir, sections))
     return ReportResult(page, sections, statuses, time.perf_counter() - start)

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Callable, Sequence
 
 from hlcmp_drake.config.loading import load_scenario
-from hlcmp_drake.config.scenario import Scenario
+from hlcmp_drake.config.scenario import HlcmpConfig, Scenario
 from hlcmp_drake.config.variants import use_drake_models_iiwa
 from hlcmp_drake.experiments import Experiment, experiment_of
 from hlcmp_drake.experiments.table import Table
@@ -19,6 +19,8 @@ from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.present.recording import record_runs
 from hlcmp_drake.run.simulate import simulate
 from hlcmp_drake.worlds.build import diagram_factory
+
+NO_LEARNER = "without a learner"   # the claims' key when a scenario has no Hl-CMP
 
 
 def run_one(build: Callable, scenario: Scenario, controller: str, label: str | None = None,
@@ -70,8 +72,9 @@ def run_controllers(scenario: Scenario, reporter: Progress = SILENT,
 
 
 def evaluate(runs: dict[str, RunResult], scenario: Scenario, experiment: Experiment) -> dict:
-    """The metrics.json content: status, every controller's metrics, and the claims
-    (none when a run was unstable: its `instability` says where and why).
+    """The metrics.json content: status, every controller's metrics, each learner's reading
+    of Q (`learners`), and the claims judged for each learner (`claims`: {learner:
+    {claim: ...}}; none when a run was unstable: its `instability` says where and why).
 
     Parameters
     ----------
@@ -87,11 +90,14 @@ def evaluate(runs: dict[str, RunResult], scenario: Scenario, experiment: Experim
         "controllers": {n: experiment.controller_metrics(r, scenario.controllers[n], scenario)
                         for n, r in runs.items()},
     }
+    learners = scenario.controllers_of(HlcmpConfig)
+    metrics["learners"] = {name: {"q_units": scenario.controllers[name].q_units} for name in learners}
     if unstable:
         metrics["instability"] = unstable
         metrics["claims"] = {}
     else:
-        metrics["claims"] = experiment.claims(metrics["controllers"], scenario, runs)
+        metrics["claims"] = {name or NO_LEARNER: experiment.claims(metrics["controllers"], scenario, runs, name)
+                             for name in learners or [None]}
     return metrics
 
 
@@ -125,12 +131,14 @@ def write_results(out_dir: Path, scenario: Scenario, runs: dict, metrics: dict, 
 @dc.dataclass
 class ScenarioResult:
     """What `run_scenario` returns: the metrics.json content, where the files went, the
-    controllers' metrics as a Table, and the experiment that evaluated the runs."""
+    controllers' metrics as a Table, the experiment that evaluated the runs, and the
+    scenario as it ran."""
 
     metrics: dict
     out_dir: Path
     table: Table
     experiment: Experiment
+    scenario: Scenario
 
 
 def run_scenario(name_or_path: str | Path, out_dir: str | Path | None = None, reporter: Progress = SILENT,
@@ -141,23 +149,53 @@ def run_scenario(name_or_path: str | Path, out_dir: str | Path | None = None, re
     ----------
     name_or_path : str or Path
         A bundled scenario or a YAML file.
+    out_dir, reporter, drake_models_iiwa
+        As for `run_loaded_scenario`.
+    overrides : sequence of str
+        ``dotted.key=value`` overrides layered over the file (see `load_scenario`).
+    """
+    scenario, path = load_scenario(name_or_path, overrides)
+    return run_loaded_scenario(scenario, path, out_dir, reporter, drake_models_iiwa)
+
+
+def _no_claims(metrics: dict, scenario: Scenario, runs: dict | None = None, learner_name: str | None = None) -> dict:
+    return {}
+
+
+def run_loaded_scenario(scenario: Scenario, path: str | Path | None = None, out_dir: str | Path | None = None,
+                        reporter: Progress = SILENT, drake_models_iiwa: bool = False,
+                        claims: bool = True) -> ScenarioResult:
+    """Run, evaluate and write a scenario that is already loaded (`run_scenario` after
+    `load_scenario`; a sweep's worker after `load_scenario_text`).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        As loaded and validated.
+    path : str or Path, optional
+        Its file, which an error about its `experiment` line names.
     out_dir : str or Path, optional
         Where to write (default out/<scenario name>).
     reporter : Progress, optional
         Receives progress (silent by default).
     drake_models_iiwa : bool
         Use Drake's official iiwa14 model instead of ours (needs internet).
-    overrides : sequence of str
-        ``dotted.key=value`` overrides layered over the file (see `load_scenario`).
+    claims : bool
+        Evaluate the experiment's claims (default). A sweep that keeps only some of the
+        scenario's controllers turns them off: they compare controllers that are gone;
+        metrics.json then holds no claim.
+
+    Returns
+    -------
+    ScenarioResult
     """
-    scenario, path = load_scenario(name_or_path, overrides)
     experiment = experiment_of(scenario, path)
     if drake_models_iiwa:
         scenario = use_drake_models_iiwa(scenario)
     out_dir = Path(out_dir or Path("out") / scenario.name)
     build = diagram_factory(scenario)
     runs = run_controllers(scenario, reporter, build)
-    metrics = evaluate(runs, scenario, experiment)
+    metrics = evaluate(runs, scenario, experiment if claims else dc.replace(experiment, claims=_no_claims))
     figures = experiment.figures(runs, scenario) if metrics["status"] == "ok" else {}
     write_results(out_dir, scenario, runs, metrics, figures, build(next(iter(scenario.controllers))).diagram)
-    return ScenarioResult(metrics, out_dir, experiment.table(metrics["controllers"]), experiment)
+    return ScenarioResult(metrics, out_dir, experiment.table(metrics["controllers"]), experiment, scenario)

@@ -57,10 +57,12 @@ class ToolContactForce(LeafSystem):
     """The contact force on the tool's body, world frame: what a wrist force/torque sensor
     reads of the environment (gravity and inertia of the tool aside). Sums the hydroelastic
     and point contacts in the plant's contact results that involve `tool_body`.
-    Input `contact_results` (abstract ContactResults); output `force` (3) and, restricted
-    to `axes`, `task_force` (M)."""
+    Input `contact_results` (abstract ContactResults) and, with `applied_force=True`,
+    `applied_force` (3, world [N]): a force the world applies to the tool other than by
+    contact (a torn hole's friction), which a wrist sensor reads too. Output `force` (3)
+    and, restricted to `axes`, `task_force` (M)."""
 
-    def __init__(self, plant, tool_body, axes=(0, 1, 2)):
+    def __init__(self, plant, tool_body, axes=(0, 1, 2), applied_force: bool = False):
         super().__init__()
         self._plant = plant
         self._body_index = tool_body.index()
@@ -68,6 +70,7 @@ class ToolContactForce(LeafSystem):
         self._axes = list(axes)
         self.contact_results = self.DeclareAbstractInputPort(
             "contact_results", AbstractValue.Make(ContactResults()))
+        self.applied_force = self.DeclareVectorInputPort("applied_force", BasicVector(3)) if applied_force else None
         prereq = {self.all_input_ports_ticket()}
         self.DeclareVectorOutputPort("force", 3, self._calc_force, prereq)
         self.DeclareVectorOutputPort("task_force", len(self._axes), self._calc_task_force, prereq)
@@ -83,7 +86,8 @@ class ToolContactForce(LeafSystem):
         Returns
         -------
         (3,) array
-            Sum of the hydroelastic and point-contact forces acting on `tool_body` [N].
+            Sum of the hydroelastic and point-contact forces acting on `tool_body`, plus the
+            `applied_force` input when there is one [N].
         """
         results = self.contact_results.Eval(context)
         total = np.zeros(3)
@@ -101,6 +105,8 @@ class ToolContactForce(LeafSystem):
                 total -= info.contact_force()   # contact_force() acts on body B
             elif info.bodyB_index() == self._body_index:
                 total += info.contact_force()
+        if self.applied_force is not None:
+            total += self.applied_force.Eval(context)
         return total
 
     def _calc_force(self, context, output):

@@ -22,6 +22,7 @@ from hlcmp_drake.worlds.checks import check_demonstration_feasible
 from hlcmp_drake.worlds.common import (BuiltDiagram, add_loggers, add_reference, add_torque_map,
                                        read_scenario_demonstration)
 from hlcmp_drake.worlds.controllers import WorldPorts, add_controller
+from hlcmp_drake.worlds.puncture import Puncture, add_puncture
 from hlcmp_drake.worlds.models import add_plant, load_models, scoped_frame, solve_ik_for_tool
 
 if TYPE_CHECKING:
@@ -154,15 +155,22 @@ def build(scenario: Scenario, controller_name: str, setup: ArmSetup,
     """
     task: ArmTask = scenario.task
     builder = DiagramBuilder()
-    plant, _ = add_plant(builder, scenario)
+    plant, scene_graph = add_plant(builder, scenario)
     tool_frame = scoped_frame(plant, task.tool_frame)
     task_space = builder.AddSystem(TaskSpaceDynamics(plant, tool_frame, axes=task.axes))
     task_space.set_name("task_space")
     builder.Connect(plant.get_state_output_port(), task_space.plant_state)
     reference = add_reference(builder, scenario, setup.dmp)
-    sensor = builder.AddSystem(ToolContactForce(plant, tool_frame.body(), task.axes))
+    puncture = None
+    if task.puncture.object_frame:   # a foam that gives way; the tool point's x, x' are all three axes
+        puncture = add_puncture(builder, plant, scene_graph, task.puncture, tool_frame, task.tool_direction,
+                                task_space.GetOutputPort("position"), task_space.GetOutputPort("velocity"))
+    sensor = builder.AddSystem(ToolContactForce(plant, tool_frame.body(), task.axes,
+                                                applied_force=puncture is not None))
     sensor.set_name("wrist_force_sensor")
     builder.Connect(plant.get_contact_results_output_port(), sensor.contact_results)
+    if puncture is not None:
+        builder.Connect(puncture.system.GetOutputPort("force"), sensor.applied_force)
     world = WorldPorts(reference, task_space, sensor.GetOutputPort("task_force"), setup.dmp.start)
     controller = add_controller(builder, scenario, controller_name, world, theta0)
     below_task = builder.AddSystem(NullSpaceImpedance(
@@ -180,12 +188,12 @@ def build(scenario: Scenario, controller_name: str, setup: ArmSetup,
     diagram = builder.Build()
     diagram.set_name(f"{scenario.name}_{controller_name}")
     return BuiltDiagram(diagram, plant, controller, loggers, setup.q0,
-                        monitor(plant, sensor, torque_map, task))
+                        monitor(plant, sensor, torque_map, task, puncture))
 
 
 def monitor(plant: MultibodyPlant, sensor: ToolContactForce, torque_map: TaskForceToJointTorque,
-            task: ArmTask) -> Callable[[Context], str | None]:
-    """The arm's safety checks, to run after every step.
+            task: ArmTask, puncture: Puncture | None = None) -> Callable[[Context], str | None]:
+    """The arm's safety checks, to run after every step; first, the foam's tear, if any.
 
     A problem is a contact force above task.max_contact_force_N, a joint beyond its
     position limit (by more than 1e-3 rad), or some joint torque at its effort limit
@@ -201,6 +209,8 @@ def monitor(plant: MultibodyPlant, sensor: ToolContactForce, torque_map: TaskFor
         Its "saturated" output counts the joints at their effort limit.
     task : ArmTask
         The safety limits.
+    puncture : Puncture, optional
+        Its tear is applied as soon as its system says the foam has torn.
 
     Returns
     -------
@@ -214,6 +224,8 @@ def monitor(plant: MultibodyPlant, sensor: ToolContactForce, torque_map: TaskFor
     saturated_since = [None]
 
     def check(root_context):
+        if puncture is not None:
+            puncture.apply_tear(root_context)
         force = sensor.GetOutputPort("force").Eval(sensor.GetMyContextFromRoot(root_context))
         if np.linalg.norm(force) > task.max_contact_force_N:
             return (f"contact force {np.linalg.norm(force):.0f} N above max_contact_force_N = "

@@ -66,7 +66,7 @@ def hlcmp_controller(config: HlcmpConfig, scenario: Scenario,
     Parameters
     ----------
     config : HlcmpConfig
-        The learning rates, pi, L and the uniform initial weights.
+        The learning rates (read as its `q_units` say), pi, L and the uniform initial weights.
     scenario : Scenario
         Its number of axes M and its DMP settings (the N basis functions, alpha_s).
     theta0 : tuple of three (M, N) arrays, optional
@@ -80,8 +80,9 @@ def hlcmp_controller(config: HlcmpConfig, scenario: Scenario,
     """
     m = scenario.n_axes
     centers, widths = basis_centers_and_widths(scenario.dmp.n_basis, scenario.dmp.alpha_s)
-    gains = HlcmpGains(np.asarray(config.q_k, float), np.asarray(config.q_d, float),
-                       np.asarray(config.q_v, float), config.pi, np.asarray(config.gain_l, float))
+    scale = config.rate_scale()   # Q as a rate per second, whichever reading the config asks for
+    gains = HlcmpGains(np.asarray(config.q_k, float) * scale, np.asarray(config.q_d, float) * scale,
+                       np.asarray(config.q_v, float) * scale, config.pi, np.asarray(config.gain_l, float))
     n = len(centers)
     if theta0 is None:
         theta0 = np.concatenate([np.full(m * n, config.theta_k0), np.full(m * n, config.theta_d0),

@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     from pydrake.systems.framework import DiagramBuilder
 
 
-def load_models(plant: MultibodyPlant, scenario: Scenario) -> None:
+def load_models(plant: MultibodyPlant, scenario: Scenario, finalize: bool = True) -> None:
     """Add the scenario's model directives to `plant`, then finalize it.
 
     Parameters
@@ -32,6 +32,8 @@ def load_models(plant: MultibodyPlant, scenario: Scenario) -> None:
         Not yet finalized.
     scenario : Scenario
         Its `directives` (package://hlcmp_drake/... resolves to the bundled models).
+    finalize : bool
+        Finalize the plant (False: the caller adds more first).
 
     Raises
     ------
@@ -46,10 +48,12 @@ def load_models(plant: MultibodyPlant, scenario: Scenario) -> None:
         first = next((line for line in str(error).splitlines() if line.strip()), "")
         hint = " (drake_models is downloaded on first use: is there internet?)" if "drake_models" in str(error) else ""
         raise InputError(f"{scenario.name}: the models could not be loaded{hint}: {first}") from None
-    plant.Finalize()
+    if finalize:
+        plant.Finalize()
 
 
-def add_plant(builder: DiagramBuilder, scenario: Scenario) -> tuple[MultibodyPlant, SceneGraph]:
+def add_plant(builder: DiagramBuilder, scenario: Scenario,
+              finalize: bool = True) -> tuple[MultibodyPlant, SceneGraph]:
     """MultibodyPlant + SceneGraph from the scenario's plant config and model directives.
 
     Parameters
@@ -58,11 +62,13 @@ def add_plant(builder: DiagramBuilder, scenario: Scenario) -> tuple[MultibodyPla
         Receives the plant and the scene graph.
     scenario : Scenario
         Its `plant_config` and `directives`.
+    finalize : bool
+        Finalize the plant (False: the caller adds bodies or joints first).
 
     Returns
     -------
     (MultibodyPlant, SceneGraph)
-        Both added to `builder`; the plant is finalized.
+        Both added to `builder`; the plant finalized unless asked not to.
 
     Raises
     ------
@@ -70,7 +76,7 @@ def add_plant(builder: DiagramBuilder, scenario: Scenario) -> tuple[MultibodyPla
         When Drake cannot load a model.
     """
     plant, scene_graph = AddMultibodyPlant(scenario.plant_config, builder)
-    load_models(plant, scenario)
+    load_models(plant, scenario, finalize)
     return plant, scene_graph
 
 

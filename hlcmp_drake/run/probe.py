@@ -1,0 +1,152 @@
+"""`hlcmp probe`: measure a scenario's world alone -- the tool pushed through its object
+on a stiff carriage, no controller under test -- and write probe.json and probe.png."""
+
+from __future__ import annotations
+
+import dataclasses as dc
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
+from matplotlib.figure import Figure
+from pydrake.systems.framework import EventStatus
+
+from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.config.scenario import Scenario
+from hlcmp_drake.core.metrics import probe_readings
+from hlcmp_drake.experiments.plots import new_figure
+from hlcmp_drake.io import outputs
+from hlcmp_drake.worlds.probe import ProbeWorld, build_probe
+
+
+@dc.dataclass
+class ProbeResult:
+    """What `run_probe` returns: the probe.json content and where the files went."""
+
+    readings: dict
+    out_dir: Path
+
+
+def simulate_probe(world: ProbeWorld, scenario: Scenario) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
+    """Drive the carriage along its path; returns (t, tool point (T, 3) [m], force on the
+    tool (T, 3) [N], status), the status "ok" or why the simulation stopped.
+
+    Parameters
+    ----------
+    world : ProbeWorld
+    scenario : Scenario
+        Its simulator config.
+    """
+    simulator = Simulator(world.diagram)
+    ApplySimulatorConfig(scenario.simulator_config, simulator)
+    context = simulator.get_mutable_context()
+    plant_context = world.plant.GetMyMutableContextFromRoot(context)
+    world.plant.SetPositions(plant_context, world.plant.GetModelInstanceByName("probe_carriage"),
+                             world.waypoints[0])
+
+    def monitor(root_context):
+        if world.puncture is not None:
+            world.puncture.apply_tear(root_context)
+        return EventStatus.DidNothing()
+
+    simulator.set_monitor(monitor)
+    status = "ok"
+    try:
+        simulator.AdvanceTo(world.times[-1])
+    except RuntimeError as error:   # e.g. the contact solver failing
+        status = "failed: " + " ".join(str(error).split())[:200]
+    state = world.state_log.FindLog(context)
+    force = world.force_log.FindLog(context)
+    return state.sample_times(), state.data()[:3].T, force.data().T, status
+
+
+def readings_of(world: ProbeWorld, scenario: Scenario, t: np.ndarray, position: np.ndarray,
+                force: np.ndarray) -> tuple:
+    """probe.json's numbers from the logs (see `core.metrics.probe_readings`), and the
+    travel [m], resisting and lateral forces [N] they come from.
+
+    Parameters
+    ----------
+    world : ProbeWorld
+    scenario : Scenario
+        Its probe section (the push and the lateral axis).
+    t : (T,) array
+    position, force : (T, 3) arrays
+        The tool point [m] and the force on the tool [N], world.
+    """
+    push = np.asarray(scenario.probe.push_m, float)
+    direction = push / np.linalg.norm(push)
+    t0, t1 = world.push
+    start_point = np.array([np.interp(t0, world.times, world.waypoints[:, k]) for k in range(3)])
+    distance = (position - start_point) @ direction
+    resisting = -(force @ direction)
+    if scenario.probe.lateral_axis:
+        axis = np.asarray(scenario.probe.lateral_axis, float)
+        lateral = force @ (axis / np.linalg.norm(axis))
+    else:
+        lateral = np.linalg.norm(force - np.outer(force @ direction, direction), axis=1)
+    return probe_readings(distance, resisting, lateral, (t >= t0) & (t <= t1)), distance, resisting, lateral
+
+
+def probe_figure(name: str, distance: np.ndarray, resisting: np.ndarray, lateral: np.ndarray,
+                 in_push: np.ndarray, readings: dict) -> Figure:
+    """Force along and across the path against the travel along the push.
+
+    Parameters
+    ----------
+    name : str
+        The scenario's name, for the title.
+    distance, resisting, lateral : (T,) arrays
+        Travel along the push [m], the force against it and across it [N].
+    in_push : (T,) bool array
+        The samples of the push itself (the rest, after it, is the way back).
+    readings : dict
+        probe.json's numbers, for the title.
+    """
+    fig, (axis,) = new_figure(1, 1, size=(8, 4.5))
+    way_back = ~in_push & (np.cumsum(in_push) > 0)
+    axis.plot(1000 * distance[in_push], resisting[in_push], color="C0", label="resisting the push")
+    axis.plot(1000 * distance[way_back], resisting[way_back], color="C0", lw=0.8, ls="--",
+              label="along the push, on the way back")
+    axis.plot(1000 * distance, lateral, color="C3", label="lateral")
+    axis.axhline(0.0, color="k", lw=0.5)
+    axis.set_xlabel("travel along the push [mm]")
+    axis.set_ylabel("force on the tool [N]")
+    axis.set_title(f"hlcmp probe {name}: peak {readings['peak_force_N']:.1f} N, residual "
+                   f"{readings['residual_force_N']:.1f} N, max lateral {readings['max_lateral_force_N']:.2f} N")
+    axis.grid(alpha=0.3)
+    axis.legend(fontsize=8)
+    return fig
+
+
+def run_probe(name_or_path: str | Path, out_dir: str | Path | None = None, speed: float | None = None,
+              overrides: Sequence[str] = ()) -> ProbeResult:
+    """Probe a scenario's world and write probe.json, probe.png and probe.npz.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        A bundled arm scenario (insertion, cutting) or a YAML file with a `probe` section.
+    out_dir : str or Path, optional
+        Default out/probe_<scenario>.
+    speed : float, optional
+        The carriage's speed [m/s] (default the scenario's probe.speed_m_per_s).
+    overrides : sequence of str
+        ``dotted.key=value`` overrides, e.g. ``probe.tilt_rad=0.001``.
+    """
+    scenario, _ = load_scenario(name_or_path, overrides)
+    world = build_probe(scenario, speed)
+    t, position, force, status = simulate_probe(world, scenario)
+    readings, distance, resisting, lateral = readings_of(world, scenario, t, position, force)
+    in_push = (t >= world.push[0]) & (t <= world.push[1])
+    out_dir = Path(out_dir or Path("out") / f"probe_{scenario.name}")
+    result = {"scenario": scenario.name,
+              "speed_m_per_s": float(np.linalg.norm(np.diff(world.waypoints[:2], axis=0)) /
+                                     np.diff(world.times[:2])[0]),
+              **readings, "tilt_rad": scenario.probe.tilt_rad, "status": status}
+    outputs.write_npz(out_dir / "probe.npz", {"t": t, "tool_position": position, "force": force})
+    outputs.save_figure(out_dir / "probe.png", probe_figure(scenario.name, distance, resisting, lateral,
+                                                            in_push, readings))
+    outputs.write_json(out_dir / "probe.json", result)
+    return ProbeResult(result, out_dir)

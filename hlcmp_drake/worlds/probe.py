@@ -1,0 +1,158 @@
+"""The probe world: a scenario's tool and objects without the arm, the tool on a stiff
+prescribed-motion carriage (three prismatic joints held by Drake's PD actuators), so that
+the world itself can be measured with no controller under test (`hlcmp probe`)."""
+
+from __future__ import annotations
+
+import dataclasses as dc
+
+import numpy as np
+from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
+from pydrake.multibody.tree import PdControllerGains, PrismaticJoint, RotationalInertia, SpatialInertia
+from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, TrajectorySource
+from pydrake.trajectories import PiecewisePolynomial
+
+from hlcmp_drake.config.scenario import ArmTask, ProbeConfig, Scenario
+from hlcmp_drake.io.errors import InputError
+from hlcmp_drake.systems.arm import ToolContactForce
+from hlcmp_drake.worlds.models import add_plant, scoped_frame
+from hlcmp_drake.worlds.puncture import Puncture, add_puncture
+
+CARRIAGE_STIFFNESS_N_PER_M = 1.0e6   # stiff enough that contact forces of 20 N move it by 20 um
+CARRIAGE_MASS_KG = 0.05
+
+
+@dc.dataclass
+class ProbeWorld:
+    """A built probe: the diagram, its plant, the carriage's path and the loggers of the
+    tool point's state [q (3), v (3)] and of the force on the tool (3, world)."""
+
+    diagram: object
+    plant: object
+    waypoints: np.ndarray        # (K, 3) tool point positions [m]
+    times: np.ndarray            # (K,) when the carriage is at each [s]
+    push: tuple                  # (start time, end time) of the measured push [s]
+    state_log: object
+    force_log: object
+    puncture: Puncture | None
+
+
+def _without_arm(scenario: Scenario, arm: str) -> tuple[list, str]:
+    """The scenario's directives less the arm (its model, welds, collision filters), and
+    the tool's frame that was welded to the arm."""
+    kept, mount = [], None
+    for directive in scenario.directives:
+        model, weld, group = directive.add_model, directive.add_weld, directive.add_collision_filter_group
+        if model is not None and model.name == arm:
+            continue
+        if weld is not None and (weld.parent.startswith(f"{arm}::") or weld.child.startswith(f"{arm}::")):
+            mount = weld.child if weld.parent.startswith(f"{arm}::") else mount
+            continue
+        if group is not None and any(m.startswith(f"{arm}::") for m in group.members):
+            continue
+        kept.append(directive)
+    if mount is None:
+        raise InputError(f"scenario '{scenario.name}': probe.arm_model '{arm}' has no tool welded to it")
+    return kept, mount
+
+
+def tool_orientation(task: ArmTask, tilt_rad: float = 0.0) -> RotationMatrix:
+    """The tool's orientation in the world: task.tool_rpy_rad, or +z along
+    task.tool_direction; then tilted by `tilt_rad` about the world y axis.
+
+    Parameters
+    ----------
+    task : ArmTask
+    tilt_rad : float
+        A deliberate tilt [rad], to show whether the contact depends on it.
+    """
+    if task.tool_rpy_rad:
+        rotation = RotationMatrix(RollPitchYaw(task.tool_rpy_rad))
+    else:
+        rotation = RotationMatrix.MakeFromOneVector(np.asarray(task.tool_direction, float), 2)
+    return RotationMatrix.MakeYRotation(tilt_rad) @ rotation
+
+
+def probe_path(probe: ProbeConfig, speed: float) -> tuple[np.ndarray, np.ndarray, tuple]:
+    """The carriage's waypoints: start, the approach's end, the push's end, and back to
+    where the push started; the times at `speed` [m/s] and the push's time window.
+
+    Parameters
+    ----------
+    probe : ProbeConfig
+    speed : float
+        The carriage's speed [m/s].
+    """
+    start = np.asarray(probe.start_m, float)
+    approach = np.asarray(probe.approach_m or [0.0, 0.0, 0.0], float)
+    push = np.asarray(probe.push_m, float)
+    points = [start, start + approach, start + approach + push, start + approach]
+    if not np.any(approach):   # no approach: the push starts at the start
+        points = [start, start + push, start]
+    points = np.array(points)
+    times = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1) / speed)])
+    push_index = 0 if len(points) == 3 else 1
+    return points, times, (times[push_index], times[push_index + 1])
+
+
+def build_probe(scenario: Scenario, speed: float | None = None, tilt_rad: float | None = None) -> ProbeWorld:
+    """The probe diagram of an arm scenario.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        With an ArmTask and a `probe` section (start_m, push_m, ...).
+    speed : float, optional
+        The carriage's speed [m/s] (default probe.speed_m_per_s).
+    tilt_rad : float, optional
+        Tilt of the tool about the world y axis [rad] (default probe.tilt_rad).
+    """
+    task, probe = scenario.task, scenario.probe
+    if not isinstance(task, ArmTask) or not probe.start_m or not probe.push_m:
+        raise InputError(f"scenario '{scenario.name}' has no probe: it needs an arm task and probe.start_m, "
+                         "probe.push_m")
+    speed = probe.speed_m_per_s if speed is None else speed
+    tilt_rad = probe.tilt_rad if tilt_rad is None else tilt_rad
+    directives, mount = _without_arm(scenario, probe.arm_model)
+    builder = DiagramBuilder()
+    plant, scene_graph = add_plant(builder, dc.replace(scenario, directives=directives), finalize=False)
+    plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, 0.0])   # the carriage carries contact only
+    instance = plant.AddModelInstance("probe_carriage")
+    inertia = SpatialInertia.MakeFromCentralInertia(CARRIAGE_MASS_KG, np.zeros(3), RotationalInertia(1e-5, 1e-5, 1e-5))
+    parent = plant.world_body()
+    for axis in range(3):   # carriage joints along world x, y, z: their positions are the tool point's
+        body = plant.AddRigidBody(f"carriage_{'xyz'[axis]}", instance, inertia)
+        joint = plant.AddJoint(PrismaticJoint(f"carriage_{'xyz'[axis]}", parent.body_frame(), body.body_frame(),
+                                              np.eye(3)[axis], -10.0, 10.0))
+        actuator = plant.AddJointActuator(f"carriage_{'xyz'[axis]}", joint)
+        actuator.set_controller_gains(PdControllerGains(
+            p=CARRIAGE_STIFFNESS_N_PER_M, d=2.0 * np.sqrt(CARRIAGE_STIFFNESS_N_PER_M * 0.5)))
+        parent = body
+    tool_point = scoped_frame(plant, task.tool_frame)
+    mount_frame = scoped_frame(plant, mount)
+    X_mount_point = mount_frame.GetFixedPoseInBodyFrame().inverse() @ tool_point.GetFixedPoseInBodyFrame()
+    X_carriage_mount = RigidTransform(tool_orientation(task, tilt_rad)) @ X_mount_point.inverse()
+    plant.WeldFrames(parent.body_frame(), mount_frame, X_carriage_mount)
+    plant.Finalize()
+
+    points, times, push = probe_path(probe, speed)
+    trajectory = PiecewisePolynomial.FirstOrderHold(times, points.T)
+    source = builder.AddSystem(TrajectorySource(trajectory, output_derivative_order=1))
+    builder.Connect(source.get_output_port(), plant.get_desired_state_input_port(instance))
+    split = builder.AddSystem(Demultiplexer([3, 3]))
+    builder.Connect(plant.get_state_output_port(instance), split.get_input_port())
+    puncture = None
+    if task.puncture.object_frame:
+        puncture = add_puncture(builder, plant, scene_graph, task.puncture, tool_point, task.tool_direction,
+                                split.get_output_port(0), split.get_output_port(1))
+    sensor = builder.AddSystem(ToolContactForce(plant, tool_point.body(), applied_force=puncture is not None))
+    builder.Connect(plant.get_contact_results_output_port(), sensor.contact_results)
+    if puncture is not None:
+        builder.Connect(puncture.system.GetOutputPort("force"), sensor.applied_force)
+    period = plant.time_step()
+    state_log = LogVectorOutput(plant.get_state_output_port(instance), builder, period)
+    force_log = LogVectorOutput(sensor.GetOutputPort("force"), builder, period)
+    diagram = builder.Build()
+    diagram.set_name(f"{scenario.name}_probe")
+    return ProbeWorld(diagram, plant, points, times, push, state_log, force_log, puncture)

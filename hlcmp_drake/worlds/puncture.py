@@ -1,0 +1,80 @@
+"""A foam that gives way, in any world that has the object and the tool: the HoleFriction
+system wired to the plant, and the tear applied to SceneGraph when the system says so."""
+
+from __future__ import annotations
+
+import dataclasses as dc
+
+from pydrake.geometry import CollisionFilterDeclaration, GeometrySet, SceneGraph
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import Frame
+from pydrake.systems.framework import Context, DiagramBuilder, OutputPort
+
+from hlcmp_drake.config.scenario import PunctureConfig
+from hlcmp_drake.systems.puncture import HoleFriction
+from hlcmp_drake.worlds.models import scoped_frame
+
+
+@dc.dataclass
+class Puncture:
+    """A puncture model in a diagram: its system and what the simulation must do when the
+    foam tears (`apply_tear`, called after every step, e.g. from the run's monitor)."""
+
+    system: HoleFriction
+    scene_graph: object
+    tool_geometries: list
+    object_geometries: list
+    torn: bool = False
+
+    def apply_tear(self, root_context: Context) -> None:
+        """End the tool-object contact once the system's state says the foam has torn.
+
+        Parameters
+        ----------
+        root_context : Context
+            The diagram's root context (SceneGraph's context within it is changed).
+        """
+        if self.torn or not self.system.punctured(self.system.GetMyContextFromRoot(root_context)):
+            return
+        sg_context = self.scene_graph.GetMyMutableContextFromRoot(root_context)
+        self.scene_graph.collision_filter_manager(sg_context).Apply(
+            CollisionFilterDeclaration().ExcludeBetween(GeometrySet(self.tool_geometries),
+                                                        GeometrySet(self.object_geometries)))
+        self.torn = True
+
+
+def add_puncture(builder: DiagramBuilder, plant: MultibodyPlant, scene_graph: SceneGraph,
+                 config: PunctureConfig, tool_frame: Frame, tool_axis: list,
+                 position_port: OutputPort, velocity_port: OutputPort) -> Puncture:
+    """Add the HoleFriction system for `config`, its force into the plant, its inputs from
+    the given ports of the tool point's world position and velocity.
+
+    Parameters
+    ----------
+    builder : DiagramBuilder
+    plant : MultibodyPlant
+        Finalized, discrete (the tear is checked every plant step).
+    scene_graph : SceneGraph
+        The plant's, where the tear's collision filter goes.
+    config : PunctureConfig
+        With a non-empty `object_frame`.
+    tool_frame : Frame
+        The tool point's frame (on the tool body).
+    tool_axis : (3,) array
+        The tool's axis in the world, pointing into the object.
+    position_port, velocity_port : OutputPort
+        The tool point's world position [m] and velocity [m/s], 3 each.
+    """
+    context = plant.CreateDefaultContext()
+    top = scoped_frame(plant, config.object_frame).CalcPoseInWorld(context)
+    system = builder.AddSystem(HoleFriction(
+        tool_frame.body().index(), tool_frame.GetFixedPoseInBodyFrame().translation(), tool_axis,
+        top.translation(), top.rotation().matrix()[:, 2], config.thickness_m, config.depth_m,
+        config.hole_friction_N_per_m, config.sliding_speed_m_per_s, plant.time_step()))
+    system.set_name("puncture")
+    builder.Connect(position_port, system.tool_position)
+    builder.Connect(velocity_port, system.tool_velocity)
+    builder.Connect(system.GetOutputPort("spatial_forces"), plant.get_applied_spatial_force_input_port())
+    object_body = scoped_frame(plant, config.object_frame).body()
+    return Puncture(system, scene_graph, plant.GetCollisionGeometriesForBody(tool_frame.body()),
+                    plant.GetCollisionGeometriesForBody(object_body))
