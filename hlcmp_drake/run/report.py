@@ -6,7 +6,10 @@ import dataclasses as dc
 import time
 from pathlib import Path
 
+from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.experiments import experiment_of
 from hlcmp_drake.io.outputs import write_text
+from hlcmp_drake.io.paths import bundled_scenarios
 from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.present.report import ReportSection, report_page
 from hlcmp_drake.run.probe import run_probe
@@ -28,18 +31,21 @@ class ReportResult:
         return all(status == "ok" for status in self.statuses)
 
 
-def run_report(out_dir: str | Path, scenarios: list[str], reporter: Progress = SILENT) -> ReportResult:
+def run_report(out_dir: str | Path, scenarios: list[str] | None = None, reporter: Progress = SILENT) -> ReportResult:
     """Run each bundled scenario into out_dir/<name> and write out_dir/index.html, a page
     that works offline.
 
     Parameters
     ----------
     out_dir : str or Path
-    scenarios : list of str
-        Bundled scenario names.
+    scenarios : list of str, optional
+        Bundled scenario names, in page order (default: every bundled scenario, in the
+        order of the paper's sections).
     reporter : Progress, optional
     """
     out_dir = Path(out_dir)
+    if scenarios is None:
+        scenarios = sorted(bundled_scenarios(), key=lambda n: experiment_of(load_scenario(n)[0]).paper_section)
     sections, statuses, start = [], [], time.perf_counter()
     for name in scenarios:
         reporter.say(f"running {name} ...")
