@@ -384,6 +384,19 @@ def build_parser():
     return parser
 
 
+# Commands whose --out is a file; every other --out is a folder.
+WRITES_A_FILE = ("fit", "rollout")
+
+
+def _check_output(args):
+    """Refuse an output path that cannot be written before any work is done (exit 2)."""
+    from hlcmp_drake.io.outputs import check_output_file, check_output_folder
+
+    out = getattr(args, "out", None)
+    if out is not None:
+        (check_output_file if args.command in WRITES_A_FILE else check_output_folder)(out)
+
+
 def main(argv=None):
     from hlcmp_drake.io.outputs import WRITTEN
 
@@ -392,6 +405,7 @@ def main(argv=None):
     args.debug = getattr(args, "debug", False)
     WRITTEN.clear()   # this command's files only (main may run more than once in a process)
     try:
+        _check_output(args)
         return args.func(args)
     except InputError as error:
         if args.debug:

@@ -116,3 +116,39 @@ def test_debug_shows_the_traceback(tmp_path):
     result = hlcmp("--debug", "fit", tmp_path / "missing.csv", "--out", tmp_path / "s.npz")
     assert result.returncode != 0
     assert "Traceback" in result.stderr and "InputError" in result.stderr and "no such file" in result.stderr
+
+
+@pytest.mark.parametrize("command", [["run", "one_dof"], ["learn", "DEMO", "--scenario", "insertion"],
+                                     ["probe", "insertion"], ["report"], ["bench"]])
+def test_an_output_folder_that_is_a_file_is_refused_before_any_work(tmp_path, command):
+    import time
+
+    blocker = tmp_path / "a_file"
+    blocker.write_text("keep me")
+    demo = write_demo(tmp_path / "demo.csv", np.linspace(0, 1, 20), np.linspace(0, 1, 20)[:, None])
+    start = time.perf_counter()
+    result = hlcmp(*[demo if a == "DEMO" else a for a in command], "--out", blocker)
+    assert result.returncode == 2 and time.perf_counter() - start < 10
+    assert result.stderr.strip().splitlines() == [f"hlcmp: error: --out {blocker}: is a file, not a folder"]
+    assert blocker.read_text() == "keep me"
+
+
+def test_fit_refuses_a_folder_as_its_output_file(tmp_path, smooth_demo):
+    demo = write_demo(tmp_path / "demo.csv", *smooth_demo)
+    result = hlcmp("fit", demo, "--out", tmp_path)
+    assert result.returncode == 2 and "is a folder, not a file" in result.stderr
+
+
+def test_a_demonstration_with_a_byte_order_mark_is_read(tmp_path, smooth_demo):
+    t, positions = smooth_demo
+    plain = write_demo(tmp_path / "plain.csv", t, positions)
+    bom = tmp_path / "bom.csv"
+    bom.write_bytes(b"\xef\xbb\xbf" + plain.read_bytes())
+    assert hlcmp("fit", bom, "--out", tmp_path / "skill.npz").returncode == 0
+
+
+def test_a_text_file_given_as_a_skill_gets_its_own_message(tmp_path):
+    fake = tmp_path / "skill.npz"
+    fake.write_text("t,x\n0,1\n")
+    result = hlcmp("rollout", fake, "--out", tmp_path / "t.csv")
+    assert result.returncode == 2 and "not a skill file" in result.stderr and "allow_pickle" not in result.stderr
