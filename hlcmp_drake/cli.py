@@ -116,8 +116,15 @@ def cmd_run(args):
     from hlcmp_drake.run.runner import run_scenario
 
     _quiet_drake(args)
+    meshcat = None
+    if args.meshcat:
+        from pydrake.geometry import Meshcat
+
+        meshcat = Meshcat()
+        print(f"live view: {meshcat.web_url()} (open it in a browser; it closes when the command ends)",
+              flush=True)
     result = run_scenario(args.scenario, args.out, Progress(args.quiet),
-                          drake_models_iiwa=args.iiwa == "drake_models", overrides=args.set)
+                          drake_models_iiwa=args.iiwa == "drake_models", overrides=args.set, meshcat=meshcat)
     print_summary(result)
     return EXIT_UNSTABLE if result.metrics["status"] != "ok" else 0
 
@@ -312,6 +319,8 @@ def build_parser():
                          help="run a scenario (bundled name or YAML path)")
     run.add_argument("scenario", help=f"a bundled scenario ({', '.join(bundled)}) or a scenario .yaml")
     run.add_argument("--out", help="output folder (default out/SCENARIO)")
+    run.add_argument("--meshcat", action="store_true",
+                     help="also show the runs in a live Meshcat while they simulate (prints its URL)")
     run.add_argument("--iiwa", choices=("ours", "drake_models"), default="ours",
                      help="the iiwa14 model: ours (models/iiwa14.sdf, default) or Drake's official "
                           "one from drake_models (downloaded by Drake on first use: needs internet)")

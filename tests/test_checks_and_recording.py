@@ -49,3 +49,13 @@ def test_a_recording_replays_each_run_under_its_label():
     for label in runs:
         assert meshcat.HasPath(f"/drake/runs/{label}")
     assert not meshcat.HasPath("/drake/runs/nobody")
+
+
+def test_a_live_meshcat_shows_each_run_while_it_simulates(tmp_path):
+    from hlcmp_drake.run.runner import run_scenario
+
+    meshcat = Meshcat()
+    run_scenario("one_dof", tmp_path, overrides=["duration_s=0.3"], meshcat=meshcat)
+    for label in ("hlcmp", "hlcmp_per_step", "vic_fd_0.5"):
+        assert meshcat.HasPath(f"/drake/runs/{label}")
+    assert (tmp_path / "recording.html").exists()   # the offline recording is still written

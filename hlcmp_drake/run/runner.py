@@ -6,7 +6,7 @@ from __future__ import annotations
 import dataclasses as dc
 import time
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import TYPE_CHECKING, Callable, Sequence
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.scenario import HlcmpConfig, Scenario
@@ -16,6 +16,10 @@ from hlcmp_drake.experiments.table import Table
 from hlcmp_drake.io import outputs
 from hlcmp_drake.io.runs import RunResult, instability_record, timeseries_arrays
 from hlcmp_drake.present.progress import SILENT, Progress
+from hlcmp_drake.present.recording import LiveView
+
+if TYPE_CHECKING:
+    from pydrake.geometry import Meshcat
 from hlcmp_drake.present.recording import record_runs
 from hlcmp_drake.run.simulate import simulate
 from hlcmp_drake.worlds.build import diagram_factory
@@ -24,7 +28,7 @@ NO_LEARNER = "without a learner"   # the claims' key when a scenario has no Hl-C
 
 
 def run_one(build: Callable, scenario: Scenario, controller: str, label: str | None = None,
-            theta0: tuple | None = None, reporter: Progress = SILENT) -> RunResult:
+            theta0: tuple | None = None, reporter: Progress = SILENT, live: LiveView | None = None) -> RunResult:
     """Build the diagram of `controller`, simulate it, and report its real-time factor and
     status.
 
@@ -43,7 +47,7 @@ def run_one(build: Callable, scenario: Scenario, controller: str, label: str | N
     """
     label = label or controller
     start = time.perf_counter()
-    run = simulate(build(controller, theta0), scenario, label, reporter.step)
+    run = simulate(build(controller, theta0), scenario, label, reporter.step, live)
     wall_s = time.perf_counter() - start
     reporter.say(f"{run.controller}: {run.t[-1]:.2f} s simulated in {wall_s:.1f} s "
                  f"({run.t[-1] / wall_s:.2f}x real time), {run.status}"
@@ -51,8 +55,8 @@ def run_one(build: Callable, scenario: Scenario, controller: str, label: str | N
     return run
 
 
-def run_controllers(scenario: Scenario, reporter: Progress = SILENT,
-                    build: Callable | None = None) -> dict[str, RunResult]:
+def run_controllers(scenario: Scenario, reporter: Progress = SILENT, build: Callable | None = None,
+                    live: LiveView | None = None) -> dict[str, RunResult]:
     """Build and simulate one diagram per controller.
 
     Parameters
@@ -61,6 +65,8 @@ def run_controllers(scenario: Scenario, reporter: Progress = SILENT,
     reporter : Progress, optional
     build : callable, optional
         A `diagram_factory(scenario)` to reuse (made here when not given).
+    live : LiveView, optional
+        Draws each run in a live Meshcat while it simulates.
 
     Returns
     -------
@@ -68,7 +74,7 @@ def run_controllers(scenario: Scenario, reporter: Progress = SILENT,
         By controller label, in the scenario's order.
     """
     build = build or diagram_factory(scenario)
-    return {name: run_one(build, scenario, name, reporter=reporter) for name in scenario.controllers}
+    return {name: run_one(build, scenario, name, reporter=reporter, live=live) for name in scenario.controllers}
 
 
 def evaluate(runs: dict[str, RunResult], scenario: Scenario, experiment: Experiment) -> dict:
@@ -142,20 +148,21 @@ class ScenarioResult:
 
 
 def run_scenario(name_or_path: str | Path, out_dir: str | Path | None = None, reporter: Progress = SILENT,
-                 drake_models_iiwa: bool = False, overrides: Sequence[str] = ()) -> ScenarioResult:
+                 drake_models_iiwa: bool = False, overrides: Sequence[str] = (),
+                 meshcat: Meshcat | None = None) -> ScenarioResult:
     """Load, run, evaluate and write one scenario.
 
     Parameters
     ----------
     name_or_path : str or Path
         A bundled scenario or a YAML file.
-    out_dir, reporter, drake_models_iiwa
+    out_dir, reporter, drake_models_iiwa, meshcat
         As for `run_loaded_scenario`.
     overrides : sequence of str
         ``dotted.key=value`` overrides layered over the file (see `load_scenario`).
     """
     scenario, path = load_scenario(name_or_path, overrides)
-    return run_loaded_scenario(scenario, path, out_dir, reporter, drake_models_iiwa)
+    return run_loaded_scenario(scenario, path, out_dir, reporter, drake_models_iiwa, meshcat=meshcat)
 
 
 def _no_claims(metrics: dict, scenario: Scenario, runs: dict | None = None, learner_name: str | None = None) -> dict:
@@ -164,7 +171,7 @@ def _no_claims(metrics: dict, scenario: Scenario, runs: dict | None = None, lear
 
 def run_loaded_scenario(scenario: Scenario, path: str | Path | None = None, out_dir: str | Path | None = None,
                         reporter: Progress = SILENT, drake_models_iiwa: bool = False,
-                        claims: bool = True) -> ScenarioResult:
+                        claims: bool = True, meshcat: Meshcat | None = None) -> ScenarioResult:
     """Run, evaluate and write a scenario that is already loaded (`run_scenario` after
     `load_scenario`; a sweep's worker after `load_scenario_text`).
 
@@ -184,6 +191,8 @@ def run_loaded_scenario(scenario: Scenario, path: str | Path | None = None, out_
         Evaluate the experiment's claims (default). A sweep that keeps only some of the
         scenario's controllers turns them off: they compare controllers that are gone;
         metrics.json then holds no claim.
+    meshcat : Meshcat, optional
+        Also draw each run in this live Meshcat while it simulates (`hlcmp run --meshcat`).
 
     Returns
     -------
@@ -194,7 +203,7 @@ def run_loaded_scenario(scenario: Scenario, path: str | Path | None = None, out_
         scenario = use_drake_models_iiwa(scenario)
     out_dir = Path(out_dir or Path("out") / scenario.name)
     build = diagram_factory(scenario)
-    runs = run_controllers(scenario, reporter, build)
+    runs = run_controllers(scenario, reporter, build, LiveView(scenario, meshcat) if meshcat is not None else None)
     metrics = evaluate(runs, scenario, experiment if claims else dc.replace(experiment, claims=_no_claims))
     figures = experiment.figures(runs, scenario) if metrics["status"] == "ok" else {}
     write_results(out_dir, scenario, runs, metrics, figures, build(next(iter(scenario.controllers))).diagram)

@@ -11,11 +11,12 @@ from pydrake.systems.framework import EventStatus
 
 from hlcmp_drake.config.scenario import Scenario
 from hlcmp_drake.io.runs import RunResult
+from hlcmp_drake.present.recording import LiveView
 from hlcmp_drake.worlds.common import BuiltDiagram
 
 
 def simulate(built: BuiltDiagram, scenario: Scenario, controller_name: str,
-             progress: Callable | None = None) -> RunResult:
+             progress: Callable | None = None, live: LiveView | None = None) -> RunResult:
     """Simulate `built` for scenario.duration_s and read its loggers back.
 
     A monitor checks every step that the plant state is finite, its positions stay within
@@ -33,6 +34,8 @@ def simulate(built: BuiltDiagram, scenario: Scenario, controller_name: str,
         The label the RunResult gets.
     progress : callable(label, t, duration, wall_s), optional
         Called about once a wall-clock second.
+    live : LiveView, optional
+        Draws the run in a live Meshcat while it simulates (`hlcmp run --meshcat`).
 
     Returns
     -------
@@ -50,6 +53,8 @@ def simulate(built: BuiltDiagram, scenario: Scenario, controller_name: str,
     last_report = [wall_start]
 
     def monitor(root_context):
+        if live is not None:   # throttled to the view's frame rate by the wall clock
+            live.show(controller_name, root_context.get_time(), built.plant.GetPositions(plant_context))
         if progress is not None and time.perf_counter() - last_report[0] > 1.0:
             last_report[0] = time.perf_counter()
             progress(controller_name, root_context.get_time(), scenario.duration_s,
