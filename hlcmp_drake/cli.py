@@ -397,13 +397,44 @@ def build_parser():
 WRITES_A_FILE = ("fit", "rollout")
 
 
+def _default_out(args):
+    """Where a command writes when --out is not given and its default depends on what it
+    runs (run: out/SCENARIO, probe: out/probe_SCENARIO, sweep: out/sweeps/SWEEP)."""
+    from pathlib import Path
+
+    if args.command in ("run", "probe"):
+        from hlcmp_drake.config.loading import load_scenario
+
+        scenario, _ = load_scenario(args.scenario, args.set)
+        return Path("out") / (f"probe_{scenario.name}" if args.command == "probe" else scenario.name)
+    if args.command == "sweep":
+        from hlcmp_drake.config.sweep import load_sweep
+        from hlcmp_drake.run.sweep import default_out_dir
+
+        return default_out_dir(load_sweep(args.sweep))
+    return None
+
+
 def _check_output(args):
     """Refuse an output path that cannot be written before any work is done (exit 2)."""
+    from pathlib import Path
+
     from hlcmp_drake.io.outputs import check_output_file, check_output_folder
 
+    if getattr(args, "dry_run", False):   # writes nothing: a read-only sweep may be looked at
+        return
     out = getattr(args, "out", None)
-    if out is not None:
-        (check_output_file if args.command in WRITES_A_FILE else check_output_folder)(out)
+    if out is None:
+        default = _default_out(args)
+        if default is not None:
+            check_output_folder(default, "output folder")
+        return
+    if args.command in WRITES_A_FILE:
+        check_output_file(out)
+        return
+    check_output_folder(out)
+    for name in getattr(args, "scenarios", None) or ():   # report: one folder per scenario
+        check_output_folder(Path(out) / name, "--out")
 
 
 def main(argv=None):

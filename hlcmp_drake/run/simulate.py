@@ -79,6 +79,8 @@ def simulate(built: BuiltDiagram, scenario: Scenario, controller_name: str,
     except RuntimeError as error:  # e.g. the integrator failing on a diverging state
         trouble.setdefault("reason", " ".join(str(error).split())[:300])
         trouble.setdefault("time", context.get_time())
+    if live is not None:   # the run's last state, whatever the view's frame rate skipped
+        live.show(controller_name, context.get_time(), built.plant.GetPositions(plant_context), final=True)
     series, t = {}, None
     for name, logger in built.loggers.items():
         log = logger.FindLog(context)
