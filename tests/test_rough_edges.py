@@ -272,6 +272,7 @@ def test_a_live_view_draws_each_run_and_signs_them_all():
     assert meshcat.HasPath("/drake/runs/extra")
 
 
+@pytest.mark.slow   # a whole (short) one_dof run with its figures and recording: about 5 s
 def test_run_with_meshcat_prints_its_url_and_closes_the_port(tmp_path):
     from hlcmp_drake.cli import main
 
