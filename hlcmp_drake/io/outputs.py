@@ -86,12 +86,12 @@ def check_output_file(path: str | Path, option: str = "--out") -> Path:
     path : str or Path
         The output file; an existing file is replaced atomically at the end.
     option : str
-        How the user gave it, for the message (e.g. "--out").
+        As for `check_output_folder`.
 
     Returns
     -------
     Path
-        `path` as a Path.
+        The file's path (nothing is written yet).
 
     Raises
     ------
