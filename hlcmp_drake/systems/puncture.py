@@ -61,7 +61,7 @@ class HoleFriction(LeafSystem):
         self._stage_index = self.DeclareDiscreteState(1)
         self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
         prereq = {self.all_input_ports_ticket(), self.all_state_ticket()}
-        self.DeclareVectorOutputPort("force", 3, self._calc_force, prereq)
+        self._force_port = self.DeclareVectorOutputPort("force", 3, self._calc_force, prereq)
         self.DeclareAbstractOutputPort(
             "spatial_forces", lambda: AbstractValue.Make([ExternallyAppliedSpatialForce()]),
             self._calc_spatial_forces, prereq)
@@ -104,5 +104,6 @@ class HoleFriction(LeafSystem):
         applied = ExternallyAppliedSpatialForce()
         applied.body_index = self._body_index
         applied.p_BoBq_B = self._point_in_body
-        applied.F_Bq_W = SpatialForce(np.zeros(3), self._force(context))
+        # the `force` output is cached by Drake: the friction is computed once per step
+        applied.F_Bq_W = SpatialForce(np.zeros(3), self._force_port.Eval(context))
         output.set_value([applied])
