@@ -16,6 +16,7 @@ This module is argparse and printing only: every command calls one library funct
 """
 
 import argparse
+import gc
 import logging
 import sys
 
@@ -123,8 +124,14 @@ def cmd_run(args):
         meshcat = Meshcat()
         print(f"live view: {meshcat.web_url()} (open it in a browser; it closes when the command ends)",
               flush=True)
-    result = run_scenario(args.scenario, args.out, Progress(args.quiet),
-                          drake_models_iiwa=args.iiwa == "drake_models", overrides=args.set, meshcat=meshcat)
+    try:
+        result = run_scenario(args.scenario, args.out, Progress(args.quiet),
+                              drake_models_iiwa=args.iiwa == "drake_models", overrides=args.set, meshcat=meshcat)
+    finally:
+        # The live view's replay diagrams keep the Meshcat in reference cycles (pybind keep-alives),
+        # so its server would outlive the command until Python's next collection.
+        del meshcat
+        gc.collect()
     print_summary(result)
     return EXIT_UNSTABLE if result.metrics["status"] != "ok" else 0
 

@@ -3,6 +3,7 @@ a byte-order mark, a text file given as a skill, the small CLI conveniences, and
 the runs (signs and framing in the recording, the live Meshcat of `hlcmp run --meshcat`)."""
 
 import contextlib
+import gc
 import io
 import json
 import os
@@ -277,11 +278,16 @@ def test_run_with_meshcat_prints_its_url_and_closes_the_port(tmp_path):
     from hlcmp_drake.cli import main
 
     stdout = io.StringIO()
-    with contextlib.redirect_stdout(stdout):
-        status = main(["run", "one_dof", "--meshcat", "--quiet", "--set", "duration_s=0.2", "--out", str(tmp_path)])
-    assert status == 0
-    url = re.search(r"^live view: (http://\S+)", stdout.getvalue(), re.M).group(1)
-    port = int(url.rsplit(":", 1)[1].strip("/"))
-    assert (tmp_path / "recording.html").exists()     # the offline recording as without the flag
-    with socket.socket() as probe, pytest.raises(ConnectionRefusedError):
-        probe.connect(("localhost", port))
+    gc.disable()    # as in a long test session where no collection happens to run before the probe
+    try:
+        with contextlib.redirect_stdout(stdout):
+            status = main(["run", "one_dof", "--meshcat", "--quiet", "--set", "duration_s=0.2",
+                           "--out", str(tmp_path)])
+        assert status == 0
+        url = re.search(r"^live view: (http://\S+)", stdout.getvalue(), re.M).group(1)
+        port = int(url.rsplit(":", 1)[1].strip("/"))
+        assert (tmp_path / "recording.html").exists()     # the offline recording as without the flag
+        with socket.socket() as probe, pytest.raises(ConnectionRefusedError):
+            probe.connect(("localhost", port))
+    finally:
+        gc.enable()
