@@ -39,7 +39,7 @@ _EXPORTS = {
     "DmpSource": "hlcmp_drake.systems.references",
     "StepReference": "hlcmp_drake.systems.references",
     "HlcmpController": "hlcmp_drake.systems.hlcmp_controller",
-    "HlcmpGains": "hlcmp_drake.systems.hlcmp_controller",
+    "HlcmpGains": "hlcmp_drake.core.laws",
     "ConstantImpedanceController": "hlcmp_drake.systems.baselines",
     "VariableImpedanceController": "hlcmp_drake.systems.baselines",
     "TaskSpaceDynamics": "hlcmp_drake.systems.task_space",

@@ -10,7 +10,8 @@ from hlcmp_drake.core.adaptation import adaptation_rates, compliant_profiles
 from hlcmp_drake.core.dmp import Dmp, basis_centers_and_widths, normalized_basis
 from hlcmp_drake.systems.baselines import ConstantImpedanceController, VariableImpedanceController
 from hlcmp_drake.systems.environment import UnilateralSpring
-from hlcmp_drake.systems.hlcmp_controller import HlcmpController, HlcmpGains
+from hlcmp_drake.core.laws import HlcmpGains
+from hlcmp_drake.systems.hlcmp_controller import HlcmpController
 from hlcmp_drake.systems.references import DmpSource, StepReference
 from hlcmp_drake.systems.task_space import TaskForceToJointTorque, TaskSpaceDynamics
 

@@ -203,6 +203,10 @@ class SliderTask:
     surface_position_m: float = 0.0
 
 
+# How an arm world puts its controller in the diagram (ArmTask.control_path).
+CONTROL_PATHS = ("fast", "modular")
+
+
 @dc.dataclass
 class PunctureConfig:
     """A foam that gives way. The paper's insertion rests on it ("after the tool piercing the
@@ -253,7 +257,14 @@ class ArmTask:
     left to the solver, near the seed `ik_seed_rad`) -- or, for a tool whose rotation
     about its axis matters (a blade), with the whole tool orientation `tool_rpy_rad`
     (world roll, pitch, yaw) when given; that orientation and posture are then held below
-    the translational task (NullSpaceImpedance)."""
+    the translational task (NullSpaceImpedance).
+
+    `control_path` says how the controller is put in the diagram: "fast" (default) -- the
+    C++ DMP source, one Python evaluation of the whole controller per plant step
+    (`systems.arm_loop.ArmControlLoop`, θ in a C++ Integrator) -- or "modular" -- one
+    system per role (DmpSource, TaskSpaceDynamics, the controller, NullSpaceImpedance,
+    TaskForceToJointTorque), evaluated port by port. Both evaluate the same laws; a
+    controller kind without a `core.laws` law (the variable impedance) is always modular."""
 
     tool_frame: str = "insertion_tool::tip"
     axes: list[int] = dc.field(default_factory=lambda: [0, 1, 2])
@@ -267,6 +278,7 @@ class ArmTask:
     max_contact_force_N: float = 200.0
     max_saturation_s: float = 0.25
     puncture: PunctureConfig = dc.field(default_factory=PunctureConfig)
+    control_path: str = "fast"
 
     def check(self, fail: Fail) -> None:
         """Check axes distinct in {0, 1, 2}, the tool direction and orientation, gains >= 0
@@ -297,6 +309,8 @@ class ArmTask:
         if not self.max_saturation_s > 0:
             fail("task.max_saturation_s", "must be positive")
         self.puncture.check(fail)
+        if self.control_path not in CONTROL_PATHS:
+            fail("task.control_path", f"must be one of {', '.join(CONTROL_PATHS)}, got '{self.control_path}'")
         if self.puncture.object_frame and list(self.axes) != [0, 1, 2]:
             fail("task.puncture.object_frame", "a puncture needs the task axes [0, 1, 2] (the tool point in 3-D)")
 
@@ -350,14 +364,18 @@ class Scenario:
 
     `name` names the outputs; `experiment` says how the runs are evaluated: one of the
     experiments registered in `hlcmp_drake.experiments` (their metrics, claims, figures).
-    `max_abs_position_m` stops a run whose joint positions run away (unstable)."""
+    `max_abs_position_m` stops a run whose joint positions run away (unstable).
+    `plant_config.use_sampled_output_ports` defaults to false: the plant then steps after
+    the unrestricted updates at the same time (the arm's one-call controller, the foam's
+    friction), from their values at that time."""
 
     name: str = ""
     experiment: str = ""
     duration_s: float = 1.0
     log_period_s: float = 0.01
     directives: list[ModelDirective] = dc.field(default_factory=list)
-    plant_config: MultibodyPlantConfig = dc.field(default_factory=MultibodyPlantConfig)
+    plant_config: MultibodyPlantConfig = dc.field(
+        default_factory=lambda: MultibodyPlantConfig(use_sampled_output_ports=False))
     simulator_config: SimulatorConfig = dc.field(default_factory=SimulatorConfig)
     task: Union[SliderTask, ArmTask] = dc.field(default_factory=SliderTask)
     reference: Union[StepReferenceConfig, DemonstrationConfig] = dc.field(default_factory=StepReferenceConfig)

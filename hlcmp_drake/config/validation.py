@@ -85,6 +85,11 @@ def validate_scenario(scenario: Scenario, folder: Path, fail: Fail,
             fail("reference.duration_s", "the demonstration's duration_s must be >= 0 (0: as demonstrated)")
     if isinstance(scenario.task, ArmTask):
         scenario.task.check(fail)
+        if scenario.plant_config.use_sampled_output_ports:
+            # The arm's controller and the foam's friction are unrestricted updates at the
+            # plant's step; a sampled plant steps in the same pass and would see them a step late.
+            fail("plant_config.use_sampled_output_ports", "an arm world needs false (the controller's "
+                 "tick must come before the plant's step)")
     if not scenario.controllers:
         fail("controllers", "at least one controller is needed")
     for name, config in scenario.controllers.items():

@@ -240,6 +240,28 @@ def transformation_rates(p: float | np.ndarray, z: float | np.ndarray, forcing: 
     return pdot, zdot
 
 
+def transformation_matrices(tau: float, alpha: float, beta: float) -> tuple[np.ndarray, np.ndarray]:
+    """Eqs. 7 and 15 of one axis as the linear system x' = A x + b w, x = [p, z], with the
+    drive w = alpha beta g + f. A and b are read off `transformation_rates`, which is
+    linear in p, z and w, so the equations stay in that one function.
+
+    Parameters
+    ----------
+    tau, alpha, beta : float
+        As for `transformation_rates`.
+
+    Returns
+    -------
+    a : (2, 2) array
+        The state matrix [1/s].
+    b : (2,) array
+        The drive's column [1/s].
+    """
+    a = np.column_stack([transformation_rates(1.0, 0.0, 0.0, 0.0, tau, alpha, beta),
+                         transformation_rates(0.0, 1.0, 0.0, 0.0, tau, alpha, beta)])
+    return a, np.array(transformation_rates(0.0, 0.0, 1.0, 0.0, tau, alpha, beta))
+
+
 def forcing_target(p: np.ndarray, pdot: np.ndarray, pddot: np.ndarray, goal: float, tau: float,
                    alpha: float, beta: float) -> np.ndarray:
     """Eq. 19: f_target = tau^2 p'' + alpha tau p' - alpha beta (g - p).
@@ -535,11 +557,7 @@ class Dmp:
         s = phase_at(t, tau, self.settings.alpha_s)
         forcing = self.forcing(s)                                             # (n, M)
         alpha, beta, goal = self.settings.alpha, self.settings.beta_value, self.goal
-        # x = [p, z] per axis: x' = A x + b w(t), w = alpha beta g + f. A and b are read off
-        # transformation_rates (Eqs. 7, 15), which is linear in p, z and w.
-        a = np.column_stack([transformation_rates(1.0, 0.0, 0.0, 0.0, tau, alpha, beta),
-                             transformation_rates(0.0, 1.0, 0.0, 0.0, tau, alpha, beta)])
-        b = np.array(transformation_rates(0.0, 0.0, 1.0, 0.0, tau, alpha, beta))
+        a, b = transformation_matrices(tau, alpha, beta)
         phi, gamma0, gamma1 = _first_order_hold(a, b, dt)
         u = alpha * beta * goal + forcing                                     # (n, M)
         slope = np.diff(u, axis=0, append=u[-1:]) / dt

@@ -9,7 +9,7 @@ from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.framework import BasicVector, Context, LeafSystem
 
 
-class NullSpaceImpedance(LeafSystem):
+class BelowTaskImpedance:
     """tau_0 = N^T (G(q) + J_w^T (-K_o e_R - D_o w) - K_p (q - q_0) - D_p q').
 
     Holds the tool's orientation with a fixed rotational impedance (e_R: the rotation
@@ -17,7 +17,65 @@ class NullSpaceImpedance(LeafSystem):
     velocity) and the arm's posture near q_0, projected with the dynamically consistent
     N^T = I - J^T Jbar^T of the translational task, so neither disturbs the task-space
     dynamics that Eqs. 33-34 assume; G(q) completes the gravity compensation whose
-    task-space share J^T Jbar^T G is already in f_c. Inputs: `plant_state`,
+    task-space share J^T Jbar^T G is already in f_c.
+
+    Parameters
+    ----------
+    plant : MultibodyPlant
+        Finalized; a control-side context of it is made here.
+    tool_frame : Frame
+        The tool frame whose orientation is held.
+    desired_orientation : RotationMatrix
+        The tool orientation to hold, world.
+    nominal_positions : (nq,) array
+        q_0 [rad].
+    orientation_stiffness, orientation_damping : float
+        K_o [N m/rad] and D_o [N m s/rad].
+    posture_stiffness, posture_damping : float
+        K_p [N m/rad] and D_p [N m s/rad].
+    """
+
+    def __init__(self, plant, tool_frame, desired_orientation: RotationMatrix, nominal_positions,
+                 orientation_stiffness: float, orientation_damping: float, posture_stiffness: float,
+                 posture_damping: float):
+        self._plant, self._frame = plant, tool_frame
+        self._context = plant.CreateDefaultContext()
+        self._R_desired = desired_orientation
+        self._q0 = np.asarray(nominal_positions, dtype=float)
+        self._k_o, self._d_o = float(orientation_stiffness), float(orientation_damping)
+        self._k_p, self._d_p = float(posture_stiffness), float(posture_damping)
+        self.nq, self.nv = plant.num_positions(), plant.num_velocities()
+
+    def torque(self, state: np.ndarray, projector: np.ndarray, joint_gravity: np.ndarray) -> np.ndarray:
+        """tau_0 at the plant state `state`.
+
+        Parameters
+        ----------
+        state : (nq + nv,) array
+            The plant's positions and velocities.
+        projector : (nv, nv) array
+            N^T of the translational task.
+        joint_gravity : (nv,) array
+            G(q) [N m].
+
+        Returns
+        -------
+        (nv,) array
+            The joint torque below the task [N m].
+        """
+        plant, ctx, world = self._plant, self._context, self._plant.world_frame()
+        plant.SetPositionsAndVelocities(ctx, state)
+        q, v = state[: self.nq], state[self.nq :]
+        R_current = self._frame.CalcRotationMatrixInWorld(ctx)
+        error = (R_current @ self._R_desired.inverse()).ToAngleAxis()
+        e_R = error.axis() * error.angle()
+        j_w = plant.CalcJacobianAngularVelocity(ctx, JacobianWrtVariable.kV, self._frame, world, world)
+        moment = -self._k_o * e_R - self._d_o * (j_w @ v)
+        return projector @ (joint_gravity + j_w.T @ moment - self._k_p * (q - self._q0) - self._d_p * v)
+
+
+class NullSpaceImpedance(LeafSystem):
+    """`BelowTaskImpedance` as a Drake system. Inputs: `plant_state`,
     `null_space_projector` and `joint_gravity` (from TaskSpaceDynamics). Output:
     `joint_torque` (nv).
     """
@@ -25,32 +83,20 @@ class NullSpaceImpedance(LeafSystem):
     def __init__(self, plant, tool_frame, desired_orientation: RotationMatrix, nominal_positions,
                  orientation_stiffness, orientation_damping, posture_stiffness, posture_damping):
         super().__init__()
-        self._plant, self._frame = plant, tool_frame
-        self._context = plant.CreateDefaultContext()
-        self._R_desired = desired_orientation
-        self._q0 = np.asarray(nominal_positions, dtype=float)
-        self._k_o, self._d_o = float(orientation_stiffness), float(orientation_damping)
-        self._k_p, self._d_p = float(posture_stiffness), float(posture_damping)
-        nq, nv = plant.num_positions(), plant.num_velocities()
-        self._nq, self._nv = nq, nv
+        self._impedance = BelowTaskImpedance(plant, tool_frame, desired_orientation, nominal_positions,
+                                             orientation_stiffness, orientation_damping, posture_stiffness,
+                                             posture_damping)
+        nq, nv = self._impedance.nq, self._impedance.nv
+        self._nv = nv
         self.plant_state = self.DeclareVectorInputPort("plant_state", BasicVector(nq + nv))
         self.projector = self.DeclareVectorInputPort("null_space_projector", BasicVector(nv * nv))
         self.gravity = self.DeclareVectorInputPort("joint_gravity", BasicVector(nv))
         self.DeclareVectorOutputPort("joint_torque", nv, self._calc, {self.all_input_ports_ticket()})
 
     def _calc(self, context, output):
-        plant, ctx, world = self._plant, self._context, self._plant.world_frame()
-        state = self.plant_state.Eval(context)
-        plant.SetPositionsAndVelocities(ctx, state)
-        q, v = state[: self._nq], state[self._nq :]
-        R_current = self._frame.CalcRotationMatrixInWorld(ctx)
-        error = (R_current @ self._R_desired.inverse()).ToAngleAxis()
-        e_R = error.axis() * error.angle()
-        j_w = plant.CalcJacobianAngularVelocity(ctx, JacobianWrtVariable.kV, self._frame, world, world)
-        moment = -self._k_o * e_R - self._d_o * (j_w @ v)
-        below_task = (self.gravity.Eval(context) + j_w.T @ moment
-                      - self._k_p * (q - self._q0) - self._d_p * v)
-        output.SetFromVector(self.projector.Eval(context).reshape(self._nv, self._nv) @ below_task)
+        output.SetFromVector(self._impedance.torque(
+            self.plant_state.Eval(context), self.projector.Eval(context).reshape(self._nv, self._nv),
+            self.gravity.Eval(context)))
 
 
 class ToolContactForce(LeafSystem):

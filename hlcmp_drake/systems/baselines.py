@@ -5,35 +5,26 @@ controller of Duan et al. 2018 standing in for the paper's ref. [21] (see
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
-from hlcmp_drake.core.control_law import (commanded_force, impedance_force, nominal_command,
-                                          tracking_errors)
+from hlcmp_drake.core.control_law import tracking_errors
 from hlcmp_drake.core.duan2018 import (duan_adaptation_step, duan_admittance_acceleration,
                                        duan_force_error, inner_position_loop)
+from hlcmp_drake.core.laws import ConstantImpedanceLaw
 from hlcmp_drake.systems.ports import declare_task_space_inputs
 
 
 class ConstantImpedanceController(LeafSystem):
-    """The Hl-CMP control structure with fixed profiles: f_c = f_0 - K_s e - K_d e'
-    (Eqs. 33-34 with v = 0 and constant diagonal K_s, K_d), so that a comparison with
-    the Hl-CMP differs only in whether the impedance is learned."""
+    """The constant impedance of `core.laws.ConstantImpedanceLaw` as a Drake system: the
+    Hl-CMP's structure with fixed K_s, K_d and v = 0. Output `force` f_c (M)."""
 
     def __init__(self, stiffness, damping, pi, gain_l):
         super().__init__()
-        self._k_s = np.asarray(stiffness, dtype=float)
-        self._k_d = np.asarray(damping, dtype=float)
-        self._pi, self._gain_l = float(pi), np.asarray(gain_l, dtype=float)
-        m = len(self._k_s)
-        self._m = m
-        self.inputs = declare_task_space_inputs(self, m)
-        self.DeclareVectorOutputPort("force", m, self._calc_force, {self.all_input_ports_ticket()})
+        self._law = ConstantImpedanceLaw(stiffness, damping, pi, gain_l)
+        self._m = self._law.n_axes
+        self.inputs = declare_task_space_inputs(self, self._m)
+        self.DeclareVectorOutputPort("force", self._m, self._calc_force, {self.all_input_ports_ticket()})
 
     def _calc_force(self, context, output):
-        x, xdot, xd, xd_dot, xd_ddot = self.inputs.errors_and_reference(context)
-        inertia, coriolis, gravity = self.inputs.dynamics(context, self._m)
-        e, edot, _, f0 = nominal_command(x, xdot, xd, xd_dot, xd_ddot, inertia, coriolis, gravity,
-                                         self._pi, self._gain_l)
-        output.SetFromVector(commanded_force(f0, impedance_force(self._k_s, self._k_d, e, edot),
-                                             np.zeros(self._m)))
+        output.SetFromVector(self._law.command(self.inputs.instant(context, self._m)).force)
 
 
 class VariableImpedanceController(LeafSystem):

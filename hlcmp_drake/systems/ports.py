@@ -5,6 +5,8 @@ from dataclasses import dataclass
 import numpy as np
 from pydrake.systems.framework import BasicVector, Context, InputPort, LeafSystem
 
+from hlcmp_drake.core.laws import TaskSpaceInstant
+
 
 @dataclass(frozen=True)
 class TaskSpaceInputs:
@@ -62,6 +64,23 @@ class TaskSpaceInputs:
         return (self.inertia.Eval(context).reshape(n_axes, n_axes),
                 self.coriolis.Eval(context).reshape(n_axes, n_axes),
                 self.gravity.Eval(context))
+
+    def instant(self, context: Context, n_axes: int) -> TaskSpaceInstant:
+        """Everything a law reads, evaluated from these ports.
+
+        Parameters
+        ----------
+        context, n_axes
+            As for `dynamics`.
+
+        Returns
+        -------
+        TaskSpaceInstant
+            x, x', x_d, x_d', x_d'', the phase s and the task-space M, C, G.
+        """
+        inertia, coriolis, gravity = self.dynamics(context, n_axes)
+        return TaskSpaceInstant(*self.errors_and_reference(context), self.phase.Eval(context)[0],
+                                inertia, coriolis, gravity)
 
 
 def declare_task_space_inputs(system: LeafSystem, n_axes: int) -> TaskSpaceInputs:

@@ -15,24 +15,26 @@ from hlcmp_drake.core.puncture import depth_below, hole_friction, tears
 class HoleFriction(LeafSystem):
     """Tears the foam once and then applies the torn hole's friction to the tool.
 
-    Discrete state `stage` (1), checked every `period` s: 0 until the tool point first
-    reaches the tear depth below the object's top face while moving in; then 1, when the
-    contact between tool and object must end -- whoever runs the simulation does that on
-    reading `punctured` (a collision filter lives in SceneGraph's context, which a system's
-    own events cannot change); one period later 2, when the hole's friction starts. The
-    period in between keeps the friction from adding to a contact force not yet ended.
+    One periodic unrestricted update per `period` (the plant's step), handled before the
+    plant's discrete update at the same time: from the tool point's position and velocity
+    at t_k it computes the hole's friction with the stage before the update, holds it for
+    the plant's step, then advances the stage -- 0 until the tool point first reaches the
+    tear depth below the object's top face while moving in; then 1, when the contact
+    between tool and object must end (whoever runs the simulation does that on reading
+    `punctured`: a collision filter lives in SceneGraph's context, which a system's own
+    events cannot change); one period later 2, when the hole's friction starts. The period
+    in between keeps the friction from adding to a contact force not yet ended.
 
-    Inputs `tool_position`, `tool_velocity` (3 each, world) of the tool point. Outputs
-    `force` (3, world [N]): the hole's friction on the tool (zero before the tear), and
-    `spatial_forces`: the same force at the tool point, for the plant's
-    applied_spatial_force input.
+    Input `plant_state`. Outputs `force` (3, world [N]): the hole's friction on the tool
+    (zero before the tear), and `spatial_forces`: the same force at the tool point, for
+    the plant's applied_spatial_force input; both are the held values of the last update.
 
     Parameters
     ----------
-    tool_body_index : BodyIndex
-        The tool's body.
-    tool_point_in_body : (3,) array
-        The tool point in the body frame [m].
+    plant : MultibodyPlant
+        Finalized; the tool point's motion is computed on a context of it.
+    tool_frame : Frame
+        The tool point's frame (on the tool body).
     tool_axis : (3,) array
         The tool's axis in the world, pointing into the object (unit after normalizing).
     top_point, top_normal : (3,) arrays
@@ -42,29 +44,27 @@ class HoleFriction(LeafSystem):
     friction_per_m, sliding_speed : float
         The hole's friction per unit length inside [N/m] and its smoothing speed [m/s].
     period : float
-        How often the tear is checked [s] (the plant's time step).
+        How often the tear is checked and the force updated [s] (the plant's time step).
     """
 
-    def __init__(self, tool_body_index, tool_point_in_body, tool_axis, top_point, top_normal,
-                 thickness: float, tear_depth: float, friction_per_m: float, sliding_speed: float,
-                 period: float):
+    def __init__(self, plant, tool_frame, tool_axis, top_point, top_normal, thickness: float,
+                 tear_depth: float, friction_per_m: float, sliding_speed: float, period: float):
         super().__init__()
-        self._body_index = tool_body_index
-        self._point_in_body = np.asarray(tool_point_in_body, dtype=float)
+        self._plant, self._frame = plant, tool_frame
+        self._plant_context = plant.CreateDefaultContext()
         axis = np.asarray(tool_axis, dtype=float)
         self._axis = axis / np.linalg.norm(axis)
         self._top_point, self._top_normal = np.asarray(top_point, float), np.asarray(top_normal, float)
         self._thickness, self._tear_depth = float(thickness), float(tear_depth)
         self._friction_per_m, self._sliding_speed = float(friction_per_m), float(sliding_speed)
-        self.tool_position = self.DeclareVectorInputPort("tool_position", BasicVector(3))
-        self.tool_velocity = self.DeclareVectorInputPort("tool_velocity", BasicVector(3))
+        self.plant_state = self.DeclareVectorInputPort(
+            "plant_state", BasicVector(plant.num_positions() + plant.num_velocities()))
         self._stage_index = self.DeclareDiscreteState(1)
-        self.DeclarePeriodicDiscreteUpdateEvent(period, 0.0, self._update)
-        prereq = {self.all_input_ports_ticket(), self.all_state_ticket()}
-        self._force_port = self.DeclareVectorOutputPort("force", 3, self._calc_force, prereq)
-        self.DeclareAbstractOutputPort(
-            "spatial_forces", lambda: AbstractValue.Make([ExternallyAppliedSpatialForce()]),
-            self._calc_spatial_forces, prereq)
+        self._force_index = self.DeclareDiscreteState(3)
+        self._spatial_index = self.DeclareAbstractState(AbstractValue.Make([self._applied(np.zeros(3))]))
+        self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._update)
+        self.DeclareStateOutputPort("force", self._force_index)
+        self.DeclareStateOutputPort("spatial_forces", self._spatial_index)
 
     def punctured(self, context: Context) -> bool:
         """Whether the foam has torn (stage 1 or 2), at this system's `context`.
@@ -79,31 +79,34 @@ class HoleFriction(LeafSystem):
     def _stage(self, context):
         return context.get_discrete_state(self._stage_index).get_value()[0]
 
-    def _depth(self, context):
-        return depth_below(self.tool_position.Eval(context), self._top_point, self._top_normal)
+    def _applied(self, force):
+        applied = ExternallyAppliedSpatialForce()
+        applied.body_index = self._frame.body().index()
+        applied.p_BoBq_B = self._frame.GetFixedPoseInBodyFrame().translation()
+        applied.F_Bq_W = SpatialForce(np.zeros(3), force)
+        return applied
 
-    def _update(self, context, discrete_state):
-        if self.punctured(context):
+    def _tool_motion(self, context):
+        """The tool point's world position [m] and velocity [m/s] at this context."""
+        plant, ctx = self._plant, self._plant_context
+        plant.SetPositionsAndVelocities(ctx, self.plant_state.Eval(context))
+        pose = self._frame.CalcPoseInWorld(ctx)
+        velocity = self._frame.CalcSpatialVelocityInWorld(ctx).translational()
+        return pose.translation(), velocity
+
+    def _update(self, context, state):
+        position, velocity = self._tool_motion(context)
+        depth = depth_below(position, self._top_point, self._top_normal)
+        stage = self._stage(context)
+        force = np.zeros(3)
+        if stage >= 2:
+            force = self._axis * hole_friction(depth, self._thickness, float(np.dot(velocity, self._axis)),
+                                               self._friction_per_m, self._sliding_speed)
+        if stage >= 1:
             stage = 2.0
         else:
-            inward = -float(np.dot(self.tool_velocity.Eval(context), self._top_normal))
-            stage = 1.0 if tears(self._depth(context), inward, self._tear_depth) else 0.0
-        discrete_state.get_mutable_vector(self._stage_index).SetFromVector([stage])
-
-    def _force(self, context):
-        if self._stage(context) < 2:
-            return np.zeros(3)
-        axial = float(np.dot(self.tool_velocity.Eval(context), self._axis))
-        return self._axis * hole_friction(self._depth(context), self._thickness, axial,
-                                          self._friction_per_m, self._sliding_speed)
-
-    def _calc_force(self, context, output):
-        output.SetFromVector(self._force(context))
-
-    def _calc_spatial_forces(self, context, output):
-        applied = ExternallyAppliedSpatialForce()
-        applied.body_index = self._body_index
-        applied.p_BoBq_B = self._point_in_body
-        # the `force` output is cached by Drake: the friction is computed once per step
-        applied.F_Bq_W = SpatialForce(np.zeros(3), self._force_port.Eval(context))
-        output.set_value([applied])
+            stage = 1.0 if tears(depth, -float(np.dot(velocity, self._top_normal)), self._tear_depth) else 0.0
+        state.get_mutable_discrete_state(self._stage_index).set_value([stage])
+        if force.any() or context.get_discrete_state(self._force_index).get_value().any():
+            state.get_mutable_discrete_state(self._force_index).set_value(force)
+            state.get_mutable_abstract_state(self._spatial_index).set_value([self._applied(force)])

@@ -6,9 +6,15 @@ desired_acceleration (M each) and phase (1) -- so a controller cannot tell them 
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import BasicVector, LeafSystem, ValueProducer
+from pydrake.systems.framework import BasicVector, Diagram, DiagramBuilder, LeafSystem, ValueProducer
+from pydrake.systems.primitives import AffineSystem, Demultiplexer, TrajectorySource
+from pydrake.trajectories import PiecewisePolynomial
 
-from hlcmp_drake.core.dmp import Dmp, canonical_phase_rate
+from hlcmp_drake.core.dmp import Dmp, canonical_phase_rate, phase_at, transformation_matrices
+
+# The forcing term's samples for the spline that drives linear_dmp_source [s]: the basis
+# functions span ~0.3 s, so a cubic through 2 ms samples is exact to ~1e-12 of f.
+FORCING_SAMPLE_S = 0.002
 
 
 class DmpSource(LeafSystem):
@@ -62,6 +68,65 @@ class DmpSource(LeafSystem):
 
     def _calc_phase(self, context, output):
         output.SetFromVector([self._state(context)[2]])
+
+
+def linear_dmp_source(dmp: Dmp, duration: float, tau: float | None = None) -> Diagram:
+    """The DMP as Drake's own C++ systems, with the ports of `DmpSource`.
+
+    The phase has a closed form (Eq. 8), so the forcing term f(s(t)) is a known function
+    of time: a cubic spline of it drives an AffineSystem whose continuous state
+    [p (M), z (M), s] Drake integrates, with A and b read off the same functions
+    `DmpSource` calls (`transformation_matrices`, `canonical_phase_rate`). No Python runs
+    while it is simulated.
+
+    Parameters
+    ----------
+    dmp : Dmp
+        The fitted DMP (with a new goal already set, if any).
+    duration : float
+        How long the source will be simulated [s]; the forcing is sampled that far.
+    tau : float, optional
+        Time constant [s]; default the demonstration's (another value: temporal scaling).
+
+    Returns
+    -------
+    Diagram
+        Named "reference", with outputs desired_position, desired_velocity,
+        desired_acceleration (M each) and phase (1).
+    """
+    tau = dmp.tau if tau is None else float(tau)
+    m, settings = dmp.n_axes, dmp.settings
+    a, b = transformation_matrices(tau, settings.alpha, settings.beta_value)
+    eye = np.eye(m)
+    state_matrix = np.zeros((2 * m + 1, 2 * m + 1))
+    state_matrix[: 2 * m, : 2 * m] = np.kron(a, eye)
+    state_matrix[2 * m, 2 * m] = canonical_phase_rate(1.0, tau, settings.alpha_s)
+    input_matrix = np.vstack([np.kron(b[:, None], eye), np.zeros((1, m))])
+    drift = np.append(np.kron(b, settings.alpha * settings.beta_value * dmp.goal), 0.0)
+    # Outputs: x_d = p, x_d' = z / tau, x_d'' = z' / tau, and s.
+    z_rows = slice(m, 2 * m)
+    output_matrix = np.vstack([np.eye(m, 2 * m + 1), np.eye(m, 2 * m + 1, m) / tau,
+                               state_matrix[z_rows] / tau, np.eye(1, 2 * m + 1, 2 * m)])
+    feedthrough = np.vstack([np.zeros((2 * m, m)), input_matrix[z_rows] / tau, np.zeros((1, m))])
+    output_offset = np.concatenate([np.zeros(2 * m), drift[z_rows] / tau, [0.0]])
+    builder = DiagramBuilder()
+    affine = builder.AddSystem(AffineSystem(state_matrix, input_matrix, drift, output_matrix, feedthrough,
+                                            output_offset))
+    affine.set_name("transformation_system")
+    affine.configure_default_state(np.concatenate([dmp.start, np.zeros(m), [1.0]]))
+    times = np.arange(0.0, duration + 2 * FORCING_SAMPLE_S, FORCING_SAMPLE_S)
+    forcing = dmp.forcing(phase_at(times, tau, settings.alpha_s))
+    spline = PiecewisePolynomial.CubicWithContinuousSecondDerivatives(times, forcing.T, False)
+    source = builder.AddSystem(TrajectorySource(spline))
+    source.set_name("forcing_term")
+    builder.Connect(source.get_output_port(), affine.get_input_port())
+    split = builder.AddSystem(Demultiplexer([m, m, m, 1]))
+    builder.Connect(affine.get_output_port(), split.get_input_port())
+    for k, name in enumerate(("desired_position", "desired_velocity", "desired_acceleration", "phase")):
+        builder.ExportOutput(split.get_output_port(k), name)
+    diagram = builder.Build()
+    diagram.set_name("reference")
+    return diagram
 
 
 class StepReference(LeafSystem):

@@ -24,18 +24,124 @@ class TaskSpaceTerms:
     joint_gravity: np.ndarray  # G(q) (nv,)
 
 
-class TaskSpaceDynamics(LeafSystem):
-    """Reads the plant state; outputs the task-space position, velocity, Jacobian and the
-    task-space inertia, Coriolis matrix and gravity of a point P fixed on `frame`.
+class TaskSpaceModel:
+    """The task-space terms of a point P fixed on `frame`, computed by Drake from a
+    control-side plant context: position, velocity, Jacobian, and the task-space inertia,
+    Coriolis matrix and gravity (the operational-space terms of Eq. 2, Khatib).
 
     Task space = the `axes` (0 = x, 1 = y, 2 = z of the world) of P's translation.
-    Lambda, C_x and G_x are the operational-space terms (Khatib) with the dynamically
-    consistent inverse Jbar = M^-1 J^T Lambda. C(q, v) and Jdot are not exposed by Drake
-    as matrices, only as the products C(q, v) v (CalcBiasTerm) and Jdot v
-    (CalcBiasTranslationalAcceleration); both products are quadratic forms whose
-    symmetric bilinear form is the matrix-vector product we need (Christoffel symbols,
-    resp. mixed second derivatives of P's position), so the products with the M columns
-    w of Jbar are recovered exactly by polarization: C(q, v) w = [b(v + w) - b(v - w)] / 4.
+    Lambda, C_x and G_x use the dynamically consistent inverse Jbar = M^-1 J^T Lambda.
+    C(q, v) and Jdot are not exposed by Drake as matrices, only as the products C(q, v) v
+    (CalcBiasTerm) and Jdot v (CalcBiasTranslationalAcceleration); both products are
+    quadratic forms whose symmetric bilinear form is the matrix-vector product we need
+    (Christoffel symbols, resp. mixed second derivatives of P's position), so their
+    products with a vector u are recovered exactly by polarization:
+    C(q, v) u = [b(v + u) - b(v - u)] / 4 (see `CoriolisProduct`).
+
+    Parameters
+    ----------
+    plant : MultibodyPlant
+        Finalized; its own contexts are made here.
+    frame : Frame
+        The frame P is fixed on.
+    point_in_frame : (3,) array
+        P in `frame` [m].
+    axes : sequence of int
+        The world axes of the task space.
+    """
+
+    def __init__(self, plant, frame, point_in_frame=(0.0, 0.0, 0.0), axes=(0, 1, 2)):
+        self.plant, self._frame = plant, frame
+        self._point = np.asarray(point_in_frame, dtype=float).reshape(3, 1)
+        self._axes = list(axes)
+        self._context = plant.CreateDefaultContext()
+        self._scratch = plant.CreateDefaultContext()
+        self.nq, self.nv, self.n_axes = plant.num_positions(), plant.num_velocities(), len(self._axes)
+
+    def _polarized_pair(self, v, u, jbar_t, inertia):
+        """Jbar^T C(q, v) u - Lambda Jdot u by polarization of the quadratic maps
+        v -> C(q, v) v and v -> Jdot v: each bilinear form is (f(v + u) - f(v - u)) / 4.
+        The scratch context must hold q."""
+        plant, ctx, world = self.plant, self._scratch, self.plant.world_frame()
+        sums = []
+        for sign in (1.0, -1.0):
+            plant.SetVelocities(ctx, v + sign * u)
+            sums.append((plant.CalcBiasTerm(ctx), plant.CalcBiasTranslationalAcceleration(
+                ctx, JacobianWrtVariable.kV, self._frame, self._point, world, world)[self._axes, 0]))
+        (bias_plus, accel_plus), (bias_minus, accel_minus) = sums
+        return (jbar_t @ (bias_plus - bias_minus) - inertia @ (accel_plus - accel_minus)) / 4.0
+
+    def terms(self, state: np.ndarray, coriolis_matrix: bool = True) -> TaskSpaceTerms:
+        """All task-space terms at the plant state `state`.
+
+        Parameters
+        ----------
+        state : (nq + nv,) array
+            The plant's positions [rad, m] and velocities.
+        coriolis_matrix : bool
+            True: C_x as an (M, M) matrix (2 M polarizations). False: as a `CoriolisProduct`,
+            which gives C_x w for the one w a law needs (Eq. 34's C x_e') with 2.
+
+        Returns
+        -------
+        TaskSpaceTerms
+            Position [m] and velocity [m/s] (M,), Jacobian (M, nv), inertia [kg] and
+            Coriolis [kg/s] (M, M), gravity [N] (M,), null-space projector (nv, nv) and
+            joint gravity G(q) (nv,) in the joints' units.
+        """
+        plant, ctx, world = self.plant, self._context, self.plant.world_frame()
+        plant.SetPositionsAndVelocities(ctx, state)
+        q, v = state[: self.nq], state[self.nq :]
+        position = plant.CalcPointsPositions(ctx, self._frame, self._point, world)[self._axes, 0]
+        jac = plant.CalcJacobianTranslationalVelocity(
+            ctx, JacobianWrtVariable.kV, self._frame, self._point, world, world)[self._axes]
+        mass = plant.CalcMassMatrix(ctx)
+        minv_jt = np.linalg.solve(mass, jac.T)
+        inertia = np.linalg.inv(jac @ minv_jt)
+        jbar = minv_jt @ inertia
+        joint_gravity = -plant.CalcGravityGeneralizedForces(ctx)
+        gravity = jbar.T @ joint_gravity
+        plant.SetPositions(self._scratch, q)
+        coriolis = CoriolisProduct(self, v, jbar, inertia)
+        if coriolis_matrix:
+            coriolis = coriolis @ np.eye(self.n_axes)
+        null_space = np.eye(self.nv) - jac.T @ jbar.T
+        return TaskSpaceTerms(position, jac @ v, jac, inertia, coriolis, gravity, null_space, joint_gravity)
+
+
+class CoriolisProduct:
+    """C_x = Jbar^T C(q, v) Jbar - Lambda Jdot Jbar at one state, as an operator:
+    `C_x @ w` for a vector w (M,) or the columns of a matrix (M, K). Only C(q, v) u and
+    Jdot u with u = Jbar w are needed: for each column, both from the plant evaluated at
+    the two velocities v + u and v - u (see `TaskSpaceModel` for the polarization).
+
+    Parameters
+    ----------
+    model : TaskSpaceModel
+        Its scratch context holds the state's positions.
+    v : (nv,) array
+        The plant's velocities.
+    jbar : (nv, M) array
+        The dynamically consistent inverse Jbar.
+    inertia : (M, M) array
+        Lambda.
+    """
+
+    def __init__(self, model: TaskSpaceModel, v: np.ndarray, jbar: np.ndarray, inertia: np.ndarray):
+        self._model, self._v, self._jbar, self._inertia = model, v, jbar, inertia
+
+    def __matmul__(self, w: np.ndarray) -> np.ndarray:
+        model = self._model
+        columns = np.asarray(w, dtype=float).reshape(self._jbar.shape[1], -1)
+        product = np.column_stack([model._polarized_pair(self._v, self._jbar @ column, self._jbar.T, self._inertia)
+                                   for column in columns.T])
+        return product if np.ndim(w) == 2 else product[:, 0]
+
+
+class TaskSpaceDynamics(LeafSystem):
+    """Reads the plant state; outputs the task-space position, velocity, Jacobian and the
+    task-space inertia, Coriolis matrix and gravity of a point P fixed on `frame`, as
+    `TaskSpaceModel` computes them, plus the null-space projector and G(q).
 
     All outputs come from one cache entry that depends on the plant-state input only,
     so integrator stages that do not change the plant's state reuse it.
@@ -43,18 +149,14 @@ class TaskSpaceDynamics(LeafSystem):
 
     def __init__(self, plant, frame, point_in_frame=(0.0, 0.0, 0.0), axes=(0, 1, 2)):
         super().__init__()
-        self._plant = plant
-        self._frame = frame
-        self._point = np.asarray(point_in_frame, dtype=float).reshape(3, 1)
-        self._axes = list(axes)
-        self._context = plant.CreateDefaultContext()
-        self._scratch = plant.CreateDefaultContext()
-        nq, nv, m = plant.num_positions(), plant.num_velocities(), len(self._axes)
-        self._nq, self._nv, self._m = nq, nv, m
+        self._model = TaskSpaceModel(plant, frame, point_in_frame, axes)
+        nq, nv, m = self._model.nq, self._model.nv, self._model.n_axes
         self.plant_state = self.DeclareVectorInputPort("plant_state", BasicVector(nq + nv))
         self._terms = self.DeclareCacheEntry(
             "task_space_terms",
-            ValueProducer(allocate=lambda: AbstractValue.Make(None), calc=self._calc_terms),
+            ValueProducer(allocate=lambda: AbstractValue.Make(None),
+                          calc=lambda context, value: value.set_value(
+                              self._model.terms(self.plant_state.Eval(context)))),
             {self.input_port_ticket(self.plant_state.get_index())})
         prereq = {self._terms.ticket()}
         for name, size, field in [("position", m, "position"), ("velocity", m, "velocity"),
@@ -77,9 +179,7 @@ class TaskSpaceDynamics(LeafSystem):
         Returns
         -------
         TaskSpaceTerms
-            Position [m] and velocity [m/s] (M,), Jacobian (M, nv), inertia [kg] and
-            Coriolis [kg/s] (M, M), gravity [N] (M,), null-space projector (nv, nv) and
-            joint gravity G(q) (nv,) in the joints' units.
+            As `TaskSpaceModel.terms` gives them.
         """
         return self._terms.Eval(context)
 
@@ -88,40 +188,25 @@ class TaskSpaceDynamics(LeafSystem):
             output.SetFromVector(np.ravel(getattr(self._terms.Eval(context), field)))
         return calc
 
-    def _polarized(self, v, directions, evaluate):
-        """[bilinear(v, w) for each column w of `directions`] by polarization of the
-        quadratic map `evaluate` of the velocity: (evaluate(v + w) - evaluate(v - w)) / 4."""
-        columns = []
-        for w in directions.T:
-            self._plant.SetVelocities(self._scratch, v + w)
-            plus = evaluate(self._scratch)
-            self._plant.SetVelocities(self._scratch, v - w)
-            columns.append((plus - evaluate(self._scratch)) / 4.0)
-        return np.column_stack(columns)
 
-    def _calc_terms(self, context, abstract_value):
-        plant, ctx, world = self._plant, self._context, self._plant.world_frame()
-        state = self.plant_state.Eval(context)
-        plant.SetPositionsAndVelocities(ctx, state)
-        q, v = state[: self._nq], state[self._nq :]
-        position = plant.CalcPointsPositions(ctx, self._frame, self._point, world)[self._axes, 0]
-        jac = plant.CalcJacobianTranslationalVelocity(
-            ctx, JacobianWrtVariable.kV, self._frame, self._point, world, world)[self._axes]
-        mass = plant.CalcMassMatrix(ctx)
-        minv_jt = np.linalg.solve(mass, jac.T)
-        inertia = np.linalg.inv(jac @ minv_jt)
-        jbar = minv_jt @ inertia
-        joint_gravity = -plant.CalcGravityGeneralizedForces(ctx)
-        gravity = jbar.T @ joint_gravity
-        plant.SetPositions(self._scratch, q)
-        # Only C(q, v) Jbar and Jdot Jbar are needed: M polarizations each, not nv.
-        coriolis_jbar = self._polarized(v, jbar, plant.CalcBiasTerm)
-        jdot_jbar = self._polarized(v, jbar, lambda c: plant.CalcBiasTranslationalAcceleration(
-            c, JacobianWrtVariable.kV, self._frame, self._point, world, world)[self._axes, 0])
-        coriolis = jbar.T @ coriolis_jbar - inertia @ jdot_jbar
-        null_space = np.eye(self._nv) - jac.T @ jbar.T
-        abstract_value.set_value(TaskSpaceTerms(position, jac @ v, jac, inertia, coriolis, gravity,
-                                                null_space, joint_gravity))
+def saturate(torque: np.ndarray, limits: np.ndarray) -> tuple[np.ndarray, int]:
+    """Clip a joint torque element-wise at the actuators' effort limits.
+
+    Parameters
+    ----------
+    torque : (nv,) array
+        The unsaturated torque [N m].
+    limits : (nv,) array
+        The effort limits [N m], > 0.
+
+    Returns
+    -------
+    clipped : (nv,) array
+        The applied torque [N m].
+    saturated : int
+        The number of joints at their limit.
+    """
+    return np.clip(torque, -limits, limits), int(np.count_nonzero(np.abs(torque) >= limits))
 
 
 class TaskForceToJointTorque(LeafSystem):
@@ -154,7 +239,7 @@ class TaskForceToJointTorque(LeafSystem):
         abstract_value.set_value(torque + self.extra.Eval(context) if self.extra is not None else torque)
 
     def _calc_torque(self, context, output):
-        output.SetFromVector(np.clip(self._raw.Eval(context), -self._limits, self._limits))
+        output.SetFromVector(saturate(self._raw.Eval(context), self._limits)[0])
 
     def _calc_saturated(self, context, output):
-        output.SetFromVector([np.count_nonzero(np.abs(self._raw.Eval(context)) >= self._limits)])
+        output.SetFromVector([saturate(self._raw.Eval(context), self._limits)[1]])

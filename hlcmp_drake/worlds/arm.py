@@ -16,20 +16,22 @@ from pydrake.systems.framework import DiagramBuilder
 from hlcmp_drake.config.scenario import ArmTask, Scenario
 from hlcmp_drake.core.dmp import Dmp
 from hlcmp_drake.io.errors import InputError
-from hlcmp_drake.systems.arm import NullSpaceImpedance, ToolContactForce
-from hlcmp_drake.systems.task_space import TaskSpaceDynamics
+from pydrake.systems.primitives import Integrator, MatrixGain
+
+from hlcmp_drake.systems.arm import BelowTaskImpedance, NullSpaceImpedance, ToolContactForce
+from hlcmp_drake.systems.arm_loop import REFERENCE_PORTS, ArmControlLoop
+from hlcmp_drake.systems.task_space import TaskSpaceDynamics, TaskSpaceModel
 from hlcmp_drake.worlds.checks import check_demonstration_feasible
-from hlcmp_drake.worlds.common import (BuiltDiagram, add_loggers, add_reference, add_torque_map,
-                                       read_scenario_demonstration)
-from hlcmp_drake.worlds.controllers import WorldPorts, add_controller
-from hlcmp_drake.worlds.puncture import Puncture, add_puncture
+from hlcmp_drake.worlds.common import (BuiltDiagram, add_loggers, add_reference, add_safety_monitor,
+                                       add_torque_map, modular_log_ports, read_scenario_demonstration)
+from hlcmp_drake.worlds.controllers import (AddedController, WorldPorts, add_controller, controller_kind,
+                                            initial_theta)
 from hlcmp_drake.worlds.models import add_plant, load_models, scoped_frame, solve_ik_for_tool
+from hlcmp_drake.worlds.puncture import Puncture, add_puncture
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
-    from pydrake.systems.framework import Context
-
-    from hlcmp_drake.systems.task_space import TaskForceToJointTorque
+    from pydrake.systems.framework import OutputPort
 
 
 @dc.dataclass
@@ -133,9 +135,82 @@ def prepare(scenario: Scenario, dmp: Dmp | None = None) -> ArmSetup:
     return ArmSetup(dmp, q0, orientation)
 
 
+@dc.dataclass
+class ArmWorld:
+    """The arm's world in a diagram being built, before any controller: the plant, the
+    tool frame, the wrist force sensor and the foam's give-way (None without one)."""
+
+    plant: MultibodyPlant
+    tool_frame: object
+    sensor: ToolContactForce
+    puncture: Puncture | None
+
+
+def add_world(builder: DiagramBuilder, scenario: Scenario) -> ArmWorld:
+    """Add the plant and its models, the foam's give-way (when the task has one) and the
+    wrist force sensor.
+
+    Parameters
+    ----------
+    builder : DiagramBuilder
+    scenario : Scenario
+        With an ArmTask.
+
+    Returns
+    -------
+    ArmWorld
+        What a controller and the harness connect to.
+    """
+    task: ArmTask = scenario.task
+    plant, scene_graph = add_plant(builder, scenario)
+    tool_frame = scoped_frame(plant, task.tool_frame)
+    puncture = None
+    if task.puncture.object_frame:
+        puncture = add_puncture(builder, plant, scene_graph, task.puncture, tool_frame, task.tool_direction)
+    sensor = builder.AddSystem(ToolContactForce(plant, tool_frame.body(), task.axes,
+                                                applied_force=puncture is not None))
+    sensor.set_name("wrist_force_sensor")
+    builder.Connect(plant.get_contact_results_output_port(), sensor.contact_results)
+    if puncture is not None:
+        builder.Connect(puncture.system.GetOutputPort("force"), sensor.applied_force)
+    return ArmWorld(plant, tool_frame, sensor, puncture)
+
+
+def add_harness(builder: DiagramBuilder, scenario: Scenario, world: ArmWorld, log_ports: dict,
+                saturated: OutputPort) -> dict:
+    """Add what a run carries besides its world and controller: the SafetyMonitor (with
+    the arm's checks on the wrist force, the joint limits and `saturated`) and the loggers.
+
+    Parameters
+    ----------
+    builder : DiagramBuilder
+    scenario : Scenario
+        With an ArmTask.
+    world : ArmWorld
+        From `add_world`.
+    log_ports : dict
+        The series to log (see `add_loggers`).
+    saturated : OutputPort
+        The number of joints at their effort limit (1).
+
+    Returns
+    -------
+    dict of str to (VectorLogSink, slice)
+        The loggers, as `add_loggers` returns them.
+    """
+    add_safety_monitor(builder, scenario, world.plant, {"contact_force": world.sensor.GetOutputPort("force"),
+                                                        "saturated": saturated},
+                       arm_check(world.plant, scenario.task))
+    return add_loggers(builder, scenario, log_ports)
+
+
 def build(scenario: Scenario, controller_name: str, setup: ArmSetup,
-          theta0: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> BuiltDiagram:
-    """The iiwa diagram: DMP source -> controller -> J^T f_c + null-space terms -> plant.
+          theta0: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+          harness: bool = True) -> BuiltDiagram:
+    """The iiwa diagram: the world, one controller and the harness (safety monitor, loggers).
+
+    The controller goes in as task.control_path says: "fast" (`_add_fast_controller`) or
+    "modular" (`_add_modular_controller`).
 
     Parameters
     ----------
@@ -147,96 +222,140 @@ def build(scenario: Scenario, controller_name: str, setup: ArmSetup,
         From `prepare`, shared by every controller of the scenario.
     theta0 : tuple of three (M, N) arrays, optional
         A learning controller's initial weights (theta_k, theta_d, theta_v).
+    harness : bool
+        False: no safety monitor and no loggers (the benchmark's bare runs).
 
     Returns
     -------
     BuiltDiagram
-        The diagram, with initial_positions = setup.q0 and the arm's safety `monitor`.
+        The diagram, with initial_positions = setup.q0 and, with a foam that gives way,
+        its tear as `after_step`.
     """
-    task: ArmTask = scenario.task
     builder = DiagramBuilder()
-    plant, scene_graph = add_plant(builder, scenario)
-    tool_frame = scoped_frame(plant, task.tool_frame)
+    world = add_world(builder, scenario)
+    fast = scenario.task.control_path == "fast" and controller_kind(scenario, controller_name).law is not None
+    add = _add_fast_controller if fast else _add_modular_controller
+    controller, log_ports, saturated = add(builder, scenario, controller_name, world.plant, world.tool_frame,
+                                           setup, world.sensor.GetOutputPort("task_force"), theta0)
+    loggers = add_harness(builder, scenario, world, log_ports, saturated) if harness else {}
+    diagram = builder.Build()
+    diagram.set_name(f"{scenario.name}_{controller_name}")
+    return BuiltDiagram(diagram, world.plant, controller, loggers, setup.q0,
+                        world.puncture.apply_tear if world.puncture is not None else None)
+
+
+def _add_modular_controller(builder, scenario, name, plant, tool_frame, setup, contact_force, theta0):
+    """DmpSource -> controller -> J^T f_c + NullSpaceImpedance -> plant, one system per role."""
+    task: ArmTask = scenario.task
     task_space = builder.AddSystem(TaskSpaceDynamics(plant, tool_frame, axes=task.axes))
     task_space.set_name("task_space")
     builder.Connect(plant.get_state_output_port(), task_space.plant_state)
     reference = add_reference(builder, scenario, setup.dmp)
-    puncture = None
-    if task.puncture.object_frame:   # a foam that gives way; the tool point's x, x' are all three axes
-        puncture = add_puncture(builder, plant, scene_graph, task.puncture, tool_frame, task.tool_direction,
-                                task_space.GetOutputPort("position"), task_space.GetOutputPort("velocity"))
-    sensor = builder.AddSystem(ToolContactForce(plant, tool_frame.body(), task.axes,
-                                                applied_force=puncture is not None))
-    sensor.set_name("wrist_force_sensor")
-    builder.Connect(plant.get_contact_results_output_port(), sensor.contact_results)
-    if puncture is not None:
-        builder.Connect(puncture.system.GetOutputPort("force"), sensor.applied_force)
-    world = WorldPorts(reference, task_space, sensor.GetOutputPort("task_force"), setup.dmp.start)
-    controller = add_controller(builder, scenario, controller_name, world, theta0)
-    below_task = builder.AddSystem(NullSpaceImpedance(
-        plant, tool_frame, setup.tool_orientation, setup.q0,
-        task.orientation_stiffness_Nm_per_rad, task.orientation_damping_Nms_per_rad,
-        task.posture_stiffness_Nm_per_rad, task.posture_damping_Nms_per_rad))
+    world = WorldPorts(reference, task_space, contact_force, setup.dmp.start)
+    controller = add_controller(builder, scenario, name, world, theta0)
+    below_task = builder.AddSystem(NullSpaceImpedance(plant, tool_frame, setup.tool_orientation, setup.q0,
+                                                      *_below_task_gains(task)))
     below_task.set_name("null_space_impedance")
     builder.Connect(plant.get_state_output_port(), below_task.plant_state)
     builder.Connect(task_space.GetOutputPort("null_space_projector"), below_task.projector)
     builder.Connect(task_space.GetOutputPort("joint_gravity"), below_task.gravity)
     torque_map = add_torque_map(builder, scenario, plant, controller.system, task_space,
                                 below_task.get_output_port())
-    loggers = add_loggers(builder, scenario, plant, task_space, reference, controller,
-                          world.contact_force, torque_map)
-    diagram = builder.Build()
-    diagram.set_name(f"{scenario.name}_{controller_name}")
-    return BuiltDiagram(diagram, plant, controller, loggers, setup.q0,
-                        monitor(plant, sensor, torque_map, task, puncture))
+    ports = modular_log_ports(plant, task_space, reference, controller, contact_force, torque_map)
+    return controller, ports, torque_map.GetOutputPort("saturated")
 
 
-def monitor(plant: MultibodyPlant, sensor: ToolContactForce, torque_map: TaskForceToJointTorque,
-            task: ArmTask, puncture: Puncture | None = None) -> Callable[[Context], str | None]:
-    """The arm's safety checks, to run after every step; first, the foam's tear, if any.
+def _add_fast_controller(builder, scenario, name, plant, tool_frame, setup, contact_force, theta0):
+    """The C++ DMP source -> ArmControlLoop (one Python call per plant step) -> plant, θ in
+    a C++ Integrator fed the loop's held rate."""
+    task: ArmTask = scenario.task
+    config = scenario.controllers[name]
+    kind = controller_kind(scenario, name)
+    law = kind.law(config, scenario)
+    reference = add_reference(builder, scenario, setup.dmp, compiled=True)
+    effort = [plant.get_joint_actuator(i).effort_limit() for i in plant.GetJointActuatorIndices()]
+    loop = builder.AddSystem(ArmControlLoop(
+        TaskSpaceModel(plant, tool_frame, axes=task.axes),
+        BelowTaskImpedance(plant, tool_frame, setup.tool_orientation, setup.q0, *_below_task_gains(task)),
+        law, effort, plant.time_step()))
+    loop.set_name(name)
+    builder.Connect(plant.get_state_output_port(), loop.plant_state)
+    for port in REFERENCE_PORTS:
+        builder.Connect(reference.GetOutputPort(port), loop.GetInputPort(port))
+    builder.Connect(loop.GetOutputPort("joint_torque"), plant.get_actuation_input_port())
+    read_theta = None
+    if law.learns:
+        integrator = builder.AddSystem(Integrator(law.theta_size))
+        integrator.set_name(f"{name}_theta")
+        integrator.set_default_integral_value(initial_theta(config, scenario, theta0))
+        builder.Connect(loop.GetOutputPort("theta_rate"), integrator.get_input_port())
+        builder.Connect(integrator.get_output_port(), loop.GetInputPort("theta"))
+
+        def read_theta(root_context):
+            flat = integrator.GetMyContextFromRoot(root_context).get_continuous_state_vector().CopyToVector()
+            return law.unflatten(flat)
+
+    logs = loop.GetOutputPort("logs")
+    controller = AddedController(loop, {series: (logs, loop.log_columns[field]) for series, field in kind.logs},
+                                 read_theta)
+    ports = {"x": (logs, loop.log_columns["position"]), "xd": reference.GetOutputPort("desired_position"),
+             "f_ext": contact_force, "fc": (logs, loop.log_columns["force"]),
+             "plant_state": plant.get_state_output_port(),
+             "saturated_joints": (logs, loop.log_columns["saturated"]), **controller.logs}
+    return controller, ports, _saturated_column(builder, loop, logs)
+
+
+def _saturated_column(builder, loop, logs):
+    """The loop's saturated-joint count alone, for the safety monitor (a C++ selection)."""
+    columns = loop.log_columns["saturated"]
+    select = builder.AddSystem(MatrixGain(np.eye(logs.size())[columns]))
+    select.set_name("saturated_joints")
+    builder.Connect(logs, select.get_input_port())
+    return select.get_output_port()
+
+
+def _below_task_gains(task: ArmTask) -> tuple[float, float, float, float]:
+    return (task.orientation_stiffness_Nm_per_rad, task.orientation_damping_Nms_per_rad,
+            task.posture_stiffness_Nm_per_rad, task.posture_damping_Nms_per_rad)
+
+
+def arm_check(plant: MultibodyPlant, task: ArmTask) -> Callable[[float, dict], str | None]:
+    """The arm's safety check for the run's SafetyMonitor.
 
     A problem is a contact force above task.max_contact_force_N, a joint beyond its
-    position limit (by more than 1e-3 rad), or some joint torque at its effort limit
-    without a break for longer than task.max_saturation_s.
+    position limit (by more than 1e-3 rad), or some joint torque at its effort limit at
+    every check for longer than task.max_saturation_s.
 
     Parameters
     ----------
     plant : MultibodyPlant
-        The diagram's finalized plant.
-    sensor : ToolContactForce
-        The wrist force sensor; its "force" output [N] is checked.
-    torque_map : TaskForceToJointTorque
-        Its "saturated" output counts the joints at their effort limit.
+        The diagram's finalized plant: its joint limits and names.
     task : ArmTask
         The safety limits.
-    puncture : Puncture, optional
-        Its tear is applied as soon as its system says the foam has torn.
 
     Returns
     -------
-    callable(root_context) -> str or None
-        The first problem's description, or None. It keeps the time saturation began, so
-        use one per simulation, called in time order.
+    callable(t, values) -> str or None
+        Reads values "plant_state", "contact_force" (3, [N]) and "saturated" (the number of
+        joints at their effort limit). It keeps the time saturation began, so use one per
+        simulation, called in time order.
     """
     lower, upper = plant.GetPositionLowerLimits(), plant.GetPositionUpperLimits()
+    nq = plant.num_positions()
     names = [plant.get_joint(plant.get_joint_actuator(i).joint().index()).name()
              for i in plant.GetJointActuatorIndices()]
     saturated_since = [None]
 
-    def check(root_context):
-        if puncture is not None:
-            puncture.apply_tear(root_context)
-        force = sensor.GetOutputPort("force").Eval(sensor.GetMyContextFromRoot(root_context))
-        if np.linalg.norm(force) > task.max_contact_force_N:
-            return (f"contact force {np.linalg.norm(force):.0f} N above max_contact_force_N = "
-                    f"{task.max_contact_force_N} N")
-        q = plant.GetPositions(plant.GetMyContextFromRoot(root_context))
+    def check(t, values):
+        force = np.linalg.norm(values["contact_force"])
+        if force > task.max_contact_force_N:
+            return f"contact force {force:.0f} N above max_contact_force_N = {task.max_contact_force_N} N"
+        q = values["plant_state"][:nq]
         beyond = np.flatnonzero((q < lower - 1e-3) | (q > upper + 1e-3))
         if beyond.size:
             k = beyond[0]
             return f"joint {names[k]} at {q[k]:.3f} rad, beyond its limit ±{upper[k]:.3f} rad"
-        t = root_context.get_time()
-        if torque_map.GetOutputPort("saturated").Eval(torque_map.GetMyContextFromRoot(root_context))[0] > 0:
+        if values["saturated"][0] > 0:
             saturated_since[0] = t if saturated_since[0] is None else saturated_since[0]
             if t - saturated_since[0] > task.max_saturation_s:
                 return f"joint torques saturated for more than max_saturation_s = {task.max_saturation_s} s"

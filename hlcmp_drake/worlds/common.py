@@ -20,13 +20,14 @@ from hlcmp_drake.config.scenario import DemonstrationConfig, Scenario, StepRefer
 from hlcmp_drake.core.dmp import Dmp
 from hlcmp_drake.io.demos import read_demonstration
 from hlcmp_drake.io.errors import InputError
-from hlcmp_drake.systems.references import DmpSource, StepReference
+from hlcmp_drake.systems.monitor import SafetyMonitor, plant_state_check
+from hlcmp_drake.systems.references import DmpSource, StepReference, linear_dmp_source
 from hlcmp_drake.systems.task_space import TaskForceToJointTorque
 from hlcmp_drake.worlds.controllers import AddedController
 
 if TYPE_CHECKING:
     from pydrake.multibody.plant import MultibodyPlant
-    from pydrake.systems.framework import DiagramBuilder, LeafSystem, OutputPort
+    from pydrake.systems.framework import Diagram, DiagramBuilder, LeafSystem, OutputPort
     from pydrake.systems.primitives import VectorLogSink
 
     from hlcmp_drake.systems.task_space import TaskSpaceDynamics
@@ -39,15 +40,17 @@ class BuiltDiagram:
     Attributes
     ----------
     diagram : Diagram
+        It holds a SafetyMonitor, which stops a simulation at the first problem.
     plant : MultibodyPlant
     controller : AddedController
         The controller's system, its logs and (learning) its theta reader.
-    loggers : dict of str to VectorLogSink
-        One per series of the timeseries.npz contract.
+    loggers : dict of str to (VectorLogSink, slice)
+        One per series of the timeseries.npz contract: its logger and its columns there.
     initial_positions : (nq,) array or None
         Plant positions at t = 0 (None: the model's default).
-    monitor : callable(root_context) -> str or None, optional
-        The world's safety checks: a problem's description, or None.
+    after_step : callable(root_context), optional
+        What the world must do after every step that no system can (the foam's tear,
+        which changes SceneGraph's collision filters).
     """
 
     diagram: object
@@ -55,7 +58,7 @@ class BuiltDiagram:
     controller: AddedController
     loggers: dict
     initial_positions: np.ndarray | None = None
-    monitor: Callable | None = None
+    after_step: Callable | None = None
 
 
 def read_scenario_demonstration(
@@ -91,8 +94,8 @@ def read_scenario_demonstration(
     return t, positions, axes, lines
 
 
-def add_reference(builder: DiagramBuilder, scenario: Scenario,
-                  dmp: Dmp | None = None) -> StepReference | DmpSource:
+def add_reference(builder: DiagramBuilder, scenario: Scenario, dmp: Dmp | None = None,
+                  compiled: bool = False) -> StepReference | DmpSource | Diagram:
     """Add the desired-motion source, named "reference", to `builder`.
 
     Set-points for a StepReferenceConfig; the DMP `dmp` for a DemonstrationConfig,
@@ -106,16 +109,21 @@ def add_reference(builder: DiagramBuilder, scenario: Scenario,
         their phase s runs.
     dmp : Dmp, optional
         Needed for a DemonstrationConfig reference; ignored for set-points.
+    compiled : bool
+        The DMP as Drake's C++ systems (`linear_dmp_source`, no Python per step) instead
+        of the Python `DmpSource`.
 
     Returns
     -------
-    StepReference or DmpSource
+    StepReference or DmpSource or Diagram
         The added system: x_d [m], x_d' [m/s], x_d'' [m/s^2] and the phase s.
     """
     reference = scenario.reference
     if isinstance(reference, StepReferenceConfig):
         system = StepReference(reference.times_s, reference.positions_m, scenario.duration_s,
                                scenario.dmp.alpha_s)
+    elif compiled:
+        system = linear_dmp_source(dmp, scenario.duration_s, tau=reference.duration_s or None)
     else:
         system = DmpSource(dmp, tau=reference.duration_s or None)
     system.set_name("reference")
@@ -159,22 +167,15 @@ def add_torque_map(builder: DiagramBuilder, scenario: Scenario, plant: Multibody
     return torque_map
 
 
-def add_loggers(builder: DiagramBuilder, scenario: Scenario, plant: MultibodyPlant,
-                task_space: TaskSpaceDynamics, reference: StepReference | DmpSource,
-                controller: AddedController, force_port: OutputPort,
-                torque_map: TaskForceToJointTorque) -> dict[str, VectorLogSink]:
-    """Add the loggers of the timeseries.npz contract's series and of the plant state.
-
-    Drake VectorLogSinks at scenario.log_period_s, named "log_<series>": x, xd, f_ext, fc,
-    plant_state (for the recording), saturated_joints, and the controller's own series.
+def modular_log_ports(plant: MultibodyPlant, task_space: TaskSpaceDynamics, reference: StepReference | DmpSource,
+                      controller: AddedController, force_port: OutputPort,
+                      torque_map: TaskForceToJointTorque) -> dict[str, OutputPort]:
+    """The ports of the timeseries.npz contract's series in a diagram of modular systems.
 
     Parameters
     ----------
-    builder : DiagramBuilder
-    scenario : Scenario
-        Its log_period_s [s].
     plant : MultibodyPlant
-        Its state is logged.
+        Its state is logged (for the recording).
     task_space : TaskSpaceDynamics
         Its "position" output is x, (M,) [m].
     reference : StepReference or DmpSource
@@ -188,10 +189,11 @@ def add_loggers(builder: DiagramBuilder, scenario: Scenario, plant: MultibodyPla
 
     Returns
     -------
-    dict of str to VectorLogSink
-        {series name: logger}.
+    dict of str to OutputPort
+        {series name: port}: x, xd, f_ext, fc, plant_state, saturated_joints and the
+        controller's own series.
     """
-    ports = {
+    return {
         "x": task_space.GetOutputPort("position"),
         "xd": reference.GetOutputPort("desired_position"),
         "f_ext": force_port,
@@ -200,8 +202,73 @@ def add_loggers(builder: DiagramBuilder, scenario: Scenario, plant: MultibodyPla
         "saturated_joints": torque_map.GetOutputPort("saturated"),
         **controller.logs,
     }
-    loggers = {}
+
+
+def add_loggers(builder: DiagramBuilder, scenario: Scenario,
+                ports: dict) -> dict[str, tuple[VectorLogSink, slice]]:
+    """Log each series at scenario.log_period_s with a Drake VectorLogSink.
+
+    One logger per distinct port, named "log_<first series>"; several series may be
+    column ranges of one port.
+
+    Parameters
+    ----------
+    builder : DiagramBuilder
+    scenario : Scenario
+        Its log_period_s [s].
+    ports : dict of str to OutputPort or (OutputPort, slice)
+        {series name: the port, or the port and the series' columns in it}.
+
+    Returns
+    -------
+    dict of str to (VectorLogSink, slice)
+        {series name: its logger and its columns}.
+    """
+    loggers, by_port = {}, {}
     for name, port in ports.items():
-        loggers[name] = LogVectorOutput(port, builder, scenario.log_period_s)
-        loggers[name].set_name(f"log_{name}")
+        port, columns = port if isinstance(port, tuple) else (port, slice(None))
+        key = (port.get_system().get_name(), port.get_name())
+        if key not in by_port:
+            by_port[key] = LogVectorOutput(port, builder, scenario.log_period_s)
+            by_port[key].set_name(f"log_{name}")
+        loggers[name] = (by_port[key], columns)
     return loggers
+
+
+def add_safety_monitor(builder: DiagramBuilder, scenario: Scenario, plant: MultibodyPlant,
+                       extra_inputs: dict | None = None,
+                       extra_check: Callable[[float, dict], str | None] | None = None) -> SafetyMonitor:
+    """Add the run's SafetyMonitor: a finite plant state with positions within
+    scenario.max_abs_position_m, then the world's own checks.
+
+    Parameters
+    ----------
+    builder : DiagramBuilder
+    scenario : Scenario
+        Its max_abs_position_m.
+    plant : MultibodyPlant
+        Its state output is checked.
+    extra_inputs : dict of str to OutputPort, optional
+        More ports the world's check reads, by the name it reads them under.
+    extra_check : callable(t, values) -> str or None, optional
+        The world's check (see `SafetyMonitor`); values holds "plant_state" and the extra inputs.
+
+    Returns
+    -------
+    SafetyMonitor
+        The added system, named "safety_monitor".
+    """
+    extra_inputs = extra_inputs or {}
+    state_check = plant_state_check(plant.num_positions(), scenario.max_abs_position_m)
+
+    def check(t, values):
+        problem = state_check(values["plant_state"])
+        return problem if problem or extra_check is None else extra_check(t, values)
+
+    sizes = {"plant_state": plant.num_multibody_states(), **{n: p.size() for n, p in extra_inputs.items()}}
+    monitor = builder.AddSystem(SafetyMonitor(sizes, check))
+    monitor.set_name("safety_monitor")
+    builder.Connect(plant.get_state_output_port(), monitor.GetInputPort("plant_state"))
+    for name, port in extra_inputs.items():
+        builder.Connect(port, monitor.GetInputPort(name))
+    return monitor

@@ -17,7 +17,8 @@ from hlcmp_drake.config.scenario import (ConstantImpedanceConfig, HlcmpConfig, S
                                          StepReferenceConfig, VariableImpedanceConfig)
 from hlcmp_drake.core.dmp import basis_centers_and_widths
 from hlcmp_drake.systems.baselines import ConstantImpedanceController, VariableImpedanceController
-from hlcmp_drake.systems.hlcmp_controller import HlcmpController, HlcmpGains
+from hlcmp_drake.core.laws import ConstantImpedanceLaw, HlcmpGains, HlcmpLaw
+from hlcmp_drake.systems.hlcmp_controller import HlcmpController
 
 if TYPE_CHECKING:
     from pydrake.systems.framework import DiagramBuilder
@@ -59,35 +60,75 @@ class AddedController:
     read_theta: Callable | None = None
 
 
-def hlcmp_controller(config: HlcmpConfig, scenario: Scenario,
-                     theta0: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> HlcmpController:
-    """An Hl-CMP (Eqs. 14, 16, 29, 31, 33-34) on the scenario's phase basis.
+def hlcmp_law(config: HlcmpConfig, scenario: Scenario) -> HlcmpLaw:
+    """The Hl-CMP law (Eqs. 14, 16, 29, 31, 33-34) on the scenario's phase basis.
 
     Parameters
     ----------
     config : HlcmpConfig
-        The learning rates (read as its `q_units` say), pi, L and the uniform initial weights.
+        The learning rates (read as its `q_units` say), pi and L.
     scenario : Scenario
-        Its number of axes M and its DMP settings (the N basis functions, alpha_s).
+        Its DMP settings (the N basis functions, alpha_s).
+
+    Returns
+    -------
+    HlcmpLaw
+        With Q as rates per second, whichever reading the config asks for.
+    """
+    centers, widths = basis_centers_and_widths(scenario.dmp.n_basis, scenario.dmp.alpha_s)
+    scale = config.rate_scale()
+    return HlcmpLaw(centers, widths, HlcmpGains(
+        np.asarray(config.q_k, float) * scale, np.asarray(config.q_d, float) * scale,
+        np.asarray(config.q_v, float) * scale, config.pi, np.asarray(config.gain_l, float)))
+
+
+def initial_theta(config: HlcmpConfig, scenario: Scenario,
+                  theta0: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """A learner's flattened initial weights [θ_k, θ_d, θ_v].
+
+    Parameters
+    ----------
+    config : HlcmpConfig
+        Its uniform initial weights theta_k0, theta_d0, theta_v0.
+    scenario : Scenario
+        Its number of axes M and basis functions N.
     theta0 : tuple of three (M, N) arrays, optional
-        (theta_k, theta_d, theta_v) in place of the configured uniform initial weights:
-        a learned skill, or the previous trial's result.
+        In place of the configured uniform weights: a learned skill, or the previous
+        trial's result.
+
+    Returns
+    -------
+    (3 M N,) array
+    """
+    if theta0 is not None:
+        return np.concatenate([np.ravel(t) for t in theta0])
+    size = scenario.n_axes * scenario.dmp.n_basis
+    return np.concatenate([np.full(size, config.theta_k0), np.full(size, config.theta_d0),
+                           np.full(size, config.theta_v0)])
+
+
+def hlcmp_controller(config: HlcmpConfig, scenario: Scenario,
+                     theta0: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> HlcmpController:
+    """The Hl-CMP of `hlcmp_law` as one modular system, θ its continuous state.
+
+    Parameters
+    ----------
+    config : HlcmpConfig
+    scenario : Scenario
+    theta0 : tuple of three (M, N) arrays, optional
+        As for `initial_theta`.
 
     Returns
     -------
     HlcmpController
         The system (not yet added to a diagram).
     """
-    m = scenario.n_axes
-    centers, widths = basis_centers_and_widths(scenario.dmp.n_basis, scenario.dmp.alpha_s)
-    scale = config.rate_scale()   # Q as a rate per second, whichever reading the config asks for
-    gains = HlcmpGains(np.asarray(config.q_k, float) * scale, np.asarray(config.q_d, float) * scale,
-                       np.asarray(config.q_v, float) * scale, config.pi, np.asarray(config.gain_l, float))
-    n = len(centers)
-    if theta0 is None:
-        theta0 = np.concatenate([np.full(m * n, config.theta_k0), np.full(m * n, config.theta_d0),
-                                 np.full(m * n, config.theta_v0)])
-    return HlcmpController(centers, widths, gains, np.concatenate([np.ravel(t) for t in theta0]))
+    law = hlcmp_law(config, scenario)
+    return HlcmpController(law.centers, law.widths, law.gains, initial_theta(config, scenario, theta0))
+
+
+def _constant_law(config: ConstantImpedanceConfig, scenario: Scenario) -> ConstantImpedanceLaw:
+    return ConstantImpedanceLaw(config.stiffness_N_per_m, config.damping_Ns_per_m, config.pi, config.gain_l)
 
 
 def _make_constant(config: ConstantImpedanceConfig, scenario: Scenario, initial_position, theta0):
@@ -132,23 +173,39 @@ def _make_variable(config: VariableImpedanceConfig, scenario: Scenario, initial_
 @dc.dataclass(frozen=True)
 class ControllerKind:
     """How to add one kind of controller: `make(config, scenario, x0, theta0)` builds the
-    system; `logs` are (series name, output port) pairs to log besides the common ones;
-    `uses_contact_force` wires the world's measured force to its `external_force` input;
-    `learns` marks a controller whose theta is continuous state (read back after a run)."""
+    modular system; `logs` are (series name, output port) pairs to log besides the common
+    ones; `uses_contact_force` wires the world's measured force to its `external_force`
+    input; `learns` marks a controller whose theta is continuous state (read back after a
+    run); `law(config, scenario)`, when given, is its `core.laws` law, which a world may
+    evaluate in a one-call loop instead of the modular system."""
 
     make: Callable
     logs: tuple = ()
     uses_contact_force: bool = False
     learns: bool = False
+    law: Callable | None = None
 
 
 CONTROLLER_KINDS: dict[type, ControllerKind] = {
     HlcmpConfig: ControllerKind(
-        lambda config, scenario, initial_position, theta0: hlcmp_controller(config, scenario, theta0), logs=(("Ks", "stiffness"), ("Kd", "damping"), ("v", "feedforward"),
-                           ("u", "impedance_force"), ("eps", "sliding_error")), learns=True),
-    ConstantImpedanceConfig: ControllerKind(_make_constant),
+        lambda config, scenario, initial_position, theta0: hlcmp_controller(config, scenario, theta0),
+        logs=(("Ks", "stiffness"), ("Kd", "damping"), ("v", "feedforward"), ("u", "impedance_force"),
+              ("eps", "sliding_error")), learns=True, law=hlcmp_law),
+    ConstantImpedanceConfig: ControllerKind(_make_constant, law=_constant_law),
     VariableImpedanceConfig: ControllerKind(_make_variable, uses_contact_force=True),
 }
+
+
+def controller_kind(scenario: Scenario, name: str) -> ControllerKind:
+    """The registry entry of the scenario's controller `name`.
+
+    Parameters
+    ----------
+    scenario : Scenario
+    name : str
+        A label of `scenario.controllers`.
+    """
+    return CONTROLLER_KINDS[type(scenario.controllers[name])]
 
 
 def add_controller(builder: DiagramBuilder, scenario: Scenario, name: str, world: WorldPorts,
@@ -173,7 +230,7 @@ def add_controller(builder: DiagramBuilder, scenario: Scenario, name: str, world
         controller, its theta reader.
     """
     config = scenario.controllers[name]
-    kind = CONTROLLER_KINDS[type(config)]
+    kind = controller_kind(scenario, name)
     system = builder.AddSystem(kind.make(config, scenario, world.initial_position, theta0))
     system.set_name(name)
     for port in REFERENCE_INPUTS:

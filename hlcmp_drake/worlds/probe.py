@@ -10,7 +10,7 @@ import numpy as np
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.multibody.tree import PdControllerGains, PrismaticJoint, RotationalInertia, SpatialInertia
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import Demultiplexer, LogVectorOutput, TrajectorySource
+from pydrake.systems.primitives import LogVectorOutput, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
 from hlcmp_drake.config.scenario import ArmTask, ProbeConfig, Scenario
@@ -140,12 +140,9 @@ def build_probe(scenario: Scenario, speed: float | None = None, tilt_rad: float 
     trajectory = PiecewisePolynomial.FirstOrderHold(times, points.T)
     source = builder.AddSystem(TrajectorySource(trajectory, output_derivative_order=1))
     builder.Connect(source.get_output_port(), plant.get_desired_state_input_port(instance))
-    split = builder.AddSystem(Demultiplexer([3, 3]))
-    builder.Connect(plant.get_state_output_port(instance), split.get_input_port())
     puncture = None
     if task.puncture.object_frame:
-        puncture = add_puncture(builder, plant, scene_graph, task.puncture, tool_point, task.tool_direction,
-                                split.get_output_port(0), split.get_output_port(1))
+        puncture = add_puncture(builder, plant, scene_graph, task.puncture, tool_point, task.tool_direction)
     sensor = builder.AddSystem(ToolContactForce(plant, tool_point.body(), applied_force=puncture is not None))
     builder.Connect(plant.get_contact_results_output_port(), sensor.contact_results)
     if puncture is not None:

@@ -8,7 +8,7 @@ import dataclasses as dc
 from pydrake.geometry import CollisionFilterDeclaration, GeometrySet, SceneGraph
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import Frame
-from pydrake.systems.framework import Context, DiagramBuilder, OutputPort
+from pydrake.systems.framework import Context, DiagramBuilder
 
 from hlcmp_drake.config.scenario import PunctureConfig
 from hlcmp_drake.systems.puncture import HoleFriction
@@ -44,10 +44,9 @@ class Puncture:
 
 
 def add_puncture(builder: DiagramBuilder, plant: MultibodyPlant, scene_graph: SceneGraph,
-                 config: PunctureConfig, tool_frame: Frame, tool_axis: list,
-                 position_port: OutputPort, velocity_port: OutputPort) -> Puncture:
-    """Add the HoleFriction system for `config`, its force into the plant, its inputs from
-    the given ports of the tool point's world position and velocity.
+                 config: PunctureConfig, tool_frame: Frame, tool_axis: list) -> Puncture:
+    """Add the HoleFriction system for `config`, reading the plant's state and applying
+    its force to the plant.
 
     Parameters
     ----------
@@ -62,18 +61,14 @@ def add_puncture(builder: DiagramBuilder, plant: MultibodyPlant, scene_graph: Sc
         The tool point's frame (on the tool body).
     tool_axis : (3,) array
         The tool's axis in the world, pointing into the object.
-    position_port, velocity_port : OutputPort
-        The tool point's world position [m] and velocity [m/s], 3 each.
     """
     context = plant.CreateDefaultContext()
     top = scoped_frame(plant, config.object_frame).CalcPoseInWorld(context)
     system = builder.AddSystem(HoleFriction(
-        tool_frame.body().index(), tool_frame.GetFixedPoseInBodyFrame().translation(), tool_axis,
-        top.translation(), top.rotation().matrix()[:, 2], config.thickness_m, config.depth_m,
-        config.hole_friction_N_per_m, config.sliding_speed_m_per_s, plant.time_step()))
+        plant, tool_frame, tool_axis, top.translation(), top.rotation().matrix()[:, 2], config.thickness_m,
+        config.depth_m, config.hole_friction_N_per_m, config.sliding_speed_m_per_s, plant.time_step()))
     system.set_name("puncture")
-    builder.Connect(position_port, system.tool_position)
-    builder.Connect(velocity_port, system.tool_velocity)
+    builder.Connect(plant.get_state_output_port(), system.plant_state)
     builder.Connect(system.GetOutputPort("spatial_forces"), plant.get_applied_spatial_force_input_port())
     object_body = scoped_frame(plant, config.object_frame).body()
     return Puncture(system, scene_graph, plant.GetCollisionGeometriesForBody(tool_frame.body()),

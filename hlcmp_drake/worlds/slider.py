@@ -11,7 +11,8 @@ from pydrake.systems.framework import DiagramBuilder
 from hlcmp_drake.config.scenario import Scenario, SliderTask
 from hlcmp_drake.systems.environment import UnilateralSpring
 from hlcmp_drake.systems.task_space import TaskSpaceDynamics
-from hlcmp_drake.worlds.common import BuiltDiagram, add_loggers, add_reference, add_torque_map
+from hlcmp_drake.worlds.common import (BuiltDiagram, add_loggers, add_reference, add_safety_monitor,
+                                       add_torque_map, modular_log_ports)
 from hlcmp_drake.worlds.controllers import WorldPorts, add_controller
 from hlcmp_drake.worlds.models import add_plant
 
@@ -53,7 +54,7 @@ def build(scenario: Scenario, controller_name: str, setup: None = None,
     Returns
     -------
     BuiltDiagram
-        The diagram, with the plant's default positions and no extra safety monitor.
+        The diagram, with the plant's default positions and the plant-state safety checks.
     """
     task: SliderTask = scenario.task
     builder = DiagramBuilder()
@@ -73,8 +74,9 @@ def build(scenario: Scenario, controller_name: str, setup: None = None,
                        np.zeros(scenario.n_axes))
     controller = add_controller(builder, scenario, controller_name, world, theta0)
     torque_map = add_torque_map(builder, scenario, plant, controller.system, task_space)
-    loggers = add_loggers(builder, scenario, plant, task_space, reference, controller,
-                          world.contact_force, torque_map)
+    add_safety_monitor(builder, scenario, plant)
+    loggers = add_loggers(builder, scenario, modular_log_ports(plant, task_space, reference, controller,
+                                                               world.contact_force, torque_map))
     diagram = builder.Build()
     diagram.set_name(f"{scenario.name}_{controller_name}")
     return BuiltDiagram(diagram, plant, controller, loggers)

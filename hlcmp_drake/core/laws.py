@@ -1,0 +1,187 @@
+"""The task-space control laws at one instant: the Hl-CMP (Eqs. 4-5, 14, 16, 29, 31,
+33-34) and the constant impedance it is compared with, composed from the functions that
+hold those equations. Pure numpy.
+
+Both ways of putting a law in a Drake diagram evaluate these objects: the modular
+systems (`systems.hlcmp_controller`, `systems.baselines`: one system per role, θ the
+controller's continuous state) and the arm's one-call control loop (`systems.arm_loop`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from hlcmp_drake.core.adaptation import adaptation_rates, compliant_profiles
+from hlcmp_drake.core.control_law import commanded_force, impedance_force, nominal_command
+from hlcmp_drake.core.dmp import normalized_basis
+
+
+@dataclass(frozen=True)
+class TaskSpaceInstant:
+    """What a law reads at one instant: the measured and desired motion, the phase, and
+    the task-space dynamics terms of Eq. 2 (from Drake).
+
+    Attributes
+    ----------
+    x, xdot : (M,) arrays
+        Measured position [m] and velocity [m/s].
+    xd, xd_dot, xd_ddot : (M,) arrays
+        Desired position [m], velocity [m/s] and acceleration [m/s^2].
+    phase : float
+        The canonical phase s [-].
+    inertia, coriolis : (M, M) arrays
+        Task-space inertia [kg] and Coriolis matrix [kg/s].
+    gravity : (M,) array
+        Task-space gravity force [N].
+    """
+
+    x: np.ndarray
+    xdot: np.ndarray
+    xd: np.ndarray
+    xd_dot: np.ndarray
+    xd_ddot: np.ndarray
+    phase: float
+    inertia: np.ndarray
+    coriolis: np.ndarray
+    gravity: np.ndarray
+
+
+@dataclass
+class LawOutput:
+    """A law's evaluation.
+
+    Attributes
+    ----------
+    force : (M,) array
+        The commanded task-space force f_c [N] (Eq. 33).
+    logs : dict of str to (M,) array
+        The law's own series, by the name of the modular system's output port.
+    rates : (P,) array or None
+        A learning law's θ' (flattened θ_k, θ_d, θ_v rates, Eq. 31); None otherwise.
+    """
+
+    force: np.ndarray
+    logs: dict
+    rates: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class HlcmpGains:
+    """Per-axis learning rates Q_k, Q_d, Q_v (M,), the sliding-surface slope pi > 0 and the
+    diagonal of the feedback gain L (M,) of Eq. 34."""
+
+    q_k: np.ndarray
+    q_d: np.ndarray
+    q_v: np.ndarray
+    pi: float
+    gain_l: np.ndarray
+
+
+class HlcmpLaw:
+    """The Hl-CMP at one instant: f_c = f_0 - u - v with K_s, K_d and v on the phase basis
+    (Eqs. 14, 16, 4, 33-34), and the adaptation rates of θ (Eq. 31).
+
+    Parameters
+    ----------
+    centers, widths : (N,) arrays
+        The phase basis (see `core.dmp.basis_centers_and_widths`).
+    gains : HlcmpGains
+        Learning rates [per second], pi and L.
+    """
+
+    learns = True
+    log_fields = ("stiffness", "damping", "feedforward", "impedance_force", "sliding_error")
+
+    def __init__(self, centers: np.ndarray, widths: np.ndarray, gains: HlcmpGains):
+        self.centers, self.widths = np.asarray(centers, float), np.asarray(widths, float)
+        self.gains = gains
+        self.n_axes, self.n_basis = len(gains.q_k), len(self.centers)
+
+    @property
+    def theta_size(self) -> int:
+        """3 M N: the length of the flattened θ = [θ_k, θ_d, θ_v], each (M, N) row-major."""
+        return 3 * self.n_axes * self.n_basis
+
+    def unflatten(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(θ_k, θ_d, θ_v), each (M, N), from the flattened θ.
+
+        Parameters
+        ----------
+        theta : (3 M N,) array
+            θ_k, θ_d and θ_v one after the other, each row-major.
+        """
+        return tuple(np.asarray(theta, float).reshape(3, self.n_axes, self.n_basis))
+
+    def command(self, now: TaskSpaceInstant, theta: np.ndarray) -> LawOutput:
+        """f_c, the profiles, u, ε and θ' at this instant.
+
+        Parameters
+        ----------
+        now : TaskSpaceInstant
+            The motion, phase and task-space dynamics.
+        theta : (3 M N,) array
+            The current weights, flattened.
+
+        Returns
+        -------
+        LawOutput
+            force f_c [N]; logs stiffness [N/m], damping [N s/m], feedforward v [N],
+            impedance_force u [N], sliding_error ε [m/s]; rates θ'.
+        """
+        gains = self.gains
+        g = normalized_basis(now.phase, self.centers, self.widths)
+        e, edot, eps, f0 = nominal_command(now.x, now.xdot, now.xd, now.xd_dot, now.xd_ddot, now.inertia,
+                                           now.coriolis, now.gravity, gains.pi, gains.gain_l)
+        k_s, k_d, v = compliant_profiles(*self.unflatten(theta), g)
+        u = impedance_force(k_s, k_d, e, edot)
+        rates = adaptation_rates(eps, e, edot, g, gains.q_k, gains.q_d, gains.q_v)
+        return LawOutput(commanded_force(f0, u, v),
+                         dict(stiffness=k_s, damping=k_d, feedforward=v, impedance_force=u, sliding_error=eps),
+                         np.concatenate([r.ravel() for r in rates]))
+
+
+class ConstantImpedanceLaw:
+    """The Hl-CMP control structure with fixed profiles: f_c = f_0 - K_s e - K_d e'
+    (Eqs. 33-34 with v = 0 and constant diagonal K_s, K_d), so that a comparison with the
+    Hl-CMP differs only in whether the impedance is learned.
+
+    Parameters
+    ----------
+    stiffness, damping : (M,) arrays
+        Diagonals of K_s [N/m] and K_d [N s/m].
+    pi : float
+        Slope of the sliding surface [1/s] (Eq. 29).
+    gain_l : (M,) array
+        Diagonal of L [N s/m] (Eq. 34).
+    """
+
+    learns = False
+    log_fields = ()
+    theta_size = 0
+
+    def __init__(self, stiffness: np.ndarray, damping: np.ndarray, pi: float, gain_l: np.ndarray):
+        self.k_s, self.k_d = np.asarray(stiffness, float), np.asarray(damping, float)
+        self.pi, self.gain_l = float(pi), np.asarray(gain_l, float)
+        self.n_axes = len(self.k_s)
+
+    def command(self, now: TaskSpaceInstant, theta: np.ndarray | None = None) -> LawOutput:
+        """f_c at this instant.
+
+        Parameters
+        ----------
+        now : TaskSpaceInstant
+            The motion and the task-space dynamics (the phase is not used).
+        theta : None
+            Unused: this law does not learn.
+
+        Returns
+        -------
+        LawOutput
+            force f_c [N], no logs, no rates.
+        """
+        e, edot, _, f0 = nominal_command(now.x, now.xdot, now.xd, now.xd_dot, now.xd_ddot, now.inertia,
+                                         now.coriolis, now.gravity, self.pi, self.gain_l)
+        return LawOutput(commanded_force(f0, impedance_force(self.k_s, self.k_d, e, edot), np.zeros(self.n_axes)),
+                         {})

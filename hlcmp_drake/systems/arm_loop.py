@@ -1,0 +1,127 @@
+"""The arm's controller in one Python evaluation per plant step: the fast path.
+
+The modular systems (TaskSpaceDynamics -> controller -> NullSpaceImpedance ->
+TaskForceToJointTorque) are evaluated by Drake port by port and at every integrator
+stage: about 35 Python calls per 1 ms plant step. `ArmControlLoop` does the same work
+once per step, as a real 1 kHz torque loop does, with the same functions:
+
+    plant state (sampled at t_k) --TaskSpaceModel--> x, x', J, Λ, C_x, G_x, N^T, G(q)
+    + reference (x_d, x_d', x_d'', s at t_k) + θ(t_k)  --law.command--> f_c, θ'
+    τ_k = sat(J^T f_c + BelowTaskImpedance)            (held over [t_k, t_k+1))
+    θ' held over the step; a C++ Integrator holds θ as continuous state.
+
+It runs as a periodic unrestricted update at the plant's period, which Drake handles
+before the plant's own discrete update at the same time, so the plant steps with τ_k
+computed from its state at t_k, as with the modular systems.
+
+θ scheme: the rate is sampled once per step, from the plant state, θ and reference at
+t_k, and held; Drake integrates the held rate exactly, so θ_{k+1} = θ_k + h θ'(t_k): the
+explicit-Euler step of Table I ("for each time step: compute the increment rates (Eq.
+31), update these parameters"), first order in h. The modular path instead evaluates Eq.
+31 at both RK2 stages with the plant state after the step; the two differ by O(h) in θ
+(measured in tests/test_fast_path.py and docs/performance.md).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import BasicVector, Context, LeafSystem, State, ValueProducer
+
+from hlcmp_drake.core.laws import TaskSpaceInstant
+from hlcmp_drake.systems.arm import BelowTaskImpedance
+from hlcmp_drake.systems.task_space import TaskSpaceModel, saturate
+
+REFERENCE_PORTS = ("desired_position", "desired_velocity", "desired_acceleration", "phase")
+
+
+class ArmControlLoop(LeafSystem):
+    """A task-space law, its task-space terms, the torque below the task and the torque
+    map, evaluated once per plant step.
+
+    Inputs: `plant_state` (nq + nv), the reference's `desired_position`,
+    `desired_velocity`, `desired_acceleration` (M each) and `phase` (1), and for a learning
+    law `theta` (its flattened weights, from an Integrator). Outputs: `joint_torque` (nv)
+    and, for a learning law, `theta_rate`: the values of the last tick, held; `logs`: the
+    loggable series evaluated at the present context (layout in `log_columns`).
+
+    Parameters
+    ----------
+    model : TaskSpaceModel
+        The tool point's task-space terms.
+    below_task : BelowTaskImpedance
+        The orientation and posture held below the task.
+    law : HlcmpLaw or ConstantImpedanceLaw
+        The task-space law (`core.laws`).
+    effort_limits : (nv,) array
+        The actuators' effort limits [N m].
+    period : float
+        The plant's time step [s]: one tick per step.
+    """
+
+    def __init__(self, model: TaskSpaceModel, below_task: BelowTaskImpedance, law, effort_limits,
+                 period: float):
+        super().__init__()
+        self._model, self._below_task, self._law = model, below_task, law
+        self._limits = np.asarray(effort_limits, dtype=float)
+        nq, nv, m = model.nq, model.nv, model.n_axes
+        self._m = m
+        self.plant_state = self.DeclareVectorInputPort("plant_state", BasicVector(nq + nv))
+        self._reference = [self.DeclareVectorInputPort(name, BasicVector(1 if name == "phase" else m))
+                           for name in REFERENCE_PORTS]
+        self.theta = self.DeclareVectorInputPort("theta", BasicVector(law.theta_size)) if law.learns else None
+        self._torque_index = self.DeclareDiscreteState(nv)
+        self.DeclareStateOutputPort("joint_torque", self._torque_index)
+        if law.learns:
+            self._rate_index = self.DeclareDiscreteState(law.theta_size)
+            self.DeclareStateOutputPort("theta_rate", self._rate_index)
+        self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._tick)
+        self.log_columns = {"position": slice(0, m), "force": slice(m, 2 * m), "saturated": slice(2 * m, 2 * m + 1)}
+        for k, name in enumerate(law.log_fields):
+            self.log_columns[name] = slice(2 * m + 1 + k * m, 2 * m + 1 + (k + 1) * m)
+        self._log_values = self.DeclareCacheEntry(
+            "log_values", ValueProducer(allocate=lambda: AbstractValue.Make(None), calc=self._calc_logs),
+            {self.all_input_ports_ticket()})
+        self.DeclareVectorOutputPort("logs", 2 * m + 1 + m * len(law.log_fields),
+                                     lambda c, o: o.SetFromVector(self._log_values.Eval(c)),
+                                     {self._log_values.ticket()})
+        self.tick_seconds: list[float] | None = None
+
+    def record_tick_times(self) -> list[float]:
+        """Start recording the wall time of every tick (for the benchmark).
+
+        Returns
+        -------
+        list of float
+            Filled with one duration [s] per tick as the simulation runs.
+        """
+        self.tick_seconds = []
+        return self.tick_seconds
+
+    def _evaluate(self, context):
+        """The task-space terms, the law's output and the saturated joint torque here."""
+        state = self.plant_state.Eval(context)
+        terms = self._model.terms(state, coriolis_matrix=False)
+        xd, xd_dot, xd_ddot, phase = (port.Eval(context) for port in self._reference)
+        now = TaskSpaceInstant(terms.position, terms.velocity, xd, xd_dot, xd_ddot, phase[0],
+                               terms.inertia, terms.coriolis, terms.gravity)
+        out = self._law.command(now, self.theta.Eval(context) if self.theta is not None else None)
+        torque = terms.jacobian.T @ out.force + self._below_task.torque(state, terms.null_space,
+                                                                        terms.joint_gravity)
+        return terms, out, saturate(torque, self._limits)
+
+    def _tick(self, context: Context, state: State):
+        start = time.perf_counter()
+        _, out, (torque, _) = self._evaluate(context)
+        state.get_mutable_discrete_state(self._torque_index).set_value(torque)
+        if out.rates is not None:
+            state.get_mutable_discrete_state(self._rate_index).set_value(out.rates)
+        if self.tick_seconds is not None:
+            self.tick_seconds.append(time.perf_counter() - start)
+
+    def _calc_logs(self, context, abstract_value):
+        terms, out, (_, saturated) = self._evaluate(context)
+        abstract_value.set_value(np.concatenate([terms.position, out.force, [saturated],
+                                                 *(out.logs[name] for name in self._law.log_fields)]))
