@@ -75,7 +75,7 @@ def test_run_writes_the_contract(insertion_run):
         assert (insertion_run / "figures" / figure).read_bytes()[:4] == b"\x89PNG"
     assert (insertion_run / "recording.html").stat().st_size > 100_000
     graph = next(insertion_run.glob("diagram.*"))
-    assert "task_space" in graph.read_text() and "hlcmp" in graph.read_text()
+    assert all(name in graph.read_text() for name in ("hlcmp", "reference", "safety_monitor", "puncture"))
 
 
 def test_run_metrics_agree_with_its_time_series(insertion_run):

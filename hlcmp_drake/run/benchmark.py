@@ -141,7 +141,7 @@ def insertion_runs(duration: float, repetitions: int) -> dict:
     ticks = []
     for _ in range(repetitions):
         built = arm.build(scenario, "hlcmp", setup)
-        ticks += built.controller.system.record_tick_times()
+        ticks.append(built.controller.system.record_tick_times())   # filled as the run goes
         walls["fast"].append(_wall(lambda: simulate(built, scenario, "hlcmp"))[0])
         replay = _joint_space_replay(scenario, setup, run, harness=True)
         walls["cpp"].append(_wall(lambda: advance(replay, scenario))[0])
@@ -155,7 +155,7 @@ def insertion_runs(duration: float, repetitions: int) -> dict:
     def ratio(a, b):
         return statistics.median([x / y for x, y in zip(walls[a], walls[b])])
 
-    tick_us = 1e6 * np.asarray(ticks)
+    tick_us = 1e6 * np.concatenate(ticks)
     return {
         "insertion_rtf": duration / statistics.median(walls["fast"]),
         "controller_overhead_ratio": ratio("fast", "cpp"),

@@ -40,13 +40,14 @@ class BelowTaskImpedance:
                  posture_damping: float):
         self._plant, self._frame = plant, tool_frame
         self._context = plant.CreateDefaultContext()
-        self._R_desired = desired_orientation
+        self._R_desired_inverse = desired_orientation.inverse()
         self._q0 = np.asarray(nominal_positions, dtype=float)
         self._k_o, self._d_o = float(orientation_stiffness), float(orientation_damping)
         self._k_p, self._d_p = float(posture_stiffness), float(posture_damping)
         self.nq, self.nv = plant.num_positions(), plant.num_velocities()
 
-    def torque(self, state: np.ndarray, projector: np.ndarray, joint_gravity: np.ndarray) -> np.ndarray:
+    def torque(self, state: np.ndarray, projector: np.ndarray, joint_gravity: np.ndarray,
+               context: Context | None = None) -> np.ndarray:
         """tau_0 at the plant state `state`.
 
         Parameters
@@ -57,19 +58,23 @@ class BelowTaskImpedance:
             N^T of the translational task.
         joint_gravity : (nv,) array
             G(q) [N m].
+        context : Context, optional
+            A context of the same plant that already holds `state` (e.g.
+            `TaskSpaceModel.context`), whose kinematics are then reused.
 
         Returns
         -------
         (nv,) array
             The joint torque below the task [N m].
         """
-        plant, ctx, world = self._plant, self._context, self._plant.world_frame()
-        plant.SetPositionsAndVelocities(ctx, state)
+        plant, world = self._plant, self._plant.world_frame()
+        if context is None:
+            context = self._context
+            plant.SetPositionsAndVelocities(context, state)
         q, v = state[: self.nq], state[self.nq :]
-        R_current = self._frame.CalcRotationMatrixInWorld(ctx)
-        error = (R_current @ self._R_desired.inverse()).ToAngleAxis()
+        error = (self._frame.CalcRotationMatrixInWorld(context) @ self._R_desired_inverse).ToAngleAxis()
         e_R = error.axis() * error.angle()
-        j_w = plant.CalcJacobianAngularVelocity(ctx, JacobianWrtVariable.kV, self._frame, world, world)
+        j_w = plant.CalcJacobianAngularVelocity(context, JacobianWrtVariable.kV, self._frame, world, world)
         moment = -self._k_o * e_R - self._d_o * (j_w @ v)
         return projector @ (joint_gravity + j_w.T @ moment - self._k_p * (q - self._q0) - self._d_p * v)
 

@@ -108,8 +108,8 @@ class ArmControlLoop(LeafSystem):
         now = TaskSpaceInstant(terms.position, terms.velocity, xd, xd_dot, xd_ddot, phase[0],
                                terms.inertia, terms.coriolis, terms.gravity)
         out = self._law.command(now, self.theta.Eval(context) if self.theta is not None else None)
-        torque = terms.jacobian.T @ out.force + self._below_task.torque(state, terms.null_space,
-                                                                        terms.joint_gravity)
+        torque = terms.jacobian.T @ out.force + self._below_task.torque(
+            state, terms.null_space, terms.joint_gravity, self._model.context)
         return terms, out, saturate(torque, self._limits)
 
     def _tick(self, context: Context, state: State):

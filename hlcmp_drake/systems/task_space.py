@@ -58,6 +58,11 @@ class TaskSpaceModel:
         self._scratch = plant.CreateDefaultContext()
         self.nq, self.nv, self.n_axes = plant.num_positions(), plant.num_velocities(), len(self._axes)
 
+    @property
+    def context(self) -> Context:
+        """The control-side plant context, holding the state of the last `terms` call."""
+        return self._context
+
     def _polarized_pair(self, v, u, jbar_t, inertia):
         """Jbar^T C(q, v) u - Lambda Jdot u by polarization of the quadratic maps
         v -> C(q, v) v and v -> Jdot v: each bilinear form is (f(v + u) - f(v - u)) / 4.
@@ -206,7 +211,7 @@ def saturate(torque: np.ndarray, limits: np.ndarray) -> tuple[np.ndarray, int]:
     saturated : int
         The number of joints at their limit.
     """
-    return np.clip(torque, -limits, limits), int(np.count_nonzero(np.abs(torque) >= limits))
+    return np.minimum(np.maximum(torque, -limits), limits), int(np.count_nonzero(np.abs(torque) >= limits))
 
 
 class TaskForceToJointTorque(LeafSystem):
