@@ -55,19 +55,20 @@ class TaskSpaceModel:
         self._point = np.asarray(point_in_frame, dtype=float).reshape(3, 1)
         self._axes = list(axes)
         self._context = plant.CreateDefaultContext()
-        self._scratch = plant.CreateDefaultContext()
         self.nq, self.nv, self.n_axes = plant.num_positions(), plant.num_velocities(), len(self._axes)
 
     @property
     def context(self) -> Context:
-        """The control-side plant context, holding the state of the last `terms` call."""
+        """The control-side plant context, holding the positions of the last `terms` call
+        (its velocities are changed by a `CoriolisProduct`)."""
         return self._context
 
     def _polarized_pair(self, v, u, jbar_t, inertia):
         """Jbar^T C(q, v) u - Lambda Jdot u by polarization of the quadratic maps
         v -> C(q, v) v and v -> Jdot v: each bilinear form is (f(v + u) - f(v - u)) / 4.
-        The scratch context must hold q."""
-        plant, ctx, world = self.plant, self._scratch, self.plant.world_frame()
+        Evaluated on the context of the last `terms` call, whose positions (and so their
+        kinematics) stay; only its velocities change."""
+        plant, ctx, world = self.plant, self._context, self.plant.world_frame()
         sums = []
         for sign in (1.0, -1.0):
             plant.SetVelocities(ctx, v + sign * u)
@@ -106,7 +107,6 @@ class TaskSpaceModel:
         jbar = minv_jt @ inertia
         joint_gravity = -plant.CalcGravityGeneralizedForces(ctx)
         gravity = jbar.T @ joint_gravity
-        plant.SetPositions(self._scratch, q)
         coriolis = CoriolisProduct(self, v, jbar, inertia)
         if coriolis_matrix:
             coriolis = coriolis @ np.eye(self.n_axes)
@@ -123,7 +123,7 @@ class CoriolisProduct:
     Parameters
     ----------
     model : TaskSpaceModel
-        Its scratch context holds the state's positions.
+        Its context holds the state's positions.
     v : (nv,) array
         The plant's velocities.
     jbar : (nv, M) array
