@@ -1,7 +1,7 @@
 """Where one Hl-CMP insertion run spends its time: cProfile of a 5 s run, top entries by
 own time (the profile behind docs/performance.md).
 
-    python scripts/profile_insertion.py [--seconds 5] [--top 15]
+    python scripts/profile_insertion.py [--seconds 5] [--top 15] [--path fast|modular]
 """
 
 import argparse
@@ -17,8 +17,9 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=5.0)
     parser.add_argument("--top", type=int, default=15)
+    parser.add_argument("--path", choices=("fast", "modular"), default="fast", help="the control path (task.control_path)")
     args = parser.parse_args()
-    scenario, _ = load_scenario("insertion", [f"duration_s={args.seconds}"])
+    scenario, _ = load_scenario("insertion", [f"duration_s={args.seconds}", f"task.control_path={args.path}"])
     built = diagram_factory(scenario)("hlcmp")
     profile = cProfile.Profile()
     profile.enable()
