@@ -136,3 +136,16 @@ def test_the_fast_path_makes_at_most_four_python_calls_per_step():
     assert 1.0 <= calls <= 4.0
     modular, _ = load_scenario("insertion", ["duration_s=0.3", "task.control_path=modular"])
     assert count_python_calls(arm.build(modular, "hlcmp", arm.prepare(modular)), modular) > 3 * calls
+
+
+@pytest.mark.parametrize("override, expected", [
+    ("plant_config.use_sampled_output_ports=true", "use_sampled_output_ports"),
+    ("plant_config.time_step=0.0", "discrete plant"),
+    ("task.control_path=quick", "must be one of fast, modular"),
+])
+def test_an_arm_scenario_the_fast_path_cannot_run_is_refused_with_the_field_named(override, expected):
+    from hlcmp_drake.io.errors import InputError
+
+    with pytest.raises(InputError, match=expected) as error:
+        load_scenario("insertion", [override])
+    assert override.split("=")[0] in str(error.value) and "\n" not in str(error.value)

@@ -204,6 +204,10 @@ def override_yaml(scenario: Scenario, dotted_key: str, value_yaml: str) -> str:
                 raise KeyError(key)
             node = getattr(owner, key)
             members = _union_members(type(owner), key)
+        elif owner is not None and hasattr(type(owner), "__fields__"):   # Drake's config structs
+            if key not in (field.name for field in type(owner).__fields__):
+                raise KeyError(key)
+            node, members = getattr(owner, key), ()
         else:
             raise KeyError(key)
         last = i == len(parts)

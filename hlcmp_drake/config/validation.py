@@ -85,6 +85,9 @@ def validate_scenario(scenario: Scenario, folder: Path, fail: Fail,
             fail("reference.duration_s", "the demonstration's duration_s must be >= 0 (0: as demonstrated)")
     if isinstance(scenario.task, ArmTask):
         scenario.task.check(fail)
+        if scenario.task.control_path == "fast" and not scenario.plant_config.time_step > 0:
+            fail("plant_config.time_step", "the arm's fast path ticks once per plant step: it needs a "
+                 "discrete plant (time_step > 0), or task.control_path: modular")
         if scenario.plant_config.use_sampled_output_ports:
             # The arm's controller and the foam's friction are unrestricted updates at the
             # plant's step; a sampled plant steps in the same pass and would see them a step late.
