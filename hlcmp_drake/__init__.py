@@ -22,6 +22,8 @@ _EXPORTS = {
     # the numpy core
     "Dmp": "hlcmp_drake.core.dmp",
     "DmpSettings": "hlcmp_drake.core.dmp",
+    "HlcmpLaw": "hlcmp_drake.core.laws",
+    "ConstantImpedanceLaw": "hlcmp_drake.core.laws",
     # files
     "InputError": "hlcmp_drake.io.errors",
     "read_demonstration": "hlcmp_drake.io.demos",
@@ -37,6 +39,7 @@ _EXPORTS = {
     "load_scenario": "hlcmp_drake.config.loading",
     # Drake systems
     "DmpSource": "hlcmp_drake.systems.references",
+    "linear_dmp_source": "hlcmp_drake.systems.references",
     "StepReference": "hlcmp_drake.systems.references",
     "HlcmpController": "hlcmp_drake.systems.hlcmp_controller",
     "HlcmpGains": "hlcmp_drake.core.laws",
@@ -46,6 +49,8 @@ _EXPORTS = {
     "TaskForceToJointTorque": "hlcmp_drake.systems.task_space",
     "NullSpaceImpedance": "hlcmp_drake.systems.arm",
     "ToolContactForce": "hlcmp_drake.systems.arm",
+    "ArmControlLoop": "hlcmp_drake.systems.arm_loop",
+    "SafetyMonitor": "hlcmp_drake.systems.monitor",
     # building and running diagrams
     "diagram_factory": "hlcmp_drake.worlds.build",
     "BuiltDiagram": "hlcmp_drake.worlds.common",
