@@ -52,14 +52,21 @@ def advance(built: BuiltDiagram, scenario: Scenario) -> Simulator:
     Simulator
         At the end of the run.
     """
+    simulator = _simulator(built, scenario)
+    simulator.AdvanceTo(scenario.duration_s)
+    return simulator
+
+
+def _simulator(built, scenario):
+    """A fresh Simulator of `built` as a run sets it up: the start posture, the world's
+    after-step hook."""
     simulator = Simulator(built.diagram)
     ApplySimulatorConfig(scenario.simulator_config, simulator)
-    context = simulator.get_mutable_context()
     if built.initial_positions is not None:
-        built.plant.SetPositions(built.plant.GetMyMutableContextFromRoot(context), built.initial_positions)
+        built.plant.SetPositions(built.plant.GetMyMutableContextFromRoot(simulator.get_mutable_context()),
+                                 built.initial_positions)
     if built.after_step is not None:
         simulator.set_monitor(lambda root: built.after_step(root) or EventStatus.DidNothing())
-    simulator.AdvanceTo(scenario.duration_s)
     return simulator
 
 
@@ -81,12 +88,7 @@ def count_python_calls(built: BuiltDiagram, scenario: Scenario) -> float:
     float
         Calls per plant step.
     """
-    simulator = Simulator(built.diagram)
-    ApplySimulatorConfig(scenario.simulator_config, simulator)
-    context = simulator.get_mutable_context()
-    built.plant.SetPositions(built.plant.GetMyMutableContextFromRoot(context), built.initial_positions)
-    if built.after_step is not None:
-        simulator.set_monitor(lambda root: built.after_step(root) or EventStatus.DidNothing())
+    simulator = _simulator(built, scenario)
     simulator.Initialize()
     in_c_call, calls = {}, [0]   # per Python frame: a stack of its calls into C, True for Drake's
 
