@@ -190,3 +190,17 @@ def test_the_modular_path_gives_the_bundled_runs_verdicts(name, request, tmp_pat
 def _q_per_step(name, controller):
     config = load_scenario(name)[0].controllers[controller]
     return getattr(config, "q_units", "per_second") == "per_step"
+
+
+def test_a_problem_at_the_start_stops_the_run_at_once(insertion):
+    """The SafetyMonitor also looks at t = 0 (inside the Simulator's Initialize)."""
+    scenario, _ = load_scenario("insertion", ["max_abs_position_m=0.01", "duration_s=0.5"])
+    run = simulate(arm.build(scenario, "hlcmp", insertion[1]), scenario, "hlcmp")
+    assert run.status == "unstable" and run.stop_time == 0.0 and "beyond 0.01" in run.reason
+
+
+def test_a_skill_of_the_wrong_size_is_refused_on_the_fast_path(insertion):
+    scenario, setup = insertion
+    wrong = tuple(np.zeros((3, 5)) for _ in range(3))     # N = 5, the scenario has 30
+    with pytest.raises(ValueError, match="theta0 must hold 3\\*M\\*N = 270 values, got 45"):
+        arm.build(scenario, "hlcmp", setup, wrong)

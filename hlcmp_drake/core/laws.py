@@ -31,8 +31,11 @@ class TaskSpaceInstant:
         Desired position [m], velocity [m/s] and acceleration [m/s^2].
     phase : float
         The canonical phase s [-].
-    inertia, coriolis : (M, M) arrays
-        Task-space inertia [kg] and Coriolis matrix [kg/s].
+    inertia : (M, M) array
+        Task-space inertia [kg].
+    coriolis : (M, M) array, or an operator with `@`
+        Task-space Coriolis matrix [kg/s]; the laws only form `coriolis @ x_e'`, so the fast
+        path passes `systems.task_space.CoriolisProduct`.
     gravity : (M,) array
         Task-space gravity force [N].
     """

@@ -61,8 +61,10 @@ def simulate(built: BuiltDiagram, scenario: Scenario, controller_name: str,
         simulator.set_monitor(after_step)
     trouble = {}
     wall_start = last_report = time.perf_counter()
-    simulator.Initialize()
-    chunks = max(1, int(np.ceil(scenario.duration_s / CHUNK_S - 1e-9)))
+    status = simulator.Initialize()   # the safety checks look at t = 0 too
+    if status.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition:
+        trouble.update(reason=status.message(), time=status.return_time())
+    chunks = 0 if trouble else max(1, int(np.ceil(scenario.duration_s / CHUNK_S - 1e-9)))
     for k in range(1, chunks + 1):
         try:
             status = simulator.AdvanceTo(min(k * CHUNK_S, scenario.duration_s))

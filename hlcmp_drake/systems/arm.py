@@ -59,8 +59,9 @@ class BelowTaskImpedance:
         joint_gravity : (nv,) array
             G(q) [N m].
         context : Context, optional
-            A context of the same plant that already holds `state` (e.g.
-            `TaskSpaceModel.context`), whose kinematics are then reused.
+            A context of the same plant that already holds `state`'s positions (e.g.
+            `TaskSpaceModel.context`), whose kinematics are then reused; only
+            position-dependent terms are read from it.
 
         Returns
         -------

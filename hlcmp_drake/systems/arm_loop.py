@@ -32,9 +32,9 @@ from pydrake.systems.framework import BasicVector, Context, LeafSystem, State, V
 
 from hlcmp_drake.core.laws import TaskSpaceInstant
 from hlcmp_drake.systems.arm import BelowTaskImpedance
+from hlcmp_drake.systems.ports import REFERENCE_PORTS
 from hlcmp_drake.systems.task_space import TaskSpaceModel, saturate
 
-REFERENCE_PORTS = ("desired_position", "desired_velocity", "desired_acceleration", "phase")
 
 
 class ArmControlLoop(LeafSystem):
@@ -67,7 +67,6 @@ class ArmControlLoop(LeafSystem):
         self._model, self._below_task, self._law = model, below_task, law
         self._limits = np.asarray(effort_limits, dtype=float)
         nq, nv, m = model.nq, model.nv, model.n_axes
-        self._m = m
         self.plant_state = self.DeclareVectorInputPort("plant_state", BasicVector(nq + nv))
         self._reference = [self.DeclareVectorInputPort(name, BasicVector(1 if name == "phase" else m))
                            for name in REFERENCE_PORTS]

@@ -7,6 +7,9 @@ from pydrake.systems.framework import BasicVector, Context, InputPort, LeafSyste
 
 from hlcmp_drake.core.laws import TaskSpaceInstant
 
+# What every desired-motion source outputs and every controller reads.
+REFERENCE_PORTS = ("desired_position", "desired_velocity", "desired_acceleration", "phase")
+
 
 @dataclass(frozen=True)
 class TaskSpaceInputs:

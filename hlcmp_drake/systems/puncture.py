@@ -22,8 +22,9 @@ class HoleFriction(LeafSystem):
     tear depth below the object's top face while moving in; then 1, when the contact
     between tool and object must end (whoever runs the simulation does that on reading
     `punctured`: a collision filter lives in SceneGraph's context, which a system's own
-    events cannot change); one period later 2, when the hole's friction starts. The period
-    in between keeps the friction from adding to a contact force not yet ended.
+    events cannot change); one period later 2. The friction, computed from the stage before
+    each update, acts from the update after that; the steps in between keep it from adding
+    to a contact force not yet ended.
 
     Input `plant_state`. Outputs `force` (3, world [N]): the hole's friction on the tool
     (zero before the tear), and `spatial_forces`: the same force at the tool point, for

@@ -12,8 +12,9 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from hlcmp_drake.core.dmp import Dmp, canonical_phase_rate, phase_at, transformation_matrices
 
-# The forcing term's samples for the spline that drives linear_dmp_source [s]: the basis
-# functions span ~0.3 s, so a cubic through 2 ms samples is exact to ~1e-12 of f.
+# The forcing term's samples for the spline that drives linear_dmp_source [s]. Measured
+# error of the cubic: 4e-11 of f for the bundled DMPs (tau 8.5 s, N = 30); 7e-7 for tau 1 s,
+# N = 50; 5e-6 for tau 1 s, N = 100 (narrower kernels).
 FORCING_SAMPLE_S = 0.002
 
 

@@ -18,7 +18,7 @@ class TaskSpaceTerms:
     velocity: np.ndarray
     jacobian: np.ndarray   # J (M x nv), rows of the point's translational Jacobian
     inertia: np.ndarray    # Lambda = (J M^-1 J^T)^-1
-    coriolis: np.ndarray   # C_x = Jbar^T C(q, v) Jbar - Lambda Jdot Jbar
+    coriolis: np.ndarray   # C_x = Jbar^T C(q, v) Jbar - Lambda Jdot Jbar (or its CoriolisProduct)
     gravity: np.ndarray    # G_x = Jbar^T G(q)
     null_space: np.ndarray  # N^T = I - J^T Jbar^T (nv x nv), dynamically consistent
     joint_gravity: np.ndarray  # G(q) (nv,)
@@ -97,7 +97,7 @@ class TaskSpaceModel:
         """
         plant, ctx, world = self.plant, self._context, self.plant.world_frame()
         plant.SetPositionsAndVelocities(ctx, state)
-        q, v = state[: self.nq], state[self.nq :]
+        v = state[self.nq :]
         position = plant.CalcPointsPositions(ctx, self._frame, self._point, world)[self._axes, 0]
         jac = plant.CalcJacobianTranslationalVelocity(
             ctx, JacobianWrtVariable.kV, self._frame, self._point, world, world)[self._axes]

@@ -19,7 +19,8 @@ from hlcmp_drake.io.errors import InputError
 from pydrake.systems.primitives import Integrator, MatrixGain
 
 from hlcmp_drake.systems.arm import BelowTaskImpedance, NullSpaceImpedance, ToolContactForce
-from hlcmp_drake.systems.arm_loop import REFERENCE_PORTS, ArmControlLoop
+from hlcmp_drake.systems.arm_loop import ArmControlLoop
+from hlcmp_drake.systems.ports import REFERENCE_PORTS
 from hlcmp_drake.systems.task_space import TaskSpaceDynamics, TaskSpaceModel
 from hlcmp_drake.worlds.checks import check_demonstration_feasible
 from hlcmp_drake.worlds.common import (BuiltDiagram, add_loggers, add_reference, add_safety_monitor,

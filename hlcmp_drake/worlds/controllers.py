@@ -19,12 +19,12 @@ from hlcmp_drake.core.dmp import basis_centers_and_widths
 from hlcmp_drake.systems.baselines import ConstantImpedanceController, VariableImpedanceController
 from hlcmp_drake.core.laws import ConstantImpedanceLaw, HlcmpGains, HlcmpLaw
 from hlcmp_drake.systems.hlcmp_controller import HlcmpController
+from hlcmp_drake.systems.ports import REFERENCE_PORTS
 
 if TYPE_CHECKING:
     from pydrake.systems.framework import DiagramBuilder
 
 # The task-space inputs every controller reads (systems.ports), and where they come from.
-REFERENCE_INPUTS = ("desired_position", "desired_velocity", "desired_acceleration", "phase")
 TASK_SPACE_INPUTS = ("position", "velocity", "task_inertia", "task_coriolis", "task_gravity")
 
 
@@ -99,10 +99,18 @@ def initial_theta(config: HlcmpConfig, scenario: Scenario,
     Returns
     -------
     (3 M N,) array
+
+    Raises
+    ------
+    ValueError
+        When `theta0` does not hold 3 M N values.
     """
-    if theta0 is not None:
-        return np.concatenate([np.ravel(t) for t in theta0])
     size = scenario.n_axes * scenario.dmp.n_basis
+    if theta0 is not None:
+        flat = np.concatenate([np.ravel(t) for t in theta0])
+        if flat.size != 3 * size:
+            raise ValueError(f"theta0 must hold 3*M*N = {3 * size} values, got {flat.size}")
+        return flat
     return np.concatenate([np.full(size, config.theta_k0), np.full(size, config.theta_d0),
                            np.full(size, config.theta_v0)])
 
@@ -233,7 +241,7 @@ def add_controller(builder: DiagramBuilder, scenario: Scenario, name: str, world
     kind = controller_kind(scenario, name)
     system = builder.AddSystem(kind.make(config, scenario, world.initial_position, theta0))
     system.set_name(name)
-    for port in REFERENCE_INPUTS:
+    for port in REFERENCE_PORTS:
         builder.Connect(world.reference.GetOutputPort(port), system.GetInputPort(port))
     for port in TASK_SPACE_INPUTS:
         builder.Connect(world.task_space.GetOutputPort(port), system.GetInputPort(port))
