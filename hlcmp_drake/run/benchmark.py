@@ -12,9 +12,9 @@ import tempfile
 import time
 
 import numpy as np
-from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
+from pydrake.systems.analysis import Simulator
 from pydrake.systems.controllers import InverseDynamicsController
-from pydrake.systems.framework import DiagramBuilder, EventStatus
+from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
@@ -25,7 +25,7 @@ from hlcmp_drake.experiments import EXPERIMENTS
 from hlcmp_drake.experiments.table import Table, number
 from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.run.runner import run_scenario
-from hlcmp_drake.run.simulate import simulate
+from hlcmp_drake.run.simulate import prepared_simulator, simulate
 from hlcmp_drake.worlds import arm
 from hlcmp_drake.worlds.common import BuiltDiagram
 from hlcmp_drake.worlds.models import load_models
@@ -52,21 +52,8 @@ def advance(built: BuiltDiagram, scenario: Scenario) -> Simulator:
     Simulator
         At the end of the run.
     """
-    simulator = _simulator(built, scenario)
+    simulator = prepared_simulator(built, scenario)
     simulator.AdvanceTo(scenario.duration_s)
-    return simulator
-
-
-def _simulator(built, scenario):
-    """A fresh Simulator of `built` as a run sets it up: the start posture, the world's
-    after-step hook."""
-    simulator = Simulator(built.diagram)
-    ApplySimulatorConfig(scenario.simulator_config, simulator)
-    if built.initial_positions is not None:
-        built.plant.SetPositions(built.plant.GetMyMutableContextFromRoot(simulator.get_mutable_context()),
-                                 built.initial_positions)
-    if built.after_step is not None:
-        simulator.set_monitor(lambda root: built.after_step(root) or EventStatus.DidNothing())
     return simulator
 
 
@@ -88,7 +75,7 @@ def count_python_calls(built: BuiltDiagram, scenario: Scenario) -> float:
     float
         Calls per plant step.
     """
-    simulator = _simulator(built, scenario)
+    simulator = prepared_simulator(built, scenario)
     simulator.Initialize()
     in_c_call, calls = {}, [0]   # per Python frame: a stack of its calls into C, True for Drake's
 

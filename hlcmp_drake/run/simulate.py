@@ -20,6 +20,31 @@ from hlcmp_drake.worlds.common import BuiltDiagram
 CHUNK_S = 0.02
 
 
+def prepared_simulator(built: BuiltDiagram, scenario: Scenario) -> Simulator:
+    """A fresh Simulator of `built`, set up as a run needs it: the scenario's simulator
+    config, the start posture and the world's after-step hook.
+
+    Parameters
+    ----------
+    built : BuiltDiagram
+    scenario : Scenario
+        Its simulator config.
+
+    Returns
+    -------
+    Simulator
+        Not yet initialized.
+    """
+    simulator = Simulator(built.diagram)
+    ApplySimulatorConfig(scenario.simulator_config, simulator)
+    if built.initial_positions is not None:
+        built.plant.SetPositions(built.plant.GetMyMutableContextFromRoot(simulator.get_mutable_context()),
+                                 built.initial_positions)
+    if built.after_step is not None:
+        simulator.set_monitor(lambda root: built.after_step(root) or EventStatus.DidNothing())
+    return simulator
+
+
 def simulate(built: BuiltDiagram, scenario: Scenario, controller_name: str,
              progress: Callable | None = None, live: LiveView | None = None) -> RunResult:
     """Simulate `built` for scenario.duration_s and read its loggers back.
@@ -47,18 +72,9 @@ def simulate(built: BuiltDiagram, scenario: Scenario, controller_name: str,
     RunResult
         The logs on their common time base [s], the status, and a learner's final theta.
     """
-    simulator = Simulator(built.diagram)
-    ApplySimulatorConfig(scenario.simulator_config, simulator)
+    simulator = prepared_simulator(built, scenario)
     context = simulator.get_mutable_context()
     plant_context = built.plant.GetMyContextFromRoot(context)
-    if built.initial_positions is not None:
-        built.plant.SetPositions(plant_context, built.initial_positions)
-    if built.after_step is not None:
-        def after_step(root_context):
-            built.after_step(root_context)
-            return EventStatus.DidNothing()
-
-        simulator.set_monitor(after_step)
     trouble = {}
     wall_start = last_report = time.perf_counter()
     status = simulator.Initialize()   # the safety checks look at t = 0 too
