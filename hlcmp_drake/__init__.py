@@ -50,6 +50,7 @@ _EXPORTS = {
     "NullSpaceImpedance": "hlcmp_drake.systems.arm",
     "ToolContactForce": "hlcmp_drake.systems.arm",
     "ArmControlLoop": "hlcmp_drake.systems.arm_loop",
+    "ArmTick": "hlcmp_drake.systems.arm_loop",
     "SafetyMonitor": "hlcmp_drake.systems.monitor",
     # building and running diagrams
     "diagram_factory": "hlcmp_drake.worlds.build",
@@ -58,6 +59,10 @@ _EXPORTS = {
     "simulate": "hlcmp_drake.run.simulate",
     "run_scenario": "hlcmp_drake.run.runner",
     "learn": "hlcmp_drake.run.learning",
+    # a real (or simulated) iiwa over LCM
+    "TorqueClient": "hlcmp_drake.run.serve",
+    "serve_scenario": "hlcmp_drake.run.serve",
+    "SimulatedIiwaDriver": "hlcmp_drake.run.sim_driver",
     "EXPERIMENTS": "hlcmp_drake.experiments",
 }
 

@@ -8,9 +8,12 @@
     hlcmp fit DEMO.csv --out SKILL.npz       fit the DMP of a demonstration
     hlcmp rollout SKILL.npz --out TRAJ.csv   roll a skill's DMP out
     hlcmp sweep SWEEP.yaml [--out DIR] [--engine local|ray] [--address A] [--workers N] [--dry-run]
+    hlcmp serve SCENARIO --lcm URL [--controller C] [--skill SKILL.npz [--freeze]] [--duration S] [--out DIR]
+    hlcmp sim-driver SCENARIO --lcm URL [--realtime] [--duration S] [--idle-timeout S]
 
 Exit codes: 0 success, 2 bad input (one line on stderr; --debug shows the traceback),
-3 a simulation went unstable (metrics.json says where and why).
+3 a simulation went unstable or a served run was stopped (metrics.json / serve.json say
+where and why), 4 the simulated driver aborted.
 
 This module is argparse and printing only: every command calls one library function.
 """
@@ -30,6 +33,7 @@ DEFAULTS = DmpSettings()
 
 EXIT_BAD_INPUT = 2
 EXIT_UNSTABLE = 3
+EXIT_DRIVER_ABORT = 4
 
 
 class _Parser(argparse.ArgumentParser):
@@ -291,6 +295,40 @@ def cmd_sweep(args):
     return EXIT_UNSTABLE if result.unstable else 0
 
 
+def cmd_serve(args):
+    from hlcmp_drake.io.skill import load_skill
+    from hlcmp_drake.run.serve import serve_scenario
+
+    _quiet_drake(args)
+    skill = load_skill(args.skill) if args.skill else None
+    overrides = list(args.set) + ([f"duration_s={args.duration}"] if args.duration else [])
+    result = serve_scenario(args.scenario, args.lcm, args.out or _default_out(args), args.controller, skill, args.freeze,
+                            overrides, Progress(args.quiet))
+    record = result.record
+    ticks = record["tick_us"]
+    timing = f"tick p50 {ticks['p50']:.0f} us, p99 {ticks['p99']:.0f} us" if ticks["p50"] is not None else "no tick"
+    print(f"served {record['controller']} for {record['served_s']:.3f} s: {record['ticks']} ticks, "
+          f"{record['missed_ticks']} missed, {timing}")
+    print(f"{record['status']}: {record['stopped_because']}")
+    print(f"serve.json, metrics.json, timeseries.npz in {result.out_dir}")
+    return 0 if record["status"] == "ok" else EXIT_UNSTABLE
+
+
+def cmd_sim_driver(args):
+    from hlcmp_drake.run.sim_driver import DriverAbort, run_sim_driver
+
+    _quiet_drake(args)
+    try:
+        summary = run_sim_driver(args.scenario, args.lcm, args.realtime, args.duration, args.idle_timeout,
+                                 args.set, Progress(args.quiet))
+    except DriverAbort as error:
+        print(f"hlcmp sim-driver: aborted: {error}", file=sys.stderr)
+        return EXIT_DRIVER_ABORT
+    print(f"sim-driver: {summary.steps} steps ({summary.commanded_steps} commanded, {summary.held_steps} held), "
+          f"{summary.sim_time_s:.3f} s simulated in {summary.wall_s:.1f} s; {summary.stopped_because}")
+    return 0
+
+
 def build_parser():
     from importlib.metadata import PackageNotFoundError, version
 
@@ -397,6 +435,32 @@ def build_parser():
                        help="tasks at once (local default: the number of CPUs)")
     sweep.add_argument("--dry-run", action="store_true", help="list the tasks and which are done; run nothing")
     sweep.set_defaults(func=cmd_sweep)
+
+    lcm_help = ("LCM URL, e.g. 'udpm://239.255.76.67:7667?ttl=0' (this machine only); memq:// runs "
+                "the scenario's simulated driver in the same process")
+    serve = sub.add_parser("serve", parents=[common, quiet, overrides],
+                           help="serve a scenario's controller to an iiwa driver over LCM (torque-only)")
+    serve.add_argument("scenario", help="an arm scenario (insertion, cutting) or a YAML path")
+    serve.add_argument("--lcm", required=True, help=lcm_help)
+    serve.add_argument("--controller", help="the controller's label (default: the scenario's Hl-CMP)")
+    serve.add_argument("--skill", help="serve the Hl-CMP from this skill file's DMP and learned profiles")
+    serve.add_argument("--freeze", action="store_true", help="with --skill: no adaptation")
+    serve.add_argument("--duration", type=_positive, help="seconds to serve (default the scenario's duration_s)")
+    serve.add_argument("--out", help="output folder (default out/serve_SCENARIO)")
+    serve.set_defaults(func=cmd_serve)
+
+    sim_driver = sub.add_parser("sim-driver", parents=[common, quiet, overrides],
+                                help="a scenario's simulated iiwa, driven over LCM like drake-iiwa-driver "
+                                     "in torque-only mode (status every 1 ms)")
+    sim_driver.add_argument("scenario", help="an arm scenario (insertion, cutting) or a YAML path")
+    sim_driver.add_argument("--lcm", required=True, help=lcm_help)
+    sim_driver.add_argument("--realtime", action="store_true",
+                            help="one period of wall-clock time per step (default: as fast as the client answers)")
+    sim_driver.add_argument("--duration", type=_positive, help="stop at this simulated time in s "
+                                                               "(default: when the client stops commanding)")
+    sim_driver.add_argument("--idle-timeout", type=_positive, default=1.0,
+                            help="seconds without a command after which the client counts as gone (default 1)")
+    sim_driver.set_defaults(func=cmd_sim_driver)
     return parser
 
 
@@ -406,14 +470,16 @@ WRITES_A_FILE = ("fit", "rollout")
 
 def _default_out(args):
     """Where a command writes when --out is not given and its default depends on what it
-    runs (run: out/SCENARIO, probe: out/probe_SCENARIO, sweep: out/sweeps/SWEEP)."""
+    runs (run: out/SCENARIO, probe: out/probe_SCENARIO, serve: out/serve_SCENARIO, sweep:
+    out/sweeps/SWEEP)."""
     from pathlib import Path
 
-    if args.command in ("run", "probe"):
+    if args.command in ("run", "probe", "serve"):
         from hlcmp_drake.config.loading import load_scenario
 
         scenario, _ = load_scenario(args.scenario, args.set)
-        return Path("out") / (f"probe_{scenario.name}" if args.command == "probe" else scenario.name)
+        prefix = {"run": "", "probe": "probe_", "serve": "serve_"}[args.command]
+        return Path("out") / f"{prefix}{scenario.name}"
     if args.command == "sweep":
         from hlcmp_drake.config.sweep import load_sweep
         from hlcmp_drake.run.sweep import default_out_dir

@@ -11,7 +11,7 @@ from hlcmp_drake.core.laws import TaskSpaceInstant
 from hlcmp_drake.run.benchmark import count_python_calls
 from hlcmp_drake.run.simulate import simulate
 from hlcmp_drake.systems.arm import BelowTaskImpedance, NullSpaceImpedance
-from hlcmp_drake.systems.arm_loop import ArmControlLoop
+from hlcmp_drake.systems.arm_loop import ArmControlLoop, ArmTick
 from hlcmp_drake.systems.references import DmpSource, linear_dmp_source
 from hlcmp_drake.systems.task_space import TaskSpaceDynamics, TaskSpaceModel
 from hlcmp_drake.worlds import arm
@@ -64,8 +64,9 @@ def test_one_tick_gives_the_modular_systems_torque(insertion):
     law = hlcmp_law(scenario.controllers["hlcmp"], scenario)
     gains = (100.0, 10.0, 20.0, 5.0)
     effort = [plant.get_joint_actuator(i).effort_limit() for i in plant.GetJointActuatorIndices()]
-    loop = ArmControlLoop(TaskSpaceModel(plant, tip), BelowTaskImpedance(plant, tip, setup.tool_orientation,
-                                                                         setup.q0, *gains), law, effort, 0.001)
+    loop = ArmControlLoop(ArmTick(TaskSpaceModel(plant, tip), BelowTaskImpedance(plant, tip, setup.tool_orientation,
+                                                                                 setup.q0, *gains), law, effort),
+                          0.001)
     rng = np.random.default_rng(3)
     state = np.concatenate([setup.q0 + rng.normal(0, 0.02, 7), rng.normal(0, 0.2, 7)])
     theta = rng.uniform(0, 300, law.theta_size)

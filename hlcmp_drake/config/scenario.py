@@ -357,6 +357,59 @@ class ProbeConfig:
     tilt_rad: float = 0.0
 
 
+# Where `hlcmp serve` reads the wrist force from (IiwaDriverConfig.force_source).
+FORCE_SOURCES = ("wrist_sensor", "external_torque")
+
+
+@dc.dataclass
+class IiwaDriverConfig:
+    """How `hlcmp serve` talks to an iiwa driver over LCM: drake-iiwa-driver in torque-only
+    mode on a real arm, or `hlcmp sim-driver`. The driver publishes lcmt_iiwa_status on
+    `status_channel` every `period_s` and compensates gravity itself; the client answers
+    each status with an lcmt_iiwa_command on `command_channel` (joint torques, and the
+    measured positions echoed).
+
+    `force_source` is where the logged and checked wrist force comes from: "wrist_sensor",
+    an lcmt_force_torque on `wrist_channel` (the environment's force on the tool, in the
+    tool frame [N]), or "external_torque", f = pinv(J^T) tau_ext from the status's external
+    joint torques (J: the tool point's translational Jacobian). The controllers themselves
+    do not read it; it feeds the metrics and the contact-force watchdog.
+
+    Watchdogs: the client stops commanding when no status has come for `stale_status_s`
+    (the driver then holds the arm after its own 50 ms), and waits `start_guard_s` after
+    its first status before the first command (the driver aborts on a command within
+    0.25 s of its start). The arm must start within `start_tolerance_rad` of the
+    scenario's start posture on every joint."""
+
+    status_channel: str = "IIWA_STATUS"
+    command_channel: str = "IIWA_COMMAND"
+    wrist_channel: str = "IIWA_WRIST_FT"
+    period_s: float = 0.001
+    start_guard_s: float = 0.3
+    stale_status_s: float = 0.05
+    first_status_timeout_s: float = 10.0
+    start_tolerance_rad: float = 0.05
+    force_source: str = "wrist_sensor"
+
+    def check(self, fail: Fail) -> None:
+        """Known force source, non-empty channels, positive times and tolerance.
+
+        Parameters
+        ----------
+        fail : callable(dotted_key: str, problem: str)
+            Raises the InputError that names where the key was set.
+        """
+        if self.force_source not in FORCE_SOURCES:
+            fail("iiwa_driver.force_source", f"must be one of {', '.join(FORCE_SOURCES)}, got '{self.force_source}'")
+        for key in ("status_channel", "command_channel", "wrist_channel"):
+            if not getattr(self, key):
+                fail(f"iiwa_driver.{key}", "must name an LCM channel")
+        for key in ("period_s", "start_guard_s", "stale_status_s", "first_status_timeout_s", "start_tolerance_rad"):
+            value = getattr(self, key)
+            if not (math.isfinite(value) and value > 0):
+                fail(f"iiwa_driver.{key}", f"must be a positive number, got {value}")
+
+
 @dc.dataclass
 class Scenario:
     """A whole scenario: the world (models, plant and simulator configs, task), the
@@ -367,7 +420,8 @@ class Scenario:
     `max_abs_position_m` stops a run whose joint positions run away (unstable).
     `plant_config.use_sampled_output_ports` defaults to false: the plant then steps after
     the unrestricted updates at the same time (the arm's one-call controller, the foam's
-    friction), from their values at that time."""
+    friction), from their values at that time. `iiwa_driver` is how `hlcmp serve` talks
+    to an iiwa driver (arm scenarios only)."""
 
     name: str = ""
     experiment: str = ""
@@ -384,6 +438,7 @@ class Scenario:
     max_abs_position_m: float = 10.0
     recording: RecordingConfig = dc.field(default_factory=RecordingConfig)
     probe: ProbeConfig = dc.field(default_factory=ProbeConfig)
+    iiwa_driver: IiwaDriverConfig = dc.field(default_factory=IiwaDriverConfig)
 
     @property
     def n_axes(self) -> int:

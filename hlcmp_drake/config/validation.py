@@ -85,6 +85,7 @@ def validate_scenario(scenario: Scenario, folder: Path, fail: Fail,
             fail("reference.duration_s", "the demonstration's duration_s must be >= 0 (0: as demonstrated)")
     if isinstance(scenario.task, ArmTask):
         scenario.task.check(fail)
+        scenario.iiwa_driver.check(fail)
         if scenario.task.control_path == "fast" and not scenario.plant_config.time_step > 0:
             fail("plant_config.time_step", "the arm's fast path ticks once per plant step: it needs a "
                  "discrete plant (time_step > 0), or task.control_path: modular")

@@ -24,28 +24,50 @@ explicit-Euler step of Table I ("for each time step: compute the increment rates
 
 from __future__ import annotations
 
+import dataclasses as dc
 import time
 
 import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, Context, LeafSystem, State, ValueProducer
 
-from hlcmp_drake.core.laws import TaskSpaceInstant
+from hlcmp_drake.core.laws import LawOutput, TaskSpaceInstant
 from hlcmp_drake.systems.arm import BelowTaskImpedance
 from hlcmp_drake.systems.ports import REFERENCE_PORTS
 from hlcmp_drake.systems.task_space import TaskSpaceModel, saturate
 
 
 
-class ArmControlLoop(LeafSystem):
-    """A task-space law, its task-space terms, the torque below the task and the torque
-    map, evaluated once per plant step.
+@dc.dataclass
+class TickResult:
+    """One tick: the task-space terms it read, the law's output, and the joint torque.
 
-    Inputs: `plant_state` (nq + nv), the reference's `desired_position`,
-    `desired_velocity`, `desired_acceleration` (M each) and `phase` (1), and for a learning
-    law `theta` (its flattened weights, from an Integrator). Outputs: `joint_torque` (nv)
-    and, for a learning law, `theta_rate`: the values of the last tick, held; `logs`: the
-    loggable series evaluated at the present context (layout in `log_columns`).
+    Attributes
+    ----------
+    terms : TaskSpaceTerms
+        At the tick's plant state (`TaskSpaceModel.terms`); `terms.joint_gravity` is G(q).
+    law : LawOutput
+        f_c [N], the logged series and (learning) θ's rate.
+    torque : (nv,) array
+        The saturated joint torque [N m], gravity compensation G(q) included.
+    saturated : int
+        The number of joints at their effort limit.
+    """
+
+    terms: object
+    law: LawOutput
+    torque: np.ndarray
+    saturated: int
+
+
+class ArmTick:
+    """The arm's whole controller at one instant: the task-space terms, the law, the
+    torque below the task and the saturation. `ArmControlLoop` calls it once per plant
+    step; `hlcmp serve` calls it once per status of the iiwa driver.
+
+        plant state --TaskSpaceModel--> x, x', J, Λ, C_x, G_x, N^T, G(q)
+        + reference (x_d, x_d', x_d'', s) + θ  --law.command--> f_c, θ'
+        τ = sat(J^T f_c + BelowTaskImpedance)
 
     Parameters
     ----------
@@ -57,15 +79,81 @@ class ArmControlLoop(LeafSystem):
         The task-space law (`core.laws`).
     effort_limits : (nv,) array
         The actuators' effort limits [N m].
+    """
+
+    def __init__(self, model: TaskSpaceModel, below_task: BelowTaskImpedance, law, effort_limits):
+        self.model, self.below_task, self.law = model, below_task, law
+        self.effort_limits = np.asarray(effort_limits, dtype=float)
+        m = model.n_axes
+        self.log_columns = {"position": slice(0, m), "force": slice(m, 2 * m), "saturated": slice(2 * m, 2 * m + 1)}
+        for k, name in enumerate(law.log_fields):
+            self.log_columns[name] = slice(2 * m + 1 + k * m, 2 * m + 1 + (k + 1) * m)
+        self.log_size = 2 * m + 1 + m * len(law.log_fields)
+
+    def evaluate(self, state: np.ndarray, reference: tuple, theta: np.ndarray | None) -> TickResult:
+        """The controller's output at one plant state.
+
+        Parameters
+        ----------
+        state : (nq + nv,) array
+            The plant's positions [rad] and velocities [rad/s].
+        reference : tuple of (M,), (M,), (M,), (1,) arrays
+            x_d [m], x_d' [m/s], x_d'' [m/s^2] and the phase s.
+        theta : (3 M N,) array or None
+            A learning law's flattened weights; None for a law without them.
+
+        Returns
+        -------
+        TickResult
+        """
+        terms = self.model.terms(state, coriolis_matrix=False)
+        xd, xd_dot, xd_ddot, phase = reference
+        now = TaskSpaceInstant(terms.position, terms.velocity, xd, xd_dot, xd_ddot, phase[0],
+                               terms.inertia, terms.coriolis, terms.gravity)
+        out = self.law.command(now, theta)
+        torque = terms.jacobian.T @ out.force + self.below_task.torque(
+            state, terms.null_space, terms.joint_gravity, self.model.context)
+        torque, saturated = saturate(torque, self.effort_limits)
+        return TickResult(terms, out, torque, saturated)
+
+    def log_row(self, result: TickResult) -> np.ndarray:
+        """The tick's loggable values in the layout of `log_columns`: x, f_c, the number of
+        saturated joints and the law's logged series.
+
+        Parameters
+        ----------
+        result : TickResult
+            From `evaluate`.
+
+        Returns
+        -------
+        (log_size,) array
+        """
+        return np.concatenate([result.terms.position, result.law.force, [result.saturated],
+                               *(result.law.logs[name] for name in self.law.log_fields)])
+
+
+class ArmControlLoop(LeafSystem):
+    """`ArmTick` as a Drake system, evaluated once per plant step.
+
+    Inputs: `plant_state` (nq + nv), the reference's `desired_position`,
+    `desired_velocity`, `desired_acceleration` (M each) and `phase` (1), and for a learning
+    law `theta` (its flattened weights, from an Integrator). Outputs: `joint_torque` (nv)
+    and, for a learning law, `theta_rate`: the values of the last tick, held; `logs`: the
+    loggable series evaluated at the present context (layout in `log_columns`).
+
+    Parameters
+    ----------
+    tick : ArmTick
+        The controller.
     period : float
         The plant's time step [s]: one tick per step.
     """
 
-    def __init__(self, model: TaskSpaceModel, below_task: BelowTaskImpedance, law, effort_limits,
-                 period: float):
+    def __init__(self, tick: ArmTick, period: float):
         super().__init__()
-        self._model, self._below_task, self._law = model, below_task, law
-        self._limits = np.asarray(effort_limits, dtype=float)
+        self._tick_of = tick
+        law, model = tick.law, tick.model
         nq, nv, m = model.nq, model.nv, model.n_axes
         self.plant_state = self.DeclareVectorInputPort("plant_state", BasicVector(nq + nv))
         self._reference = [self.DeclareVectorInputPort(name, BasicVector(1 if name == "phase" else m))
@@ -77,13 +165,11 @@ class ArmControlLoop(LeafSystem):
             self._rate_index = self.DeclareDiscreteState(law.theta_size)
             self.DeclareStateOutputPort("theta_rate", self._rate_index)
         self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._tick)
-        self.log_columns = {"position": slice(0, m), "force": slice(m, 2 * m), "saturated": slice(2 * m, 2 * m + 1)}
-        for k, name in enumerate(law.log_fields):
-            self.log_columns[name] = slice(2 * m + 1 + k * m, 2 * m + 1 + (k + 1) * m)
+        self.log_columns = tick.log_columns
         self._log_values = self.DeclareCacheEntry(
             "log_values", ValueProducer(allocate=lambda: AbstractValue.Make(None), calc=self._calc_logs),
             {self.all_input_ports_ticket()})
-        self.DeclareVectorOutputPort("logs", 2 * m + 1 + m * len(law.log_fields),
+        self.DeclareVectorOutputPort("logs", tick.log_size,
                                      lambda c, o: o.SetFromVector(self._log_values.Eval(c)),
                                      {self._log_values.ticket()})
         self.tick_seconds: list[float] | None = None
@@ -99,28 +185,19 @@ class ArmControlLoop(LeafSystem):
         self.tick_seconds = []
         return self.tick_seconds
 
-    def _evaluate(self, context):
-        """The task-space terms, the law's output and the saturated joint torque here."""
-        state = self.plant_state.Eval(context)
-        terms = self._model.terms(state, coriolis_matrix=False)
-        xd, xd_dot, xd_ddot, phase = (port.Eval(context) for port in self._reference)
-        now = TaskSpaceInstant(terms.position, terms.velocity, xd, xd_dot, xd_ddot, phase[0],
-                               terms.inertia, terms.coriolis, terms.gravity)
-        out = self._law.command(now, self.theta.Eval(context) if self.theta is not None else None)
-        torque = terms.jacobian.T @ out.force + self._below_task.torque(
-            state, terms.null_space, terms.joint_gravity, self._model.context)
-        return terms, out, saturate(torque, self._limits)
+    def _evaluate(self, context) -> TickResult:
+        return self._tick_of.evaluate(self.plant_state.Eval(context),
+                                      tuple(port.Eval(context) for port in self._reference),
+                                      self.theta.Eval(context) if self.theta is not None else None)
 
     def _tick(self, context: Context, state: State):
         start = time.perf_counter()
-        _, out, (torque, _) = self._evaluate(context)
-        state.get_mutable_discrete_state(self._torque_index).set_value(torque)
-        if out.rates is not None:
-            state.get_mutable_discrete_state(self._rate_index).set_value(out.rates)
+        result = self._evaluate(context)
+        state.get_mutable_discrete_state(self._torque_index).set_value(result.torque)
+        if result.law.rates is not None:
+            state.get_mutable_discrete_state(self._rate_index).set_value(result.law.rates)
         if self.tick_seconds is not None:
             self.tick_seconds.append(time.perf_counter() - start)
 
     def _calc_logs(self, context, abstract_value):
-        terms, out, (_, saturated) = self._evaluate(context)
-        abstract_value.set_value(np.concatenate([terms.position, out.force, [saturated],
-                                                 *(out.logs[name] for name in self._law.log_fields)]))
+        abstract_value.set_value(self._tick_of.log_row(self._evaluate(context)))

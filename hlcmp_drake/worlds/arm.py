@@ -19,7 +19,7 @@ from hlcmp_drake.io.errors import InputError
 from pydrake.systems.primitives import Integrator, MatrixGain
 
 from hlcmp_drake.systems.arm import BelowTaskImpedance, NullSpaceImpedance, ToolContactForce
-from hlcmp_drake.systems.arm_loop import ArmControlLoop
+from hlcmp_drake.systems.arm_loop import ArmControlLoop, ArmTick
 from hlcmp_drake.systems.ports import REFERENCE_PORTS
 from hlcmp_drake.systems.task_space import TaskSpaceDynamics, TaskSpaceModel
 from hlcmp_drake.worlds.checks import check_demonstration_feasible
@@ -245,6 +245,32 @@ def build(scenario: Scenario, controller_name: str, setup: ArmSetup,
                         world.puncture.apply_tear if world.puncture is not None else None)
 
 
+def build_driven(scenario: Scenario, setup: ArmSetup) -> BuiltDiagram:
+    """The arm's world with no controller: the plant's actuation input is left open for
+    whoever drives the joints (`hlcmp sim-driver`, which fixes it to a driver's command
+    plus gravity compensation every period).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        With an ArmTask.
+    setup : ArmSetup
+        Its q0 is the start posture.
+
+    Returns
+    -------
+    BuiltDiagram
+        With no controller and no loggers; the wrist force sensor is the diagram's system
+        "wrist_force_sensor"; with a foam that gives way, its tear as `after_step`.
+    """
+    builder = DiagramBuilder()
+    world = add_world(builder, scenario)
+    diagram = builder.Build()
+    diagram.set_name(f"{scenario.name}_driven")
+    return BuiltDiagram(diagram, world.plant, None, {}, setup.q0,
+                        world.puncture.apply_tear if world.puncture is not None else None)
+
+
 def _add_modular_controller(builder, scenario, name, plant, tool_frame, setup, contact_force, theta0):
     """DmpSource -> controller -> J^T f_c + NullSpaceImpedance -> plant, one system per role."""
     task: ArmTask = scenario.task
@@ -269,16 +295,12 @@ def _add_modular_controller(builder, scenario, name, plant, tool_frame, setup, c
 def _add_fast_controller(builder, scenario, name, plant, tool_frame, setup, contact_force, theta0):
     """The C++ DMP source -> ArmControlLoop (one Python call per plant step) -> plant, θ in
     a C++ Integrator fed the loop's held rate."""
-    task: ArmTask = scenario.task
     config = scenario.controllers[name]
     kind = controller_kind(scenario, name)
-    law = kind.law(config, scenario)
     reference = add_reference(builder, scenario, setup.dmp, compiled=True)
-    effort = [plant.get_joint_actuator(i).effort_limit() for i in plant.GetJointActuatorIndices()]
-    loop = builder.AddSystem(ArmControlLoop(
-        TaskSpaceModel(plant, tool_frame, axes=task.axes),
-        BelowTaskImpedance(plant, tool_frame, setup.tool_orientation, setup.q0, *_below_task_gains(task)),
-        law, effort, plant.time_step()))
+    tick = arm_tick(scenario, name, plant, setup)
+    law = tick.law
+    loop = builder.AddSystem(ArmControlLoop(tick, plant.time_step()))
     loop.set_name(name)
     builder.Connect(plant.get_state_output_port(), loop.plant_state)
     for port in REFERENCE_PORTS:
@@ -304,6 +326,36 @@ def _add_fast_controller(builder, scenario, name, plant, tool_frame, setup, cont
              "plant_state": plant.get_state_output_port(),
              "saturated_joints": (logs, loop.log_columns["saturated"]), **controller.logs}
     return controller, ports, _saturated_column(builder, loop, logs)
+
+
+def arm_tick(scenario: Scenario, controller_name: str, plant: MultibodyPlant, setup: ArmSetup) -> ArmTick:
+    """The arm's whole controller at one instant (`ArmTick`): the controller's law, the tool
+    point's task-space terms, the orientation and posture held below the task, and the
+    actuators' effort limits.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        With an ArmTask; its controller `controller_name` must have a `core.laws` law
+        (an Hl-CMP or a constant impedance).
+    controller_name : str
+        The controller's label.
+    plant : MultibodyPlant
+        Finalized, with the scenario's models (a world's plant, or a control-side copy).
+    setup : ArmSetup
+        The start posture and the tool orientation held below the task.
+
+    Returns
+    -------
+    ArmTick
+    """
+    task: ArmTask = scenario.task
+    tool_frame = scoped_frame(plant, task.tool_frame)
+    law = controller_kind(scenario, controller_name).law(scenario.controllers[controller_name], scenario)
+    effort = [plant.get_joint_actuator(i).effort_limit() for i in plant.GetJointActuatorIndices()]
+    return ArmTick(TaskSpaceModel(plant, tool_frame, axes=task.axes),
+                   BelowTaskImpedance(plant, tool_frame, setup.tool_orientation, setup.q0, *_below_task_gains(task)),
+                   law, effort)
 
 
 def _saturated_column(builder, loop, logs):

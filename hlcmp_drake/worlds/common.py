@@ -14,6 +14,8 @@ import dataclasses as dc
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
+from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput
 
 from hlcmp_drake.config.scenario import DemonstrationConfig, Scenario, StepReferenceConfig
@@ -21,13 +23,14 @@ from hlcmp_drake.core.dmp import Dmp
 from hlcmp_drake.io.demos import read_demonstration
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.systems.monitor import SafetyMonitor, plant_state_check
+from hlcmp_drake.systems.ports import REFERENCE_PORTS
 from hlcmp_drake.systems.references import DmpSource, StepReference, linear_dmp_source
 from hlcmp_drake.systems.task_space import TaskForceToJointTorque
 from hlcmp_drake.worlds.controllers import AddedController
 
 if TYPE_CHECKING:
     from pydrake.multibody.plant import MultibodyPlant
-    from pydrake.systems.framework import Diagram, DiagramBuilder, LeafSystem, OutputPort
+    from pydrake.systems.framework import Diagram, LeafSystem, OutputPort
     from pydrake.systems.primitives import VectorLogSink
 
     from hlcmp_drake.systems.task_space import TaskSpaceDynamics
@@ -128,6 +131,45 @@ def add_reference(builder: DiagramBuilder, scenario: Scenario, dmp: Dmp | None =
         system = DmpSource(dmp, tau=reference.duration_s or None)
     system.set_name("reference")
     return builder.AddSystem(system)
+
+
+def sample_reference(scenario: Scenario, dmp: Dmp, period: float, duration: float) -> tuple[np.ndarray, ...]:
+    """The compiled DMP source of `add_reference` sampled every `period` from 0 to
+    `duration`, simulated alone with the scenario's simulator config: the values a
+    diagram's controller would read at its ticks, for a controller outside any diagram
+    (`hlcmp serve`).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        With a DemonstrationConfig reference (its duration_s replays at another tau) and
+        its simulator config.
+    dmp : Dmp
+        The fitted DMP.
+    period : float
+        The tick period [s].
+    duration : float
+        The last tick's time [s].
+
+    Returns
+    -------
+    tuple of four arrays
+        x_d (K, M) [m], x_d' (K, M) [m/s], x_d'' (K, M) [m/s^2] and s (K, 1), at the K
+        ticks k * period, k = 0 ... round(duration / period).
+    """
+    builder = DiagramBuilder()
+    source = add_reference(builder, scenario, dmp, compiled=True)
+    diagram = builder.Build()
+    simulator = Simulator(diagram)
+    ApplySimulatorConfig(scenario.simulator_config, simulator)
+    context = source.GetMyContextFromRoot(simulator.get_mutable_context())
+    ticks = int(round(duration / period)) + 1
+    samples = [[] for _ in REFERENCE_PORTS]
+    for k in range(ticks):
+        simulator.AdvanceTo(k * period)
+        for values, port in zip(samples, REFERENCE_PORTS):
+            values.append(source.GetOutputPort(port).Eval(context).copy())
+    return tuple(np.array(values) for values in samples)
 
 
 def add_torque_map(builder: DiagramBuilder, scenario: Scenario, plant: MultibodyPlant, controller: LeafSystem,

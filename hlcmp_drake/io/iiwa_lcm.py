@@ -1,0 +1,240 @@
+"""The iiwa driver's LCM messages as arrays: what drake-iiwa-driver (torque-only mode) and
+`hlcmp sim-driver` publish, and what `hlcmp serve` answers.
+
+    driver --lcmt_iiwa_status (every period)--> client
+    driver --lcmt_force_torque (wrist sensor)--> client
+    client --lcmt_iiwa_command (torques; positions echoed; the status's utime)--> driver
+
+Decoding checks sizes and finiteness, so a bad message is a clear `ProtocolError`, never
+an index error deep in a controller.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import re
+
+import numpy as np
+from drake import lcmt_force_torque, lcmt_iiwa_command, lcmt_iiwa_status
+from pydrake.lcm import DrakeLcm
+
+from hlcmp_drake.io.errors import InputError
+
+
+class ProtocolError(Exception):
+    """A message that does not decode, or holds the wrong number of joints or a non-finite value."""
+
+
+def _decode(message_type: type, data: bytes, what: str):
+    try:
+        return message_type.decode(data)
+    except ValueError as error:
+        raise ProtocolError(f"{what} that does not decode as {message_type.__name__} ({error})") from None
+
+
+@dc.dataclass(frozen=True)
+class IiwaStatus:
+    """One lcmt_iiwa_status: the arm's state as the driver measured it.
+
+    Attributes
+    ----------
+    utime : int
+        The driver's time stamp [µs].
+    position : (n,) array
+        Measured joint positions [rad].
+    velocity : (n,) array
+        Estimated joint velocities [rad/s].
+    torque_commanded : (n,) array
+        The torque the driver last applied on top of its gravity compensation [N m].
+    torque_measured : (n,) array
+        The joint torque sensors' reading [N m].
+    torque_external : (n,) array
+        The driver's estimate of the external joint torques [N m].
+    """
+
+    utime: int
+    position: np.ndarray
+    velocity: np.ndarray
+    torque_commanded: np.ndarray
+    torque_measured: np.ndarray
+    torque_external: np.ndarray
+
+
+def encode_status(status: IiwaStatus) -> bytes:
+    """The lcmt_iiwa_status bytes of `status` (the interpolator's position is the measured one).
+
+    Parameters
+    ----------
+    status : IiwaStatus
+
+    Returns
+    -------
+    bytes
+    """
+    message = lcmt_iiwa_status()
+    message.utime = int(status.utime)
+    message.num_joints = len(status.position)
+    message.joint_position_measured = list(map(float, status.position))
+    message.joint_velocity_estimated = list(map(float, status.velocity))
+    message.joint_position_commanded = list(map(float, status.position))
+    message.joint_position_ipo = list(map(float, status.position))
+    message.joint_torque_measured = list(map(float, status.torque_measured))
+    message.joint_torque_commanded = list(map(float, status.torque_commanded))
+    message.joint_torque_external = list(map(float, status.torque_external))
+    return message.encode()
+
+
+def decode_status(data: bytes, num_joints: int) -> IiwaStatus:
+    """An IiwaStatus from lcmt_iiwa_status bytes.
+
+    Parameters
+    ----------
+    data : bytes
+    num_joints : int
+        The number of joints the message must hold.
+
+    Returns
+    -------
+    IiwaStatus
+
+    Raises
+    ------
+    ProtocolError
+        When the bytes do not decode or hold another number of joints. Non-finite values
+        are passed on: the client's watchdog names them.
+    """
+    message = _decode(lcmt_iiwa_status, data, "a status")
+    if message.num_joints != num_joints:
+        raise ProtocolError(f"a status for {message.num_joints} joints, the arm has {num_joints}")
+    return IiwaStatus(message.utime, np.array(message.joint_position_measured),
+                      np.array(message.joint_velocity_estimated), np.array(message.joint_torque_commanded),
+                      np.array(message.joint_torque_measured), np.array(message.joint_torque_external))
+
+
+def encode_torque_command(utime: int, position: np.ndarray, torque: np.ndarray) -> bytes:
+    """The lcmt_iiwa_command bytes of a torque-only command.
+
+    Parameters
+    ----------
+    utime : int
+        The answered status's time stamp [µs].
+    position : (n,) array
+        The measured positions, echoed: a torque-only driver ignores them, a position
+        driver would hold them [rad].
+    torque : (n,) array
+        The joint torque to apply on top of the driver's gravity compensation [N m].
+
+    Returns
+    -------
+    bytes
+    """
+    message = lcmt_iiwa_command()
+    message.utime = int(utime)
+    message.num_joints = len(position)
+    message.joint_position = list(map(float, position))
+    message.num_torques = len(torque)
+    message.joint_torque = list(map(float, torque))
+    return message.encode()
+
+
+def decode_torque_command(data: bytes, num_joints: int) -> tuple[int, np.ndarray]:
+    """The time stamp and the torques of an lcmt_iiwa_command.
+
+    Parameters
+    ----------
+    data : bytes
+        The message as received.
+    num_joints : int
+        How many torques a torque-only command carries (the arm's joints).
+
+    Returns
+    -------
+    utime : int
+        The answered status's time stamp [µs].
+    torque : (n,) array
+        [N m].
+
+    Raises
+    ------
+    ProtocolError
+        When the bytes do not decode, hold another number of torques (a position-only
+        command has none), or a non-finite torque.
+    """
+    message = _decode(lcmt_iiwa_command, data, "a command")
+    if message.num_torques != num_joints:
+        raise ProtocolError(f"a command with {message.num_torques} torques; torque-only mode needs {num_joints}")
+    torque = np.array(message.joint_torque)
+    if not np.all(np.isfinite(torque)):
+        raise ProtocolError(f"a command with a non-finite torque: {torque}")
+    return message.utime, torque
+
+
+def encode_wrench(utime: int, force: np.ndarray) -> bytes:
+    """The lcmt_force_torque bytes of a wrist sensor's force (no moment is measured).
+
+    Parameters
+    ----------
+    utime : int
+        The time stamp [µs] (the status it belongs to).
+    force : (3,) array
+        The environment's force on the tool, in the tool frame [N].
+
+    Returns
+    -------
+    bytes
+    """
+    message = lcmt_force_torque()
+    message.timestamp = int(utime)
+    message.fx, message.fy, message.fz = map(float, force)
+    return message.encode()
+
+
+def decode_wrench(data: bytes) -> tuple[int, np.ndarray]:
+    """The time stamp and the force of an lcmt_force_torque.
+
+    Parameters
+    ----------
+    data : bytes
+
+    Returns
+    -------
+    utime : int
+        [µs].
+    force : (3,) array
+        [N], in the sensor's frame.
+
+    Raises
+    ------
+    ProtocolError
+        When the bytes do not decode.
+    """
+    message = _decode(lcmt_force_torque, data, "a wrist message")
+    return message.timestamp, np.array([message.fx, message.fy, message.fz])
+
+
+def open_lcm(url: str) -> DrakeLcm:
+    """A DrakeLcm on `url`, checked first: LCM itself only prints a bad URL and then
+    neither sends nor receives.
+
+    Parameters
+    ----------
+    url : str
+        memq:// (this process only) or udpm://GROUP:PORT[?ttl=0], GROUP an IPv4
+        multicast address (ttl=0 keeps the traffic on this machine).
+
+    Returns
+    -------
+    DrakeLcm
+
+    Raises
+    ------
+    InputError
+        For any other URL.
+    """
+    if url != "memq://":
+        match = re.fullmatch(r"udpm://(\d+)\.(\d+)\.(\d+)\.(\d+):(\d+)(\?.*)?", url)
+        octets = [int(g) for g in match.groups()[:4]] if match else []
+        if not (match and 224 <= octets[0] <= 239 and max(octets) <= 255 and 0 < int(match.group(5)) < 65536):
+            raise InputError(f"--lcm {url}: expected udpm://GROUP:PORT?ttl=0 with an IPv4 multicast GROUP "
+                             "(224.0.0.0 to 239.255.255.255), e.g. udpm://239.255.76.67:7667?ttl=0, or memq://")
+    return DrakeLcm(url)

@@ -1,0 +1,475 @@
+"""`hlcmp serve`: a scenario's controller as a torque-only client of the iiwa driver's LCM
+protocol -- the same controller a run simulates, for drake-iiwa-driver on a real arm or
+for `hlcmp sim-driver`.
+
+Every status is answered with one tick of `ArmTick`, the function the simulated runs
+evaluate once per plant step: the task-space terms at the measured state, the law
+(Hl-CMP learning online, a constant impedance, or a frozen skill), the torque below the
+task, the saturation at the effort limits. The driver compensates gravity itself, so the
+command is that torque minus G(q). θ takes the same explicit-Euler step as in the fast
+path, θ += Δt θ', with Δt between the statuses' time stamps.
+
+Watchdogs stop commanding (the driver then holds the arm) with the reason in serve.json:
+no status for `iiwa_driver.stale_status_s`, a non-finite value in a status or a command,
+and the run's own safety checks (a joint beyond its limit, a contact force above the
+task's maximum, torques saturated for longer than `task.max_saturation_s`). The arm must
+start at the scenario's start posture.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import time
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+from pydrake.lcm import DrakeLcm
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.tree import JacobianWrtVariable
+
+from hlcmp_drake.config.scenario import ArmTask, HlcmpConfig, Scenario
+from hlcmp_drake.experiments import experiment_of
+from hlcmp_drake.io import outputs
+from hlcmp_drake.io.errors import InputError
+from hlcmp_drake.io.iiwa_lcm import (IiwaStatus, ProtocolError, decode_status, decode_wrench,
+                                     encode_torque_command, open_lcm)
+from hlcmp_drake.io.runs import RunResult
+from hlcmp_drake.io.skill import Skill
+from hlcmp_drake.present.progress import SILENT, Progress
+from hlcmp_drake.run.learning import learning_scenario
+from hlcmp_drake.run.runner import evaluate, write_results
+from hlcmp_drake.run.sim_driver import DriverSummary, SimulatedIiwaDriver
+from hlcmp_drake.systems.monitor import plant_state_check
+from hlcmp_drake.worlds.arm import ArmSetup, arm_check, arm_tick, prepare
+from hlcmp_drake.worlds.common import sample_reference
+from hlcmp_drake.worlds.controllers import controller_kind, initial_theta
+from hlcmp_drake.worlds.models import load_models, scoped_frame
+
+# The statuses a served run may end with: "ok" (served its duration), "unstable" (a
+# safety watchdog), "stopped" (the driver went quiet or sent something unreadable).
+FINISHED, UNSAFE, STOPPED = "ok", "unstable", "stopped"
+
+
+def served_scenario(scenario: Scenario, controller: str | None = None, skill: Skill | None = None,
+                    freeze: bool = False) -> tuple[Scenario, str, tuple | None]:
+    """The scenario and the controller to serve, and a skill's weights to start from.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        An arm scenario.
+    controller : str, optional
+        Its label (default: the scenario's Hl-CMP, else its first controller).
+    skill : Skill, optional
+        Serve the scenario's Hl-CMP with this skill's DMP settings and learned weights.
+    freeze : bool
+        With a skill: no adaptation (learning rates 0).
+
+    Returns
+    -------
+    scenario : Scenario
+        As served (reduced to the Hl-CMP for a skill).
+    controller : str
+        The served controller's label.
+    theta0 : tuple of three (M, N) arrays or None
+        The skill's weights.
+
+    Raises
+    ------
+    InputError
+        For a scenario without an arm, an unknown label, a controller that has no
+        one-tick law (a variable impedance), or a skill that does not fit.
+    """
+    if not isinstance(scenario.task, ArmTask):
+        raise InputError(f"scenario '{scenario.name}' has no arm: hlcmp serve drives an iiwa, "
+                         "use an arm scenario such as insertion or cutting")
+    if skill is not None:
+        scenario = learning_scenario(scenario, skill=skill, freeze=freeze)
+        controller = next(iter(scenario.controllers))
+        return scenario, controller, (skill.theta_k, skill.theta_d, skill.theta_v)
+    if freeze:
+        raise InputError("--freeze needs --skill: a frozen skill is served with the profiles it learned")
+    learners = scenario.controllers_of(HlcmpConfig)
+    controller = controller or (learners[0] if learners else next(iter(scenario.controllers)))
+    if controller not in scenario.controllers:
+        raise InputError(f"--controller: scenario '{scenario.name}' has no controller '{controller}' "
+                         f"(it has {', '.join(scenario.controllers)})")
+    if controller_kind(scenario, controller).law is None:
+        raise InputError(f"--controller: '{controller}' ({type(scenario.controllers[controller]).__name__}) "
+                         "has no one-tick law to serve; serve an Hl-CMP or a constant impedance")
+    return scenario, controller, None
+
+
+@dc.dataclass
+class ServeResult:
+    """What `serve` returns: the run as logged, the serve.json content, and where the files went."""
+
+    run: RunResult
+    record: dict
+    metrics: dict
+    out_dir: Path | None
+
+
+class TorqueClient:
+    """One controller answering an iiwa driver's statuses with torques.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        An arm scenario; `iiwa_driver` says the channels, the force source and the watchdogs.
+    controller : str
+        The label of the controller to serve (see `served_scenario`).
+    lcm : DrakeLcm
+        Where to subscribe and publish.
+    theta0 : tuple of three (M, N) arrays, optional
+        A learner's initial weights (a skill's).
+    setup : ArmSetup, optional
+        The DMP and start posture (default: `prepare(scenario)`, as a run would).
+    """
+
+    def __init__(self, scenario: Scenario, controller: str, lcm: DrakeLcm, theta0: tuple | None = None,
+                 setup: ArmSetup | None = None):
+        self.scenario, self.controller = scenario, controller
+        self.config = scenario.iiwa_driver
+        self.duration = scenario.duration_s   # served from the first command, as a run simulates it
+        self._lcm = lcm
+        setup = setup or prepare(scenario)
+        self.q0 = setup.q0
+        # The controller's own model of the arm: the same model files as the world's.
+        plant = MultibodyPlant(0.0)
+        load_models(plant, scenario)
+        self.plant = plant
+        self.tick = arm_tick(scenario, controller, plant, setup)
+        self.law = self.tick.law
+        self.theta = (initial_theta(scenario.controllers[controller], scenario, theta0)
+                      if self.law.learns else None)
+        self._rate = None
+        self._tool = scoped_frame(plant, scenario.task.tool_frame)
+        self._axes = list(scenario.task.axes)
+        self.nq, self.nv = plant.num_positions(), plant.num_velocities()
+        self._reference = sample_reference(scenario, setup.dmp, self.config.period_s, self.duration)
+        self._log_every = max(1, int(round(scenario.log_period_s / self.config.period_s)))
+        self._state_check = plant_state_check(self.nq, scenario.max_abs_position_m)
+        self._safety = arm_check(plant, scenario.task)
+        self._wrist = None
+        self._latest = None          # (received at, status bytes) not yet answered
+        self.first_status_wall = None
+        self.last_status_wall = None
+        self._utime0 = self._last_utime = None
+        self._last_command = None
+        self.ticks = self.missed_ticks = 0
+        self.tick_seconds: list[float] = []
+        self.log_t: list[float] = []
+        self.log_rows: dict[str, list] = {name: [] for name in ("x", "xd", "f_ext", "fc", "plant_state",
+                                                                 "saturated_joints")}
+        self.log_rows.update({series: [] for series, _ in controller_kind(scenario, controller).logs})
+        self.stopped_because: str | None = None
+        self.status = FINISHED
+        lcm.Subscribe(self.config.status_channel, self._on_status)
+        if self.config.force_source == "wrist_sensor":
+            lcm.Subscribe(self.config.wrist_channel, self._on_wrench)
+
+    @property
+    def done(self) -> bool:
+        """Whether the client has stopped commanding (finished or a watchdog)."""
+        return self.stopped_because is not None
+
+    def _on_status(self, data: bytes) -> None:
+        now = time.perf_counter()
+        self.last_status_wall = now
+        self.first_status_wall = self.first_status_wall or now
+        self._latest = (now, data)
+
+    def _on_wrench(self, data: bytes) -> None:
+        self._wrist = data
+
+    def stop(self, status: str, reason: str) -> None:
+        """Stop commanding from now on.
+
+        Parameters
+        ----------
+        status : str
+            FINISHED, UNSAFE or STOPPED.
+        reason : str
+            Why, for serve.json.
+        """
+        if self.stopped_because is None:
+            self.status, self.stopped_because = status, reason
+
+    def poll(self) -> None:
+        """Answer the newest status received since the last poll (an older one not yet
+        answered is skipped and counted as missed), and check that statuses still come."""
+        if self.done:
+            return
+        if self._latest is None:
+            if self.last_status_wall is not None and time.perf_counter() - self.last_status_wall > \
+                    self.config.stale_status_s:
+                self.stop(STOPPED, f"no status for {self.config.stale_status_s * 1000:.0f} ms (stale) "
+                                   f"at t = {self._served_time():.3f} s")
+            return
+        received, data = self._latest
+        self._latest = None
+        try:
+            status = decode_status(data, self.nv)
+        except ProtocolError as error:
+            self.stop(STOPPED, f"the driver sent {error}")
+            return
+        self._answer(status, received)
+
+    def _served_time(self) -> float:
+        return 0.0 if self._last_utime is None else (self._last_utime - self._utime0) / 1e6
+
+    def _answer(self, status: IiwaStatus, received: float) -> None:
+        values = np.concatenate([status.position, status.velocity, status.torque_external])
+        if not np.all(np.isfinite(values)):
+            self.stop(UNSAFE, f"a non-finite value in the status at utime {status.utime}")
+            return
+        if self._utime0 is None:
+            if not self._ready_to_start(status, received):
+                return
+        elif status.utime == self._last_utime and self._last_command is not None:
+            self._lcm.Publish(self.config.command_channel, self._last_command)   # its answer was lost
+            return
+        elif status.utime < self._last_utime:
+            return   # older than one already answered
+        state = np.concatenate([status.position, status.velocity])
+        t = (status.utime - self._utime0) / 1e6
+        k = int(round(t / self.config.period_s))
+        if k >= len(self._reference[0]):
+            self.stop(FINISHED, f"served {self.duration:g} s")
+            return
+        if self._last_utime is not None and status.utime > self._last_utime:
+            gap = (status.utime - self._last_utime) / 1e6
+            self.missed_ticks += max(0, int(round(gap / self.config.period_s)) - 1)
+            if self._rate is not None:
+                self.theta = self.theta + gap * self._rate   # θ' held since the last tick (explicit Euler)
+        result = self.tick.evaluate(state, tuple(values[k] for values in self._reference), self.theta)
+        command = result.torque - result.terms.joint_gravity   # the driver adds G(q) itself
+        force_world = self._wrist_force(status)
+        problem = self._problem(t, state, command, force_world, result.saturated)
+        if problem is not None:
+            self.stop(UNSAFE, f"{problem} at t = {t:.3f} s")
+            return
+        self._last_command = encode_torque_command(status.utime, status.position, command)
+        self._lcm.Publish(self.config.command_channel, self._last_command)
+        self.tick_seconds.append(time.perf_counter() - received)
+        self.ticks += 1
+        self._last_utime = status.utime
+        self._rate = result.law.rates
+        if k % self._log_every == 0:
+            self._log(t, k, state, force_world, result)
+        if k >= len(self._reference[0]) - 1:
+            self.stop(FINISHED, f"served {self.duration:g} s")
+
+    def _ready_to_start(self, status: IiwaStatus, received: float) -> bool:
+        """Before the first command: the arm must be at the start posture, and the driver's
+        start guard must have passed."""
+        off = np.abs(status.position - self.q0)
+        if off.max() > self.config.start_tolerance_rad:
+            joint = int(np.argmax(off))
+            self.stop(STOPPED, f"the arm is not at the scenario's start posture: joint {joint + 1} is "
+                               f"{off[joint]:.3f} rad away (iiwa_driver.start_tolerance_rad = "
+                               f"{self.config.start_tolerance_rad}); move it to q0 = {np.round(self.q0, 3).tolist()}")
+            return False
+        if received - self.first_status_wall < self.config.start_guard_s:
+            return False
+        self._utime0 = status.utime
+        return True
+
+    def _wrist_force(self, status: IiwaStatus) -> np.ndarray:
+        """The environment's force on the tool, world frame [N], from the configured source.
+        The tick has just set the controller plant's context to the status's positions."""
+        context = self.tick.model.context
+        if self.config.force_source == "external_torque":
+            world = self.plant.world_frame()
+            jacobian = self.plant.CalcJacobianTranslationalVelocity(context, JacobianWrtVariable.kV, self._tool,
+                                                                    np.zeros(3), world, world)
+            return np.linalg.lstsq(jacobian.T, status.torque_external, rcond=None)[0]
+        if self._wrist is None:
+            return np.zeros(3)
+        _, force_tool = decode_wrench(self._wrist)
+        return self._tool.CalcRotationMatrixInWorld(context) @ force_tool
+
+    def _problem(self, t, state, command, force_world, saturated) -> str | None:
+        problem = self._state_check(state)
+        if problem is None and not np.all(np.isfinite(command)):
+            problem = "a non-finite torque command"
+        return problem or self._safety(t, {"plant_state": state, "contact_force": force_world,
+                                           "saturated": [saturated]})
+
+    def _log(self, t, k, state, force_world, result) -> None:
+        row = self.tick.log_row(result)
+        columns = self.tick.log_columns
+        self.log_t.append(t)
+        logs = self.log_rows
+        logs["x"].append(row[columns["position"]])
+        logs["xd"].append(self._reference[0][k])
+        logs["f_ext"].append(force_world[self._axes])
+        logs["fc"].append(row[columns["force"]])
+        logs["plant_state"].append(state)
+        logs["saturated_joints"].append(row[columns["saturated"]])
+        for series, field in controller_kind(self.scenario, self.controller).logs:
+            logs[series].append(row[columns[field]])
+
+    def run_result(self) -> RunResult:
+        """The served run as a RunResult, the same series a simulated run logs.
+
+        Returns
+        -------
+        RunResult
+            Status "ok", "unstable" (a safety watchdog) or "stopped" (the driver).
+        """
+        series = {name: np.array(rows).reshape(len(rows), -1) for name, rows in self.log_rows.items()}
+        theta = self.law.unflatten(self.theta) if self.theta is not None else None
+        stop_time = None if self.status == FINISHED else self._served_time()
+        return RunResult(self.controller, np.array(self.log_t), series, self.status,
+                         "" if self.status == FINISHED else self.stopped_because, stop_time, theta)
+
+    def record(self, lcm_url: str) -> dict:
+        """The serve.json content.
+
+        Parameters
+        ----------
+        lcm_url : str
+            Where it served.
+
+        Returns
+        -------
+        dict
+            ticks, missed_ticks, tick_us (p50, p99, max: from a status's receipt to its
+            command's publication), stopped_because, and what was served where.
+        """
+        micros = np.array(self.tick_seconds) * 1e6
+        percentiles = ({"p50": float(np.percentile(micros, 50)), "p99": float(np.percentile(micros, 99)),
+                        "max": float(micros.max())} if micros.size else {"p50": None, "p99": None, "max": None})
+        return {"scenario": self.scenario.name, "controller": self.controller, "lcm_url": lcm_url,
+                "force_source": self.config.force_source, "period_s": self.config.period_s,
+                "ticks": self.ticks, "missed_ticks": self.missed_ticks, "tick_us": percentiles,
+                "served_s": self._served_time(), "status": self.status, "stopped_because": self.stopped_because}
+
+
+def serve(client: TorqueClient, lcm: DrakeLcm, lcm_url: str, reporter: Progress = SILENT) -> None:
+    """Answer statuses until the client finishes or a watchdog stops it.
+
+    Parameters
+    ----------
+    client : TorqueClient
+    lcm : DrakeLcm
+        The one the client subscribed on.
+    lcm_url : str
+        For the messages.
+    reporter : Progress, optional
+    """
+    config = client.config
+    reporter.say(f"serve: {client.controller} waiting for {config.status_channel} at {lcm_url}")
+    start = time.perf_counter()
+    while not client.done:
+        lcm.HandleSubscriptions(1)
+        client.poll()
+        if client.first_status_wall is None and time.perf_counter() - start > config.first_status_timeout_s:
+            client.stop(STOPPED, f"no status on {config.status_channel} at {lcm_url} within "
+                                 f"{config.first_status_timeout_s:g} s: is the driver running?")
+
+
+def write_served(client: TorqueClient, out_dir: str | Path, lcm_url: str) -> ServeResult:
+    """Evaluate the served run and write timeseries.npz, recording.html, metrics.json (as
+    `hlcmp run` does, for the one controller: no claims, which compare controllers) and
+    serve.json, each atomically.
+
+    Parameters
+    ----------
+    client : TorqueClient
+        After `serve`.
+    out_dir : str or Path
+    lcm_url : str
+
+    Returns
+    -------
+    ServeResult
+    """
+    run = client.run_result()
+    record = client.record(lcm_url)
+    out_dir = Path(out_dir)
+    experiment = experiment_of(client.scenario)
+    scenario = dc.replace(client.scenario, controllers={client.controller: client.scenario.controllers[client.controller]})
+    metrics = evaluate({run.controller: run}, scenario, dc.replace(experiment, claims=lambda *args: {}))
+    metrics["status"] = run.status
+    if len(run.t):
+        write_results(out_dir, scenario, {run.controller: run}, metrics, {})
+    else:   # nothing was served: no series to write
+        outputs.write_json(out_dir / "metrics.json", metrics)
+    outputs.write_json(out_dir / "serve.json", record)
+    return ServeResult(run, record, metrics, out_dir)
+
+
+def lockstep(driver: SimulatedIiwaDriver, client: TorqueClient, lcm: DrakeLcm) -> DriverSummary:
+    """Run a driver and its client in this process on one memq:// LCM, one message at a
+    time: status, command, step. Wall time passes only for the start guards.
+
+    Parameters
+    ----------
+    driver : SimulatedIiwaDriver
+    client : TorqueClient
+        Subscribed on the same `lcm`.
+    lcm : DrakeLcm
+        memq://, shared by both.
+
+    Returns
+    -------
+    DriverSummary
+    """
+    start = time.perf_counter()
+    steps = 0
+    while not client.done:
+        driver.publish_status()
+        lcm.HandleSubscriptions(0)     # the status reaches the client
+        client.poll()
+        lcm.HandleSubscriptions(0)     # its command reaches the driver
+        if driver.command is not None and driver.command[0] == driver.status_utime:
+            driver.step(driver.command[1])
+            steps += 1
+        elif not client.done:
+            time.sleep(driver.period)   # the start guards count wall time
+    return DriverSummary(steps, steps, 0, driver.time, time.perf_counter() - start, client.stopped_because)
+
+
+def serve_scenario(name_or_path: str | Path, lcm_url: str, out_dir: str | Path, controller: str | None = None,
+                   skill: Skill | None = None, freeze: bool = False, overrides: Sequence[str] = (),
+                   reporter: Progress = SILENT) -> ServeResult:
+    """Load a scenario, serve its controller over LCM, and write the results.
+
+    With a memq:// URL (which reaches only this process) the scenario's simulated driver
+    runs here too, in lockstep with the client.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        A bundled arm scenario or a YAML file.
+    lcm_url : str
+        Where the driver is.
+    out_dir : str or Path
+        Where timeseries.npz, metrics.json, recording.html and serve.json go.
+    controller, skill, freeze
+        What to serve (see `served_scenario`).
+    overrides : sequence of str
+        ``dotted.key=value`` overrides (duration_s sets how long to serve).
+    reporter : Progress, optional
+
+    Returns
+    -------
+    ServeResult
+    """
+    from hlcmp_drake.config.loading import load_scenario
+
+    scenario, _ = load_scenario(name_or_path, overrides)
+    scenario, controller, theta0 = served_scenario(scenario, controller, skill, freeze)
+    lcm = open_lcm(lcm_url)
+    setup = prepare(scenario, skill.dmp if skill is not None else None)
+    client = TorqueClient(scenario, controller, lcm, theta0, setup)
+    if lcm_url.startswith("memq://"):
+        reporter.say(f"serve: {controller} and the simulated driver in this process (memq://)")
+        lockstep(SimulatedIiwaDriver(scenario, lcm, setup), client, lcm)
+    else:
+        serve(client, lcm, lcm_url, reporter)
+    return write_served(client, out_dir, lcm_url)

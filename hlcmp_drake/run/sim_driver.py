@@ -1,0 +1,335 @@
+"""`hlcmp sim-driver`: a scenario's simulated iiwa and world behind the iiwa driver's LCM
+protocol, behaving like drake-iiwa-driver in torque-only mode on a real arm:
+
+- every period it publishes lcmt_iiwa_status (measured q, estimated v, the commanded,
+  measured and external joint torques) and the wrist sensor's lcmt_force_torque;
+- it applies each command's torques on top of its own gravity compensation G(q);
+- it aborts on a command that comes within 0.25 s of its first status (a controller
+  left running from before), and holds the arm with joint PD (the real driver's gains)
+  while no fresh command has come for 50 ms.
+
+Two pacings: as fast as the client answers (default: each status waits for the command
+that answers it, so no tick is ever missed and the run is deterministic), or real time
+(a period of wall-clock time per step; the latest command is applied, as on the robot).
+Simulated time stands still at 0, the arm held, until the first command.
+
+The simulation is stepped from Python, one period per command, with the command fixed on
+the plant's actuation input: no LCM systems inside the diagram, so an LCM event never
+splits a plant step.
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import time
+from typing import Sequence
+
+import numpy as np
+from pydrake.lcm import DrakeLcm
+from pydrake.multibody.tree import JacobianWrtVariable
+from pydrake.systems.analysis import SimulatorStatus
+
+from hlcmp_drake.config.scenario import ArmTask, Scenario
+from hlcmp_drake.io.errors import InputError
+from hlcmp_drake.io.iiwa_lcm import (IiwaStatus, ProtocolError, decode_torque_command, encode_status,
+                                     encode_wrench, open_lcm)
+from hlcmp_drake.present.progress import SILENT, Progress
+from hlcmp_drake.run.simulate import prepared_simulator
+from hlcmp_drake.worlds.arm import ArmSetup, build_driven, prepare
+from hlcmp_drake.worlds.models import scoped_frame
+
+# drake-iiwa-driver's torque-only constants: its start-command guard, the age at which a
+# command expires, and the joint PD gains of its holding controller.
+START_COMMAND_GUARD_S = 0.25
+COMMAND_EXPIRE_S = 0.05
+HOLD_KP = np.array([1000.0, 1000.0, 1000.0, 500.0, 500.0, 500.0, 500.0])
+HOLD_KD = np.array([50.0, 50.0, 50.0, 50.0, 35.0, 35.0, 35.0])
+# As-fast pacing: a status not answered within this long is published again (a lost datagram).
+RESEND_S = 0.02
+
+
+class DriverAbort(Exception):
+    """The simulated driver stops, as the real one would: a command within its start
+    guard, a malformed command, or a simulation that failed."""
+
+
+@dc.dataclass
+class DriverSummary:
+    """How a `drive` ended: steps simulated (with a command, holding), the simulated and
+    wall time, and why it stopped."""
+
+    steps: int
+    commanded_steps: int
+    held_steps: int
+    sim_time_s: float
+    wall_s: float
+    stopped_because: str
+
+
+class SimulatedIiwaDriver:
+    """The scenario's world with its iiwa driven through LCM messages.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        An arm scenario; its `iiwa_driver` names the channels and the period (a whole
+        number of plant steps).
+    lcm : DrakeLcm
+        Where to publish and subscribe.
+    setup : ArmSetup, optional
+        The start posture (default: `prepare(scenario)`, as a run would start).
+
+    Raises
+    ------
+    InputError
+        For a scenario that is not an arm's, or a period that is not a whole number of
+        plant steps.
+    """
+
+    def __init__(self, scenario: Scenario, lcm: DrakeLcm, setup: ArmSetup | None = None):
+        if not isinstance(scenario.task, ArmTask):
+            raise InputError(f"scenario '{scenario.name}' has no arm: the simulated iiwa driver needs an "
+                             "arm scenario such as insertion or cutting")
+        self.config = scenario.iiwa_driver
+        step = scenario.plant_config.time_step
+        self.period = self.config.period_s
+        if step <= 0 or abs(self.period / step - round(self.period / step)) > 1e-9:
+            raise InputError(f"{scenario.name}: iiwa_driver.period_s = {self.period} s must be a whole number "
+                             f"of plant steps (plant_config.time_step = {step} s)")
+        self._lcm = lcm
+        setup = setup or prepare(scenario)
+        built = build_driven(scenario, setup)
+        self.plant = built.plant
+        self.simulator = prepared_simulator(built, scenario)
+        status = self.simulator.Initialize()
+        if status.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition:
+            raise DriverAbort(f"the world stopped at t = 0: {status.message()}")
+        root = self.simulator.get_mutable_context()
+        self._context = self.plant.GetMyMutableContextFromRoot(root)
+        sensor = built.diagram.GetSubsystemByName("wrist_force_sensor")
+        self._force = sensor.GetOutputPort("force")
+        self._sensor_context = sensor.GetMyContextFromRoot(root)
+        self._tool = scoped_frame(self.plant, scenario.task.tool_frame)
+        self._actuation = self.plant.get_actuation_input_port()
+        self._limits = np.array([self.plant.get_joint_actuator(i).effort_limit()
+                                 for i in self.plant.GetJointActuatorIndices()])
+        self.nv = self.plant.num_velocities()
+        self._applied = np.zeros(self.nv)      # the last command's torque (or the hold's)
+        self._total = np.zeros(self.nv)        # with gravity compensation: what the joints feel
+        self._hold = None
+        self._steps = 0
+        self.command: tuple[int, np.ndarray, float] | None = None   # utime, torque, wall time received
+        self._first_status_wall = None
+        self.status_utime = 0
+        lcm.Subscribe(self.config.command_channel, self._on_command)
+
+    @property
+    def time(self) -> float:
+        """The simulated time [s]."""
+        return self._context.get_time()
+
+    def publish_status(self) -> None:
+        """Publish the wrist sensor's force and the arm's status at the present time."""
+        plant, context = self.plant, self._context
+        q, v = plant.GetPositions(context), plant.GetVelocities(context)
+        force_world = self._force.Eval(self._sensor_context)
+        rotation = self._tool.CalcRotationMatrixInWorld(context)
+        jacobian = plant.CalcJacobianTranslationalVelocity(context, JacobianWrtVariable.kV, self._tool,
+                                                           np.zeros(3), plant.world_frame(), plant.world_frame())
+        self.status_utime = int(round(self.time * 1e6))
+        # The wrist force, taken to act at the tool point, is the arm's external torque.
+        status = IiwaStatus(self.status_utime, q, v, self._applied, self._total, jacobian.T @ force_world)
+        self._lcm.Publish(self.config.wrist_channel,
+                          encode_wrench(self.status_utime, rotation.inverse() @ force_world))
+        self._lcm.Publish(self.config.status_channel, encode_status(status))
+        if self._first_status_wall is None:
+            self._first_status_wall = time.perf_counter()
+
+    def _on_command(self, data: bytes) -> None:
+        now = time.perf_counter()
+        try:
+            utime, torque = decode_torque_command(data, self.nv)
+        except ProtocolError as error:
+            raise DriverAbort(f"the driver received {error}") from None
+        if self._first_status_wall is None or now - self._first_status_wall < START_COMMAND_GUARD_S:
+            raise DriverAbort(f"a command came within {START_COMMAND_GUARD_S} s of the driver's first status "
+                              "(a controller left running from before?); the real driver aborts too")
+        self.command = (utime, torque, now)
+
+    def step(self, torque: np.ndarray | None) -> None:
+        """Advance one period with `torque` on top of gravity compensation, or (None) hold
+        the arm where it is with the driver's joint PD.
+
+        Parameters
+        ----------
+        torque : (nv,) array or None
+            The command's joint torques [N m].
+
+        Raises
+        ------
+        DriverAbort
+            When the simulation fails or the arm's state is no longer finite.
+        """
+        plant, context = self.plant, self._context
+        q, v = plant.GetPositions(context), plant.GetVelocities(context)
+        if torque is None:
+            self._hold = q.copy() if self._hold is None else self._hold
+            torque = -HOLD_KP * (q - self._hold) - HOLD_KD * v
+        else:
+            self._hold = None
+        gravity = -plant.CalcGravityGeneralizedForces(context)
+        self._applied = np.asarray(torque, dtype=float)
+        self._total = np.clip(self._applied + gravity, -self._limits, self._limits)
+        self._actuation.FixValue(context, self._total)
+        # To a whole number of periods, as Drake times the plant's steps: t + period could
+        # land a rounding error past a step and take it too.
+        self._steps += 1
+        try:
+            status = self.simulator.AdvanceTo(self._steps * self.period)
+        except RuntimeError as error:
+            raise DriverAbort(f"the simulation failed at t = {self.time:.3f} s: {' '.join(str(error).split())[:200]}")
+        if status.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition:
+            raise DriverAbort(f"the world stopped at t = {self.time:.3f} s: {status.message()}")
+        if not np.all(np.isfinite(plant.GetPositionsAndVelocities(context))):
+            raise DriverAbort(f"the simulated arm's state is not finite at t = {self.time:.3f} s")
+
+
+def wait_for_first_command(driver: SimulatedIiwaDriver, lcm: DrakeLcm, timeout_s: float) -> None:
+    """Publish the t = 0 status every period (the arm held still, time standing) until a
+    first command comes.
+
+    Parameters
+    ----------
+    driver : SimulatedIiwaDriver
+    lcm : DrakeLcm
+    timeout_s : float
+        Give up after this long [s].
+
+    Raises
+    ------
+    DriverAbort
+        When no command came within `timeout_s`.
+    """
+    start = time.perf_counter()
+    while driver.command is None:
+        driver.publish_status()
+        _handle_until(lcm, time.perf_counter() + driver.period)
+        if time.perf_counter() - start > timeout_s:
+            raise DriverAbort(f"no command on {driver.config.command_channel} within {timeout_s:.0f} s")
+
+
+def drive(driver: SimulatedIiwaDriver, lcm: DrakeLcm, realtime: bool = False, duration: float | None = None,
+          idle_timeout_s: float = 1.0, first_command_timeout_s: float = 60.0,
+          reporter: Progress = SILENT) -> DriverSummary:
+    """Run the simulated driver until its client stops commanding (or `duration`).
+
+    Parameters
+    ----------
+    driver : SimulatedIiwaDriver
+    lcm : DrakeLcm
+        The one the driver subscribed on.
+    realtime : bool
+        Pace one period of wall-clock time per step (the latest command applied; held
+        after 50 ms without one); False: each status waits for the command that answers it.
+    duration : float, optional
+        Stop at this simulated time [s] (default: when the client stops).
+    idle_timeout_s : float
+        The client counts as gone after this long without a command [s].
+    first_command_timeout_s : float
+        How long to wait for the first command [s].
+    reporter : Progress, optional
+
+    Returns
+    -------
+    DriverSummary
+
+    Raises
+    ------
+    DriverAbort
+        When the driver aborts (see `SimulatedIiwaDriver`).
+    """
+    reporter.say(f"sim-driver: publishing {driver.config.status_channel} every {driver.period * 1000:.0f} ms "
+                 f"({'real time' if realtime else 'as fast as the client answers'}); waiting for a command")
+    wait_for_first_command(driver, lcm, first_command_timeout_s)
+    start = time.perf_counter()
+    steps = held = 0
+    stopped = None
+    deadline = start
+    while stopped is None:
+        if duration is not None and driver.time >= duration - driver.period / 2:
+            stopped = f"reached --duration {duration:g} s"
+            break
+        if realtime:
+            deadline += driver.period
+            _handle_until(lcm, deadline)
+            age = time.perf_counter() - driver.command[2]
+            fresh = age <= COMMAND_EXPIRE_S
+            driver.step(driver.command[1] if fresh else None)
+            held += not fresh
+            if age > idle_timeout_s:
+                stopped = f"no command for {idle_timeout_s:g} s (the client stopped)"
+        else:
+            stopped = _await_answer(driver, lcm, idle_timeout_s)
+            if stopped is None:
+                driver.step(driver.command[1])
+        if stopped is None:
+            steps += 1
+            driver.publish_status()
+    return DriverSummary(steps, steps - held, held, driver.time, time.perf_counter() - start, stopped)
+
+
+def _await_answer(driver: SimulatedIiwaDriver, lcm: DrakeLcm, idle_timeout_s: float) -> str | None:
+    """Wait for the command answering the last status (publishing it again every RESEND_S);
+    None when it came, else why the client counts as gone."""
+    since = sent = time.perf_counter()
+    while driver.command[0] != driver.status_utime:
+        lcm.HandleSubscriptions(1)
+        now = time.perf_counter()
+        if now - since > idle_timeout_s:
+            return f"the client stopped answering at t = {driver.time:.3f} s (no command for {idle_timeout_s:g} s)"
+        if now - sent > RESEND_S:
+            driver.publish_status()
+            sent = now
+    return None
+
+
+def _handle_until(lcm: DrakeLcm, deadline: float) -> None:
+    """Handle LCM messages until the wall-clock `deadline` (perf_counter seconds)."""
+    while True:
+        remaining = deadline - time.perf_counter()
+        if remaining <= 0:
+            return
+        # HandleSubscriptions waits in whole milliseconds: sleep in it while more than
+        # 2 ms remain, then poll, so the deadline is kept to well under a period.
+        lcm.HandleSubscriptions(int(remaining * 1000) - 1 if remaining > 0.002 else 0)
+
+
+def run_sim_driver(name_or_path: str, lcm_url: str, realtime: bool = False, duration: float | None = None,
+                   idle_timeout_s: float = 1.0, overrides: Sequence[str] = (),
+                   reporter: Progress = SILENT) -> DriverSummary:
+    """Load a scenario and run its simulated iiwa driver on `lcm_url` until the client stops.
+
+    Parameters
+    ----------
+    name_or_path : str
+        A bundled arm scenario or a YAML file.
+    lcm_url : str
+        E.g. udpm://239.255.76.67:7667?ttl=0.
+    realtime, duration, idle_timeout_s, reporter
+        As for `drive`.
+    overrides : sequence of str
+        ``dotted.key=value`` overrides of the scenario.
+
+    Returns
+    -------
+    DriverSummary
+    """
+    from hlcmp_drake.config.loading import load_scenario
+
+    if lcm_url.startswith("memq://"):
+        raise InputError("--lcm memq:// reaches only this process: hlcmp serve SCENARIO --lcm memq:// "
+                         "runs the simulated driver and the client together")
+    scenario, _ = load_scenario(name_or_path, overrides)
+    lcm = open_lcm(lcm_url)
+    driver = SimulatedIiwaDriver(scenario, lcm)
+    return drive(driver, lcm, realtime, duration, idle_timeout_s, reporter=reporter)

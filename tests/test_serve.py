@@ -1,0 +1,241 @@
+"""hlcmp serve and hlcmp sim-driver: the iiwa driver's LCM protocol, the served controller
+against the simulated run (in one process over memq://, in two over udpm://), and the
+watchdogs."""
+
+import json
+import os
+import random
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from pydrake.lcm import DrakeLcm
+from pydrake.multibody.tree import JacobianWrtVariable
+
+from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.io.iiwa_lcm import (IiwaStatus, ProtocolError, decode_status, decode_torque_command,
+                                     decode_wrench, encode_status, encode_torque_command, encode_wrench)
+from hlcmp_drake.run.serve import STOPPED, UNSAFE, TorqueClient, serve, serve_scenario, write_served
+from hlcmp_drake.run.sim_driver import DriverAbort, SimulatedIiwaDriver
+from hlcmp_drake.worlds.arm import prepare
+
+# A served run evaluates the same functions on the same numbers as the simulated run
+# (measured: equal to rounding), so its metrics must agree far inside this.
+METRICS_RTOL = 1e-6
+
+
+def hlcmp(*args):
+    return subprocess.Popen([sys.executable, "-m", "hlcmp_drake.cli", *map(str, args)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def assert_metrics_match(served, simulated):
+    """Every number of one controller's metrics, within METRICS_RTOL (and 1e-12 absolute)."""
+    if isinstance(simulated, dict):
+        assert served.keys() == simulated.keys()
+        for key in simulated:
+            assert_metrics_match(served[key], simulated[key])
+    elif isinstance(simulated, (int, float)) and not isinstance(simulated, bool):
+        assert served == pytest.approx(simulated, rel=METRICS_RTOL, abs=1e-12)
+    else:
+        assert served == simulated
+
+
+def test_messages_round_trip_and_bad_ones_are_named():
+    rng = np.random.default_rng(0)
+    status = IiwaStatus(1234, *(rng.normal(size=7) for _ in range(5)))
+    back = decode_status(encode_status(status), 7)
+    assert back.utime == 1234
+    for field in ("position", "velocity", "torque_commanded", "torque_measured", "torque_external"):
+        np.testing.assert_array_equal(getattr(back, field), getattr(status, field))
+    utime, torque = decode_torque_command(encode_torque_command(99, status.position, status.velocity), 7)
+    assert utime == 99
+    np.testing.assert_array_equal(torque, status.velocity)
+    utime, force = decode_wrench(encode_wrench(5, [1.0, -2.0, 3.0]))
+    assert utime == 5 and force.tolist() == [1.0, -2.0, 3.0]
+    with pytest.raises(ProtocolError, match="for 7 joints, the arm has 6"):
+        decode_status(encode_status(status), 6)
+    with pytest.raises(ProtocolError, match="does not decode"):
+        decode_status(b"not a status", 7)
+    with pytest.raises(ProtocolError, match="non-finite torque"):
+        decode_torque_command(encode_torque_command(1, np.zeros(7), [np.nan] + [0.0] * 6), 7)
+    with pytest.raises(ProtocolError, match="torque-only mode needs 7"):
+        decode_torque_command(encode_torque_command(1, np.zeros(7), np.zeros(3)), 7)
+
+
+@pytest.fixture(scope="module")
+def served_insertion(tmp_path_factory):
+    """The insertion's Hl-CMP served over memq:// to the simulated driver, the whole scenario."""
+    out = tmp_path_factory.mktemp("served")
+    return serve_scenario("insertion", "memq://", out)
+
+
+@pytest.mark.slow
+def test_served_hlcmp_matches_the_simulated_run(served_insertion, insertion_run):
+    """One process, memq://: the served Hl-CMP drives the simulated insertion through the
+    pierce and back; its metrics, θ and tip path are those of `hlcmp run insertion`."""
+    result = served_insertion
+    assert result.record["status"] == "ok", result.record["stopped_because"]
+    assert result.record["missed_ticks"] == 0
+    assert result.record["ticks"] == 9501
+    simulated = json.loads((insertion_run / "metrics.json").read_text())["controllers"]["hlcmp"]
+    served = json.loads((result.out_dir / "metrics.json").read_text())["controllers"]["hlcmp"]
+    assert max(served["max_abs_force_N"].values()) > 5.0     # it went through the foam
+    assert_metrics_match(served, simulated)
+    logged = np.load(insertion_run / "timeseries.npz")
+    np.testing.assert_allclose(result.run.t, logged["t"], atol=1e-12)
+    for series in ("x", "f_ext", "Ks", "v", "plant_state"):
+        reference = logged[f"hlcmp/{series}"]
+        scale = max(1.0, np.abs(reference).max())
+        assert np.abs(result.run.series[series] - reference).max() < 1e-9 * scale, series
+    for written in ("timeseries.npz", "metrics.json", "serve.json", "recording.html"):
+        assert (result.out_dir / written).is_file()
+
+
+@pytest.mark.slow
+def test_two_processes_over_udpm(tmp_path):
+    """hlcmp sim-driver and hlcmp serve as two processes on udpm://...?ttl=0, as fast as the
+    client answers: no tick missed, and the metrics of the same run simulated in-process."""
+    url = f"udpm://239.255.76.{random.randint(100, 250)}:{random.randint(20000, 60000)}?ttl=0"
+    patient = ["--set", "iiwa_driver.first_status_timeout_s=120"]   # the driver may start slowly on a busy machine
+    driver = hlcmp("sim-driver", "insertion", "--lcm", url, "--quiet")
+    client = hlcmp("serve", "insertion", "--lcm", url, "--duration", 1.5, "--out", tmp_path / "serve", "--quiet",
+                   *patient)
+    client_out, client_err = client.communicate(timeout=300)
+    driver_out, driver_err = driver.communicate(timeout=60)
+    assert client.returncode == 0, client_err + client_out
+    assert driver.returncode == 0, driver_err
+    assert "the client stopped answering at t = 1.501 s" in driver_out
+    record = json.loads((tmp_path / "serve" / "serve.json").read_text())
+    assert record["ticks"] == 1501 and record["missed_ticks"] == 0
+    assert record["tick_us"]["p50"] > 0 and record["stopped_because"] == "served 1.5 s"
+
+    from hlcmp_drake.experiments import experiment_of
+    from hlcmp_drake.run.simulate import simulate
+    from hlcmp_drake.worlds.build import diagram_factory
+
+    scenario, _ = load_scenario("insertion", ["duration_s=1.5"])
+    run = simulate(diagram_factory(scenario)("hlcmp"), scenario, "hlcmp")
+    simulated = experiment_of(scenario).controller_metrics(run, scenario.controllers["hlcmp"], scenario)
+    served = json.loads((tmp_path / "serve" / "metrics.json").read_text())["controllers"]["hlcmp"]
+    assert_metrics_match(served, json.loads(json.dumps(simulated)))
+
+
+def test_a_stale_status_stops_the_commands(tmp_path, monkeypatch):
+    """The driver goes quiet mid-run: the client stops commanding within stale_status_s and
+    says so; no command follows."""
+    scenario, _ = load_scenario("insertion", ["duration_s=1.0", "iiwa_driver.start_guard_s=0.001"])
+    lcm = DrakeLcm("memq://")
+    setup = prepare(scenario)
+    client = TorqueClient(scenario, "hlcmp", lcm, setup=setup)
+    driver = SimulatedIiwaDriver(scenario, lcm, setup)
+    commands = []
+    lcm.Subscribe(scenario.iiwa_driver.command_channel, commands.append)
+    monkeypatch.setattr("hlcmp_drake.run.sim_driver.START_COMMAND_GUARD_S", 0.0)
+    driver.publish_status()
+    lcm.HandleSubscriptions(0)
+    time.sleep(0.002)   # past the client's start guard
+    for _ in range(50):
+        driver.publish_status()
+        lcm.HandleSubscriptions(0)
+        client.poll()
+        lcm.HandleSubscriptions(0)
+        driver.step(driver.command[1])
+    answered = len(commands)
+    assert answered == 50 and not client.done
+    serve(client, lcm, "memq://")   # no driver any more: returns when the watchdog stops it
+    assert client.status == STOPPED
+    assert client.stopped_because.startswith("no status for 50 ms (stale) at t = 0.049 s")
+    assert len(commands) == answered
+    result = write_served(client, tmp_path, "memq://")
+    record = json.loads((tmp_path / "serve.json").read_text())
+    assert record["status"] == "stopped" and "stale" in record["stopped_because"]
+    assert result.metrics["status"] == "stopped" and len(result.run.t) == 5
+
+
+def _client_fed_by_hand(scenario_overrides=()):
+    scenario, _ = load_scenario("insertion", ["duration_s=1.0", "iiwa_driver.start_guard_s=0.001",
+                                              *scenario_overrides])
+    lcm = DrakeLcm("memq://")
+    client = TorqueClient(scenario, "hlcmp", lcm)
+    commands = []
+    lcm.Subscribe(scenario.iiwa_driver.command_channel, commands.append)
+
+    def send(utime, q, v=None, torque_external=None):
+        zeros = np.zeros(7)
+        lcm.Publish(scenario.iiwa_driver.status_channel, encode_status(IiwaStatus(
+            utime, np.asarray(q, float), zeros if v is None else v, zeros, zeros,
+            zeros if torque_external is None else torque_external)))
+        lcm.HandleSubscriptions(0)
+        client.poll()
+        lcm.HandleSubscriptions(0)
+    return client, send, commands
+
+
+def test_watchdogs_name_the_problem():
+    client, send, commands = _client_fed_by_hand()
+    send(0, client.q0 + 0.2)
+    assert client.status == STOPPED and "not at the scenario's start posture: joint 1 is 0.200 rad away" \
+        in client.stopped_because and not commands
+
+    client, send, commands = _client_fed_by_hand()
+    send(0, client.q0)
+    time.sleep(0.002)
+    send(0, client.q0)
+    send(1000, client.q0)
+    assert len(commands) == 2 and not client.done
+    beyond = client.q0.copy()
+    beyond[3] = -2.2   # iiwa joint 4's limit is ±2.094 rad
+    send(2000, beyond)
+    assert client.status == UNSAFE and "joint iiwa_joint_4 at -2.200 rad, beyond its limit" in client.stopped_because
+    assert len(commands) == 2
+
+    client, send, commands = _client_fed_by_hand()
+    send(0, client.q0)
+    time.sleep(0.002)
+    send(0, client.q0 + np.r_[np.nan, np.zeros(6)])
+    assert client.status == UNSAFE and "non-finite value in the status" in client.stopped_because and not commands
+
+    # The wrist force estimated from the external torques: 300 N at the tool point trips the
+    # scenario's 200 N contact-force limit.
+    client, send, commands = _client_fed_by_hand(["iiwa_driver.force_source=external_torque"])
+    send(0, client.q0)
+    time.sleep(0.002)
+    plant, world = client.plant, client.plant.world_frame()
+    context = plant.CreateDefaultContext()
+    plant.SetPositions(context, client.q0)
+    tool = plant.GetFrameByName("tip", plant.GetModelInstanceByName("insertion_tool"))
+    jacobian = plant.CalcJacobianTranslationalVelocity(context, JacobianWrtVariable.kV, tool, np.zeros(3),
+                                                       world, world)
+    send(0, client.q0, torque_external=jacobian.T @ np.array([0.0, 0.0, 300.0]))
+    assert client.status == UNSAFE and "contact force 300 N above max_contact_force_N" in client.stopped_because
+
+
+def test_the_driver_aborts_on_a_command_within_its_start_guard():
+    scenario, _ = load_scenario("insertion", ["duration_s=1.0"])
+    lcm = DrakeLcm("memq://")
+    driver = SimulatedIiwaDriver(scenario, lcm)
+    driver.publish_status()
+    lcm.Publish(scenario.iiwa_driver.command_channel, encode_torque_command(0, np.zeros(7), np.zeros(7)))
+    with pytest.raises(DriverAbort, match="within 0.25 s of the driver's first status"):
+        lcm.HandleSubscriptions(0)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["serve", "one_dof", "--lcm", "memq://"], "has no arm: hlcmp serve drives an iiwa"),
+    (["serve", "insertion", "--lcm", "memq://", "--controller", "nope"], "has no controller 'nope'"),
+    (["serve", "insertion", "--lcm", "memq://", "--freeze"], "--freeze needs --skill"),
+    (["serve", "insertion", "--lcm", "tcp://x:1"], "expected udpm://GROUP:PORT?ttl=0"),
+    (["sim-driver", "insertion", "--lcm", "memq://"], "memq:// reaches only this process"),
+    (["serve", "insertion", "--lcm", "memq://", "--set", "iiwa_driver.force_source=guess"],
+     "iiwa_driver.force_source"),
+])
+def test_bad_serve_input_is_one_line_and_exit_2(args, message, tmp_path):
+    process = subprocess.run([sys.executable, "-m", "hlcmp_drake.cli", *args, "--out", str(tmp_path / "o")]
+                             if args[0] == "serve" else [sys.executable, "-m", "hlcmp_drake.cli", *args],
+                             capture_output=True, text=True, timeout=120, env={**os.environ})
+    assert process.returncode == 2, process.stderr
+    lines = [line for line in process.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and message in lines[0], process.stderr
