@@ -324,7 +324,8 @@ def cmd_sim_driver(args):
     except DriverAbort as error:
         print(f"hlcmp sim-driver: aborted: {error}", file=sys.stderr)
         return EXIT_DRIVER_ABORT
-    print(f"sim-driver: {summary.steps} steps ({summary.commanded_steps} commanded, {summary.held_steps} held), "
+    late = f", {summary.late_steps} late" if args.realtime else ""
+    print(f"sim-driver: {summary.steps} steps ({summary.commanded_steps} commanded, {summary.held_steps} held{late}), "
           f"{summary.sim_time_s:.3f} s simulated in {summary.wall_s:.1f} s; {summary.stopped_because}")
     return 0
 

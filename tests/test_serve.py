@@ -239,3 +239,42 @@ def test_bad_serve_input_is_one_line_and_exit_2(args, message, tmp_path):
     assert process.returncode == 2, process.stderr
     lines = [line for line in process.stderr.splitlines() if line.strip()]
     assert len(lines) == 1 and message in lines[0], process.stderr
+
+
+@pytest.mark.slow
+def test_real_time_pacing(tmp_path):
+    """The simulated driver in real time: a status every millisecond whether or not the
+    client keeps up. Every status the client did not answer is counted as missed."""
+    url = f"udpm://239.255.77.{random.randint(100, 250)}:{random.randint(20000, 60000)}?ttl=0"
+    driver = hlcmp("sim-driver", "insertion", "--lcm", url, "--realtime", "--duration", 0.8, "--quiet")
+    client = hlcmp("serve", "insertion", "--lcm", url, "--duration", 0.5, "--out", tmp_path / "serve", "--quiet",
+                   "--set", "iiwa_driver.first_status_timeout_s=120")
+    client_out, client_err = client.communicate(timeout=300)
+    driver_out, driver_err = driver.communicate(timeout=60)
+    assert client.returncode == 0, client_err + client_out
+    assert driver.returncode == 0, driver_err
+    assert "reached --duration 0.8 s" in driver_out
+    record = json.loads((tmp_path / "serve" / "serve.json").read_text())
+    assert record["status"] == "ok"
+    assert record["ticks"] + record["missed_ticks"] == 501   # every status from t = 0 to 0.5 s
+    assert record["ticks"] > 250
+
+
+def test_serve_in_one_process_from_the_command_line(tmp_path):
+    """hlcmp serve --lcm memq:// runs the simulated driver in the same process; a frozen
+    skill keeps its profiles (here the untrained ones: θ stays 0)."""
+    from hlcmp_drake.cli import main
+    from hlcmp_drake.io.paths import DIAGRAMS_DIR
+
+    assert main(["fit", str(DIAGRAMS_DIR / "demos" / "insertion_demo.csv"), "--out", str(tmp_path / "skill.npz"),
+                 "--basis", "30"]) == 0
+    out = tmp_path / "served"
+    assert main(["serve", "insertion", "--lcm", "memq://", "--skill", str(tmp_path / "skill.npz"), "--freeze",
+                 "--duration", "0.3", "--out", str(out), "--quiet"]) == 0
+    record = json.loads((out / "serve.json").read_text())
+    assert record["ticks"] == 301 and record["missed_ticks"] == 0 and record["status"] == "ok"
+    arrays = np.load(out / "timeseries.npz")
+    assert arrays["t"][-1] == pytest.approx(0.3)
+    assert np.all(arrays[f"{record['controller']}/Ks"] == 0.0)   # frozen: no adaptation
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["status"] == "ok" and record["controller"] in metrics["controllers"]

@@ -74,13 +74,14 @@ def encode_status(status: IiwaStatus) -> bytes:
     message = lcmt_iiwa_status()
     message.utime = int(status.utime)
     message.num_joints = len(status.position)
-    message.joint_position_measured = list(map(float, status.position))
-    message.joint_velocity_estimated = list(map(float, status.velocity))
-    message.joint_position_commanded = list(map(float, status.position))
-    message.joint_position_ipo = list(map(float, status.position))
-    message.joint_torque_measured = list(map(float, status.torque_measured))
-    message.joint_torque_commanded = list(map(float, status.torque_commanded))
-    message.joint_torque_external = list(map(float, status.torque_external))
+    position = np.asarray(status.position, dtype=float).tolist()
+    message.joint_position_measured = position
+    message.joint_velocity_estimated = np.asarray(status.velocity, dtype=float).tolist()
+    message.joint_position_commanded = position
+    message.joint_position_ipo = position
+    message.joint_torque_measured = np.asarray(status.torque_measured, dtype=float).tolist()
+    message.joint_torque_commanded = np.asarray(status.torque_commanded, dtype=float).tolist()
+    message.joint_torque_external = np.asarray(status.torque_external, dtype=float).tolist()
     return message.encode()
 
 
@@ -131,9 +132,9 @@ def encode_torque_command(utime: int, position: np.ndarray, torque: np.ndarray) 
     message = lcmt_iiwa_command()
     message.utime = int(utime)
     message.num_joints = len(position)
-    message.joint_position = list(map(float, position))
+    message.joint_position = np.asarray(position, dtype=float).tolist()
     message.num_torques = len(torque)
-    message.joint_torque = list(map(float, torque))
+    message.joint_torque = np.asarray(torque, dtype=float).tolist()
     return message.encode()
 
 

@@ -18,7 +18,9 @@ start at the scenario's start posture.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses as dc
+import gc
 import time
 from pathlib import Path
 from typing import Sequence
@@ -236,14 +238,17 @@ class TorqueClient:
         state = np.concatenate([status.position, status.velocity])
         t = (status.utime - self._utime0) / 1e6
         k = int(round(t / self.config.period_s))
-        if k >= len(self._reference[0]):
+        last = len(self._reference[0]) - 1   # the tick at the duration
+        if self._last_utime is not None:
+            # Statuses between the last answered one and this one (up to the duration) went unanswered.
+            previous = int(round((self._last_utime - self._utime0) / 1e6 / self.config.period_s))
+            self.missed_ticks += max(0, min(k, last + 1) - previous - 1)
+        if k > last:
             self.stop(FINISHED, f"served {self.duration:g} s")
             return
-        if self._last_utime is not None and status.utime > self._last_utime:
-            gap = (status.utime - self._last_utime) / 1e6
-            self.missed_ticks += max(0, int(round(gap / self.config.period_s)) - 1)
-            if self._rate is not None:
-                self.theta = self.theta + gap * self._rate   # θ' held since the last tick (explicit Euler)
+        if self._last_utime is not None and self._rate is not None:
+            # θ' held since the last tick: the explicit-Euler step of the fast path
+            self.theta = self.theta + (status.utime - self._last_utime) / 1e6 * self._rate
         result = self.tick.evaluate(state, tuple(values[k] for values in self._reference), self.theta)
         command = result.torque - result.terms.joint_gravity   # the driver adds G(q) itself
         force_world = self._wrist_force(status)
@@ -364,12 +369,28 @@ def serve(client: TorqueClient, lcm: DrakeLcm, lcm_url: str, reporter: Progress 
     config = client.config
     reporter.say(f"serve: {client.controller} waiting for {config.status_channel} at {lcm_url}")
     start = time.perf_counter()
-    while not client.done:
-        lcm.HandleSubscriptions(1)
-        client.poll()
-        if client.first_status_wall is None and time.perf_counter() - start > config.first_status_timeout_s:
-            client.stop(STOPPED, f"no status on {config.status_channel} at {lcm_url} within "
-                                 f"{config.first_status_timeout_s:g} s: is the driver running?")
+    with without_garbage_collection():
+        while not client.done:
+            lcm.HandleSubscriptions(1)
+            client.poll()
+            if client.first_status_wall is None and time.perf_counter() - start > config.first_status_timeout_s:
+                client.stop(STOPPED, f"no status on {config.status_channel} at {lcm_url} within "
+                                     f"{config.first_status_timeout_s:g} s: is the driver running?")
+
+
+@contextlib.contextmanager
+def without_garbage_collection():
+    """No cyclic garbage collection while serving: a collection walks every object alive
+    (Drake's bindings make many) and would stall a tick for milliseconds. A tick's own
+    objects are freed by reference counting; the collector runs again afterwards."""
+    gc.collect()
+    gc.freeze()
+    gc.disable()
+    try:
+        yield
+    finally:
+        gc.enable()
+        gc.unfreeze()
 
 
 def write_served(client: TorqueClient, out_dir: str | Path, lcm_url: str) -> ServeResult:
@@ -421,17 +442,18 @@ def lockstep(driver: SimulatedIiwaDriver, client: TorqueClient, lcm: DrakeLcm) -
     """
     start = time.perf_counter()
     steps = 0
-    while not client.done:
-        driver.publish_status()
-        lcm.HandleSubscriptions(0)     # the status reaches the client
-        client.poll()
-        lcm.HandleSubscriptions(0)     # its command reaches the driver
-        if driver.command is not None and driver.command[0] == driver.status_utime:
-            driver.step(driver.command[1])
-            steps += 1
-        elif not client.done:
-            time.sleep(driver.period)   # the start guards count wall time
-    return DriverSummary(steps, steps, 0, driver.time, time.perf_counter() - start, client.stopped_because)
+    with without_garbage_collection():
+        while not client.done:
+            driver.publish_status()
+            lcm.HandleSubscriptions(0)     # the status reaches the client
+            client.poll()
+            lcm.HandleSubscriptions(0)     # its command reaches the driver
+            if driver.command is not None and driver.command[0] == driver.status_utime:
+                driver.step(driver.command[1])
+                steps += 1
+            elif not client.done:
+                time.sleep(driver.period)   # the start guards count wall time
+    return DriverSummary(steps, steps, 0, 0, driver.time, time.perf_counter() - start, client.stopped_because)
 
 
 def serve_scenario(name_or_path: str | Path, lcm_url: str, out_dir: str | Path, controller: str | None = None,

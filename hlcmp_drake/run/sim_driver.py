@@ -55,12 +55,14 @@ class DriverAbort(Exception):
 
 @dc.dataclass
 class DriverSummary:
-    """How a `drive` ended: steps simulated (with a command, holding), the simulated and
-    wall time, and why it stopped."""
+    """How a `drive` ended: steps simulated (with a command, holding; in real time, the
+    steps that started more than a period late), the simulated and wall time, and why it
+    stopped."""
 
     steps: int
     commanded_steps: int
     held_steps: int
+    late_steps: int
     sim_time_s: float
     wall_s: float
     stopped_because: str
@@ -252,7 +254,7 @@ def drive(driver: SimulatedIiwaDriver, lcm: DrakeLcm, realtime: bool = False, du
                  f"({'real time' if realtime else 'as fast as the client answers'}); waiting for a command")
     wait_for_first_command(driver, lcm, first_command_timeout_s)
     start = time.perf_counter()
-    steps = held = 0
+    steps = held = late = 0
     stopped = None
     deadline = start
     while stopped is None:
@@ -261,6 +263,9 @@ def drive(driver: SimulatedIiwaDriver, lcm: DrakeLcm, realtime: bool = False, du
             break
         if realtime:
             deadline += driver.period
+            if time.perf_counter() > deadline + driver.period:   # a step overran: keep pace, don't burst
+                late += 1
+                deadline = time.perf_counter()
             _handle_until(lcm, deadline)
             age = time.perf_counter() - driver.command[2]
             fresh = age <= COMMAND_EXPIRE_S
@@ -275,7 +280,7 @@ def drive(driver: SimulatedIiwaDriver, lcm: DrakeLcm, realtime: bool = False, du
         if stopped is None:
             steps += 1
             driver.publish_status()
-    return DriverSummary(steps, steps - held, held, driver.time, time.perf_counter() - start, stopped)
+    return DriverSummary(steps, steps - held, held, late, driver.time, time.perf_counter() - start, stopped)
 
 
 def _await_answer(driver: SimulatedIiwaDriver, lcm: DrakeLcm, idle_timeout_s: float) -> str | None:
