@@ -31,6 +31,20 @@ def hlcmp(*args):
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
+def serve_two_processes(tmp_path, driver_args, duration):
+    """hlcmp sim-driver and hlcmp serve insertion as two processes on a udpm:// group of their
+    own; both must exit 0. Returns the driver's output and serve.json."""
+    url = f"udpm://239.255.76.{random.randint(100, 250)}:{random.randint(20000, 60000)}?ttl=0"
+    driver = hlcmp("sim-driver", "insertion", "--lcm", url, "--quiet", *driver_args)
+    client = hlcmp("serve", "insertion", "--lcm", url, "--duration", duration, "--out", tmp_path / "serve",
+                   "--quiet", "--set", "iiwa_driver.first_status_timeout_s=120")   # a driver may start slowly
+    client_out, client_err = client.communicate(timeout=300)
+    driver_out, driver_err = driver.communicate(timeout=60)
+    assert client.returncode == 0, client_err + client_out
+    assert driver.returncode == 0, driver_err
+    return driver_out, json.loads((tmp_path / "serve" / "serve.json").read_text())
+
+
 def assert_metrics_match(served, simulated):
     """Every number of one controller's metrics, within METRICS_RTOL (and 1e-12 absolute)."""
     if isinstance(simulated, dict):
@@ -98,17 +112,8 @@ def test_served_hlcmp_matches_the_simulated_run(served_insertion, insertion_run)
 def test_two_processes_over_udpm(tmp_path):
     """hlcmp sim-driver and hlcmp serve as two processes on udpm://...?ttl=0, as fast as the
     client answers: no tick missed, and the metrics of the same run simulated in-process."""
-    url = f"udpm://239.255.76.{random.randint(100, 250)}:{random.randint(20000, 60000)}?ttl=0"
-    patient = ["--set", "iiwa_driver.first_status_timeout_s=120"]   # the driver may start slowly on a busy machine
-    driver = hlcmp("sim-driver", "insertion", "--lcm", url, "--quiet")
-    client = hlcmp("serve", "insertion", "--lcm", url, "--duration", 1.5, "--out", tmp_path / "serve", "--quiet",
-                   *patient)
-    client_out, client_err = client.communicate(timeout=300)
-    driver_out, driver_err = driver.communicate(timeout=60)
-    assert client.returncode == 0, client_err + client_out
-    assert driver.returncode == 0, driver_err
+    driver_out, record = serve_two_processes(tmp_path, [], 1.5)
     assert "the client stopped answering at t = 1.501 s" in driver_out
-    record = json.loads((tmp_path / "serve" / "serve.json").read_text())
     assert record["ticks"] == 1501 and record["missed_ticks"] == 0
     assert record["tick_us"]["p50"] > 0 and record["stopped_because"] == "served 1.5 s"
 
@@ -245,16 +250,8 @@ def test_bad_serve_input_is_one_line_and_exit_2(args, message, tmp_path):
 def test_real_time_pacing(tmp_path):
     """The simulated driver in real time: a status every millisecond whether or not the
     client keeps up. Every status the client did not answer is counted as missed."""
-    url = f"udpm://239.255.77.{random.randint(100, 250)}:{random.randint(20000, 60000)}?ttl=0"
-    driver = hlcmp("sim-driver", "insertion", "--lcm", url, "--realtime", "--duration", 0.8, "--quiet")
-    client = hlcmp("serve", "insertion", "--lcm", url, "--duration", 0.5, "--out", tmp_path / "serve", "--quiet",
-                   "--set", "iiwa_driver.first_status_timeout_s=120")
-    client_out, client_err = client.communicate(timeout=300)
-    driver_out, driver_err = driver.communicate(timeout=60)
-    assert client.returncode == 0, client_err + client_out
-    assert driver.returncode == 0, driver_err
+    driver_out, record = serve_two_processes(tmp_path, ["--realtime", "--duration", 0.8], 0.5)
     assert "reached --duration 0.8 s" in driver_out
-    record = json.loads((tmp_path / "serve" / "serve.json").read_text())
     assert record["status"] == "ok"
     assert record["ticks"] + record["missed_ticks"] == 501   # every status from t = 0 to 0.5 s
     assert record["ticks"] > 250

@@ -23,7 +23,7 @@ import dataclasses as dc
 import gc
 import time
 from pathlib import Path
-from typing import Sequence
+from typing import Iterator, Sequence
 
 import numpy as np
 from pydrake.lcm import DrakeLcm
@@ -379,7 +379,7 @@ def serve(client: TorqueClient, lcm: DrakeLcm, lcm_url: str, reporter: Progress 
 
 
 @contextlib.contextmanager
-def without_garbage_collection():
+def without_garbage_collection() -> Iterator[None]:
     """No cyclic garbage collection while serving: a collection walks every object alive
     (Drake's bindings make many) and would stall a tick for milliseconds. A tick's own
     objects are freed by reference counting; the collector runs again afterwards."""
