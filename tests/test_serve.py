@@ -275,3 +275,19 @@ def test_serve_in_one_process_from_the_command_line(tmp_path):
     assert np.all(arrays[f"{record['controller']}/Ks"] == 0.0)   # frozen: no adaptation
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["status"] == "ok" and record["controller"] in metrics["controllers"]
+
+
+@pytest.mark.parametrize("scenario_name, controller", [("insertion", "const_500"), ("cutting", "hlcmp")])
+def test_served_controller_equals_its_simulated_run(scenario_name, controller, tmp_path):
+    """A constant impedance, and the cutting's Hl-CMP: served over memq://, the same numbers
+    as simulated (0.5 s)."""
+    from hlcmp_drake.run.simulate import simulate
+    from hlcmp_drake.worlds.build import diagram_factory
+
+    scenario, _ = load_scenario(scenario_name, ["duration_s=0.5"])
+    simulated = simulate(diagram_factory(scenario)(controller), scenario, controller)
+    served = serve_scenario(scenario_name, "memq://", tmp_path, controller, overrides=["duration_s=0.5"]).run
+    assert served.status == "ok" and served.series.keys() == simulated.series.keys()
+    np.testing.assert_allclose(served.t, simulated.t, atol=1e-12)
+    for name, values in simulated.series.items():
+        assert np.abs(served.series[name] - values).max() <= 1e-9 * max(1.0, np.abs(values).max()), name

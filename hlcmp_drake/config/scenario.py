@@ -387,7 +387,7 @@ class IiwaDriverConfig:
     period_s: float = 0.001
     start_guard_s: float = 0.3
     stale_status_s: float = 0.05
-    first_status_timeout_s: float = 10.0
+    first_status_timeout_s: float = 30.0
     start_tolerance_rad: float = 0.05
     force_source: str = "wrist_sensor"
 
