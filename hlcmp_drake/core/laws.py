@@ -10,6 +10,8 @@ controller's continuous state) and the arm's one-call control loop (`systems.arm
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
+from typing import Callable
 
 import numpy as np
 
@@ -63,11 +65,17 @@ class LawOutput:
         The law's own series, by the name of the modular system's output port.
     rates : (P,) array or None
         A learning law's θ' (flattened θ_k, θ_d, θ_v rates, Eq. 31); None otherwise.
+        Computed when first read, so a torque loop can send f_c before it spends time on θ'.
     """
 
     force: np.ndarray
     logs: dict
-    rates: np.ndarray | None = None
+    rates_of: Callable[[], np.ndarray] | None = None
+
+    @cached_property
+    def rates(self) -> np.ndarray | None:
+        """θ' (flattened), or None for a law that does not learn."""
+        return None if self.rates_of is None else self.rates_of()
 
 
 @dataclass(frozen=True)
@@ -139,10 +147,14 @@ class HlcmpLaw:
                                            now.coriolis, now.gravity, gains.pi, gains.gain_l)
         k_s, k_d, v = compliant_profiles(*self.unflatten(theta), g)
         u = impedance_force(k_s, k_d, e, edot)
-        rates = adaptation_rates(eps, e, edot, g, gains.q_k, gains.q_d, gains.q_v)
+
+        def rates():
+            return np.concatenate([r.ravel() for r in adaptation_rates(eps, e, edot, g, gains.q_k, gains.q_d,
+                                                                       gains.q_v)])
+
         return LawOutput(commanded_force(f0, u, v),
                          dict(stiffness=k_s, damping=k_d, feedforward=v, impedance_force=u, sliding_error=eps),
-                         np.concatenate([r.ravel() for r in rates]))
+                         rates)
 
 
 class ConstantImpedanceLaw:

@@ -154,7 +154,10 @@ class TorqueClient:
         self._log_every = max(1, int(round(scenario.log_period_s / self.config.period_s)))
         self._state_check = plant_state_check(self.nq, scenario.max_abs_position_m)
         self._safety = arm_check(plant, scenario.task)
+        self._lower = plant.GetPositionLowerLimits() - 1e-3   # as arm_check tolerates
+        self._upper = plant.GetPositionUpperLimits() + 1e-3
         self._wrist = None
+        self._force_world = np.zeros(3)
         self._latest = None          # (received at, status bytes) not yet answered
         self.first_status_wall = None
         self.last_status_wall = None
@@ -251,10 +254,10 @@ class TorqueClient:
             self.theta = self.theta + (status.utime - self._last_utime) / 1e6 * self._rate
         result = self.tick.evaluate(state, tuple(values[k] for values in self._reference), self.theta)
         command = result.torque - result.terms.joint_gravity   # the driver adds G(q) itself
-        force_world = self._wrist_force(status)
-        problem = self._problem(t, state, command, force_world, result.saturated)
-        if problem is not None:
-            self.stop(UNSAFE, f"{problem} at t = {t:.3f} s")
+        # A non-finite command or a joint past its limit withholds this tick's command.
+        if (not np.all(np.isfinite(command)) or np.any(status.position < self._lower)
+                or np.any(status.position > self._upper)):
+            self._check(t, status, state, command, result)
             return
         self._last_command = encode_torque_command(status.utime, status.position, command)
         self._lcm.Publish(self.config.command_channel, self._last_command)
@@ -262,9 +265,11 @@ class TorqueClient:
         self.ticks += 1
         self._last_utime = status.utime
         self._rate = result.law.rates
-        if k % self._log_every == 0:
-            self._log(t, k, state, force_world, result)
-        if k >= len(self._reference[0]) - 1:
+        # The simulated run's monitor and loggers read the wrist force at 100 Hz; so does this,
+        # after the command is out: a problem found stops the next command.
+        if k % self._log_every == 0 and self._check(t, status, state, command, result):
+            self._log(t, k, state, result)
+        if k >= len(self._reference[0]) - 1 and not self.done:
             self.stop(FINISHED, f"served {self.duration:g} s")
 
     def _ready_to_start(self, status: IiwaStatus, received: float) -> bool:
@@ -296,21 +301,27 @@ class TorqueClient:
         _, force_tool = decode_wrench(self._wrist)
         return self._tool.CalcRotationMatrixInWorld(context) @ force_tool
 
-    def _problem(self, t, state, command, force_world, saturated) -> str | None:
+    def _check(self, t, status, state, command, result) -> bool:
+        """The run's safety checks (`arm_check` and the plant-state check) on this tick;
+        False, and the client stopped, at a problem. Keeps the wrist force for the log."""
+        self._force_world = self._wrist_force(status)
         problem = self._state_check(state)
         if problem is None and not np.all(np.isfinite(command)):
             problem = "a non-finite torque command"
-        return problem or self._safety(t, {"plant_state": state, "contact_force": force_world,
-                                           "saturated": [saturated]})
+        problem = problem or self._safety(t, {"plant_state": state, "contact_force": self._force_world,
+                                              "saturated": [result.saturated]})
+        if problem is not None:
+            self.stop(UNSAFE, f"{problem} at t = {t:.3f} s")
+        return problem is None
 
-    def _log(self, t, k, state, force_world, result) -> None:
+    def _log(self, t, k, state, result) -> None:
         row = self.tick.log_row(result)
         columns = self.tick.log_columns
         self.log_t.append(t)
         logs = self.log_rows
         logs["x"].append(row[columns["position"]])
         logs["xd"].append(self._reference[0][k])
-        logs["f_ext"].append(force_world[self._axes])
+        logs["f_ext"].append(self._force_world[self._axes])
         logs["fc"].append(row[columns["force"]])
         logs["plant_state"].append(state)
         logs["saturated_joints"].append(row[columns["saturated"]])
@@ -371,7 +382,9 @@ def serve(client: TorqueClient, lcm: DrakeLcm, lcm_url: str, reporter: Progress 
     start = time.perf_counter()
     with without_garbage_collection():
         while not client.done:
-            lcm.HandleSubscriptions(1)
+            # Once statuses come, poll without sleeping: a process woken from a sleep runs
+            # its tick from cold caches, measured 2-3x slower on a 2-core VM (docs/iiwa.md).
+            lcm.HandleSubscriptions(0 if client.first_status_wall is not None else 10)
             client.poll()
             if client.first_status_wall is None and time.perf_counter() - start > config.first_status_timeout_s:
                 client.stop(STOPPED, f"no status on {config.status_channel} at {lcm_url} within "

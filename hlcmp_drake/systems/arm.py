@@ -45,6 +45,7 @@ class BelowTaskImpedance:
         self._k_o, self._d_o = float(orientation_stiffness), float(orientation_damping)
         self._k_p, self._d_p = float(posture_stiffness), float(posture_damping)
         self.nq, self.nv = plant.num_positions(), plant.num_velocities()
+        self._world = plant.world_frame()
 
     def torque(self, state: np.ndarray, projector: np.ndarray, joint_gravity: np.ndarray,
                context: Context | None = None) -> np.ndarray:
@@ -68,7 +69,7 @@ class BelowTaskImpedance:
         (nv,) array
             The joint torque below the task [N m].
         """
-        plant, world = self._plant, self._plant.world_frame()
+        plant, world = self._plant, self._world
         if context is None:
             context = self._context
             plant.SetPositionsAndVelocities(context, state)

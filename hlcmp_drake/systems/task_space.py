@@ -56,6 +56,8 @@ class TaskSpaceModel:
         self._axes = list(axes)
         self._context = plant.CreateDefaultContext()
         self.nq, self.nv, self.n_axes = plant.num_positions(), plant.num_velocities(), len(self._axes)
+        self._world = plant.world_frame()   # looked up once: every tick uses it several times
+        self._identity = np.eye(self.nv)
 
     @property
     def context(self) -> Context:
@@ -68,7 +70,7 @@ class TaskSpaceModel:
         v -> C(q, v) v and v -> Jdot v: each bilinear form is (f(v + u) - f(v - u)) / 4.
         Evaluated on the context of the last `terms` call, whose positions (and so their
         kinematics) stay; only its velocities change."""
-        plant, ctx, world = self.plant, self._context, self.plant.world_frame()
+        plant, ctx, world = self.plant, self._context, self._world
         sums = []
         for sign in (1.0, -1.0):
             plant.SetVelocities(ctx, v + sign * u)
@@ -95,7 +97,7 @@ class TaskSpaceModel:
             Coriolis [kg/s] (M, M), gravity [N] (M,), null-space projector (nv, nv) and
             joint gravity G(q) (nv,) in the joints' units.
         """
-        plant, ctx, world = self.plant, self._context, self.plant.world_frame()
+        plant, ctx, world = self.plant, self._context, self._world
         plant.SetPositionsAndVelocities(ctx, state)
         v = state[self.nq :]
         position = plant.CalcPointsPositions(ctx, self._frame, self._point, world)[self._axes, 0]
@@ -110,7 +112,7 @@ class TaskSpaceModel:
         coriolis = CoriolisProduct(self, v, jbar, inertia)
         if coriolis_matrix:
             coriolis = coriolis @ np.eye(self.n_axes)
-        null_space = np.eye(self.nv) - jac.T @ jbar.T
+        null_space = self._identity - jac.T @ jbar.T
         return TaskSpaceTerms(position, jac @ v, jac, inertia, coriolis, gravity, null_space, joint_gravity)
 
 
