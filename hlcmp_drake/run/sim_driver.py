@@ -285,10 +285,12 @@ def drive(driver: SimulatedIiwaDriver, lcm: DrakeLcm, realtime: bool = False, du
 
 def _await_answer(driver: SimulatedIiwaDriver, lcm: DrakeLcm, idle_timeout_s: float) -> str | None:
     """Wait for the command answering the last status (publishing it again every RESEND_S);
-    None when it came, else why the client counts as gone."""
+    None when it came, else why the client counts as gone. It polls without sleeping: a
+    simulator paced by its client has a core to itself, and the client's tick measured
+    faster with the other core kept busy (scripts/serve_latency.py)."""
     since = sent = time.perf_counter()
     while driver.command[0] != driver.status_utime:
-        lcm.HandleSubscriptions(1)
+        lcm.HandleSubscriptions(0)
         now = time.perf_counter()
         if now - since > idle_timeout_s:
             return f"the client stopped answering at t = {driver.time:.3f} s (no command for {idle_timeout_s:g} s)"
