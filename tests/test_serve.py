@@ -160,11 +160,11 @@ def test_a_stale_status_stops_the_commands(tmp_path, monkeypatch):
     assert result.metrics["status"] == "stopped" and len(result.run.t) == 5
 
 
-def _client_fed_by_hand(scenario_overrides=()):
+def _client_fed_by_hand(scenario_overrides=(), controller="hlcmp"):
     scenario, _ = load_scenario("insertion", ["duration_s=1.0", "iiwa_driver.start_guard_s=0.001",
                                               *scenario_overrides])
     lcm = DrakeLcm("memq://")
-    client = TorqueClient(scenario, "hlcmp", lcm)
+    client = TorqueClient(scenario, controller, lcm)
     commands = []
     lcm.Subscribe(scenario.iiwa_driver.command_channel, commands.append)
 
@@ -216,6 +216,24 @@ def test_watchdogs_name_the_problem():
                                                        world, world)
     send(0, client.q0, torque_external=jacobian.T @ np.array([0.0, 0.0, 300.0]))
     assert client.status == UNSAFE and "contact force 300 N above max_contact_force_N" in client.stopped_because
+
+
+def test_saturated_torques_stop_the_client_after_max_saturation_s():
+    """An arm held 5 cm from its reference against a 10^6 N/m impedance: the torques sit at
+    their limits, and the client stops once that has lasted longer than max_saturation_s
+    (0.25 s), checked at 100 Hz as in a simulated run."""
+    stiff = "controllers.const_2000.stiffness_N_per_m=[1000000.0,1000000.0,1000000.0]"
+    client, send, commands = _client_fed_by_hand([stiff], controller="const_2000")
+    send(0, client.q0)
+    time.sleep(0.002)
+    displaced = client.q0 + np.r_[0.0, 0.08, 0.0, 0.0, 0.0, 0.0, 0.0]   # the shoulder: the tip moves ~5 cm
+    for k in range(400):
+        send(1000 * k, client.q0 if k == 0 else displaced)
+        if client.done:
+            break
+    assert client.status == UNSAFE
+    assert client.stopped_because == "joint torques saturated for more than max_saturation_s = 0.25 s at t = 0.260 s"
+    assert len(commands) == 261   # saturated from the check at 0.01 s; the check after tick 260 stops the next
 
 
 def test_the_driver_aborts_on_a_command_within_its_start_guard():

@@ -292,6 +292,32 @@ def test_a_killed_sweep_keeps_its_finished_tasks_and_a_rerun_runs_only_the_rest(
     assert [r["status"] for r in _read_csv(out / "sweep.csv")] == ["ok"] * 4
 
 
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the kernel's parent-death signal is Linux's")
+def test_a_sweep_killed_outright_leaves_no_worker_running(tmp_path):
+    """SIGKILL gives the sweep no chance to stop its pool: the kernel ends the workers."""
+    sweep = tiny(tmp_path, duration=3.0, values="[1.0, 2.0, 5.0, 10.0]")
+    process = subprocess.Popen([sys.executable, "-m", "hlcmp_drake.cli", "sweep", str(sweep), "--out",
+                                str(tmp_path / "out"), "--workers", "2"], stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)
+    children = Path(f"/proc/{process.pid}/task/{process.pid}/children")
+    deadline = time.time() + 120
+    workers = []
+    while len(workers) < 3 and time.time() < deadline:   # the two workers and the resource tracker
+        time.sleep(0.2)
+        workers = children.read_text().split() if children.exists() else []
+    assert len(workers) >= 3, "the sweep did not start its workers"
+    time.sleep(2.0)   # into their first tasks
+    process.kill()
+    process.communicate(timeout=30)
+    deadline = time.time() + 30
+    alive = workers
+    while alive and time.time() < deadline:
+        time.sleep(0.2)
+        alive = [pid for pid in workers if Path(f"/proc/{pid}").exists()
+                 and "Z" not in Path(f"/proc/{pid}/stat").read_text().split()[2]]
+    assert not alive, f"still running after the sweep was killed: {alive}"
+
+
 @pytest.mark.slow
 def test_the_ray_engine_runs_the_tiny_sweep(tmp_path):
     pytest.importorskip("ray")

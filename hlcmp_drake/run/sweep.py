@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import ctypes
 import dataclasses as dc
 import io
 import json
@@ -27,6 +28,7 @@ import logging
 import multiprocessing
 import os
 import signal
+import sys
 import tempfile
 import threading
 import time
@@ -239,10 +241,27 @@ def _quiet_drake() -> None:
     logging.getLogger("drake").setLevel(logging.WARNING)
 
 
-def _local_worker_init() -> None:
-    """In each local worker: Ctrl-C is the parent's to handle (it stops the workers)."""
+def _local_worker_init(parent: int) -> None:
+    """In each local worker: Ctrl-C is the parent's to handle (it stops the workers); and
+    the worker ends with the sweep's process `parent`, even one killed outright, so no
+    orphan goes on running tasks that a re-run would start again."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _end_with_parent(parent)
     _quiet_drake()
+
+
+def _end_with_parent(parent: int) -> None:
+    """Linux: ask the kernel for SIGTERM when the parent dies (prctl PR_SET_PDEATHSIG), then
+    make sure it had not died already. Elsewhere, nothing: an orphan finishes its tasks."""
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, signal.SIGTERM)   # 1: PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        return
+    if os.getppid() != parent:
+        os._exit(1)
 
 
 # --- engines -------------------------------------------------------------------------
@@ -255,7 +274,7 @@ def _run_local(tasks: list, workers: int, on_done: Done) -> None:
     An interrupt cancels the queue and terminates the workers (their tasks are not
     finished, so a re-run does them)."""
     executor = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
-                                   initializer=_local_worker_init)
+                                   initializer=_local_worker_init, initargs=(os.getpid(),))
     try:
         futures = {executor.submit(run_task, task): task for task in tasks}
         for future in as_completed(futures):
