@@ -76,3 +76,15 @@ def test_readme_results_come_from_this_run(run_dir):
     readme = (REPO_ROOT / "README.md").read_text()
     block = readme.split("<!-- BEGIN one_dof results -->\n")[1].split("<!-- END one_dof results -->")[0]
     assert block == results_markdown(metrics, one_dof.EXPERIMENT)
+
+
+def test_a_run_shorter_than_the_return_command_has_no_x_at_10s_and_no_verdict():
+    """--set duration_s=2 ends before t = 10 s: x(10 s) is not the last value held, and C5
+    (which compares x(10 s) and the return) is not judged."""
+    scenario, _ = load_scenario("one_dof", ["duration_s=2"])
+    t = np.linspace(0.0, 2.0, 201)
+    run = SimpleNamespace(t=t, series={"x": -0.1 * t[:, None] / 2.0})
+    metrics = {name: one_dof.controller_metrics(run, config, scenario) for name, config in scenario.controllers.items()}
+    assert all(m["position_at_10s_m"] is None for m in metrics.values())
+    assert one_dof.claims(metrics, scenario) == {}
+    assert "n/a" in one_dof.table(metrics).rows[0]

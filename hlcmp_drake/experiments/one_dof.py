@@ -24,7 +24,8 @@ def _segments(scenario):
 
 def controller_metrics(run: RunResult, config: ControllerConfig, scenario: Scenario) -> dict:
     """position_at_10s_m, final_position_m, reach_time_s (absolute time), return_time_s
-    (seconds after the return command at t = 10 s); None where never settled.
+    (seconds after the return command at t = 10 s); None where never settled, and
+    position_at_10s_m None for a run that ends before 10 s (C5 is then not judged).
 
     Parameters
     ----------
@@ -44,8 +45,9 @@ def controller_metrics(run: RunResult, config: ControllerConfig, scenario: Scena
     x = run.series["x"][:, 0]
     reach = settle_time(run.t, x, depth, DEPTH_TOLERANCE_M, t0, t_return)
     back = settle_time(run.t, x, home, DEPTH_TOLERANCE_M, t_return, scenario.duration_s + 1e-9)
+    ends_before_return = run.t[-1] < t_return - 1e-9   # e.g. --set duration_s=2: there is no x(10 s)
     return {
-        "position_at_10s_m": value_at(run.t, x, t_return),
+        "position_at_10s_m": None if ends_before_return else value_at(run.t, x, t_return),
         "final_position_m": float(x[-1]),
         "reach_time_s": reach,
         "return_time_s": None if back is None else back - t_return,
@@ -87,6 +89,8 @@ def claims(metrics: dict, scenario: Scenario, runs: dict | None = None,
     """
     depth = _segments(scenario)[0]
     hl = metrics[learner_name or learner(scenario)]
+    if any(m["position_at_10s_m"] is None for m in metrics.values()):
+        return {}   # a run shorter than the return command at 10 s: C5 cannot be judged
     vic = {name: metrics[name] for name in scenario.controllers_of(VariableImpedanceConfig)}
     by_force = sorted(vic, key=lambda n: sum(scenario.controllers[n].desired_force_N))
     weakest, strongest = by_force[0], by_force[-1]
@@ -121,7 +125,8 @@ def table(metrics: dict) -> Table:
     result = Table(["controller", "x(10 s) [mm]", "final x [mm]", "reach −150 mm ±5 mm at [s]",
                     "back to 0 ±5 mm after 10 s [s]"])
     for name, m in metrics.items():
-        result.add(name, number(1000 * m["position_at_10s_m"], 1), number(1000 * m["final_position_m"], 1),
+        at_10s = m["position_at_10s_m"]
+        result.add(name, "n/a" if at_10s is None else number(1000 * at_10s, 1), number(1000 * m["final_position_m"], 1),
                    number(m["reach_time_s"]), number(m["return_time_s"]))
     return result
 
