@@ -30,7 +30,7 @@ controllers: [hlcmp]
 metrics:
 - {{label: "x final [mm]", series: hlcmp/x, reduce: final, scale: 1000.0, digits: 1}}
 - {{label: "max K_s [N/m]", series: hlcmp/Ks, reduce: max}}
-- {{label: "x(10 s) [m]", path: controllers.hlcmp.position_at_10s_m, digits: 4}}
+- {{label: "final x [m]", path: controllers.hlcmp.final_position_m, digits: 4}}
 """
 
 
@@ -235,7 +235,7 @@ def test_the_local_engine_runs_a_tiny_sweep_and_a_rerun_skips_it(tmp_path):
             assert float(row["x final [mm]"]) == pytest.approx(1000 * arrays["hlcmp/x"][-1, 0])
             assert float(row["max K_s [N/m]"]) == pytest.approx(np.nanmax(arrays["hlcmp/Ks"][:, 0]))
         metrics = json.loads((run_dir / "metrics.json").read_text())
-        assert float(row["x(10 s) [m]"]) == metrics["controllers"]["hlcmp"]["position_at_10s_m"]
+        assert float(row["final x [m]"]) == metrics["controllers"]["hlcmp"]["final_position_m"]
         assert list(metrics["controllers"]) == ["hlcmp"]
         assert (run_dir / "scenario.yaml").is_file() and (run_dir / "recording.html").is_file()
     assert rows[0]["x final [mm]"] != rows[1]["x final [mm]"]   # pi changes the motion
