@@ -298,12 +298,17 @@ def cmd_sweep(args):
 def cmd_serve(args):
     from hlcmp_drake.io.skill import load_skill
     from hlcmp_drake.run.serve import serve_scenario
+    from hlcmp_drake.run.sim_driver import DriverAbort
 
     _quiet_drake(args)
     skill = load_skill(args.skill) if args.skill else None
     overrides = list(args.set) + ([f"duration_s={args.duration}"] if args.duration else [])
-    result = serve_scenario(args.scenario, args.lcm, args.out or _default_out(args), args.controller, skill, args.freeze,
-                            overrides, Progress(args.quiet))
+    try:
+        result = serve_scenario(args.scenario, args.lcm, args.out or _default_out(args), args.controller, skill,
+                                args.freeze, overrides, Progress(args.quiet))
+    except DriverAbort as error:   # memq://: the simulated driver runs in this process
+        print(f"hlcmp serve: the simulated driver aborted: {error}", file=sys.stderr)
+        return EXIT_DRIVER_ABORT
     record = result.record
     ticks = record["tick_us"]
     timing = f"tick p50 {ticks['p50']:.0f} us, p99 {ticks['p99']:.0f} us" if ticks["p50"] is not None else "no tick"

@@ -165,8 +165,20 @@ def run_scenario(name_or_path: str | Path, out_dir: str | Path | None = None, re
     return run_loaded_scenario(scenario, path, out_dir, reporter, drake_models_iiwa, meshcat=meshcat)
 
 
-def _no_claims(metrics: dict, scenario: Scenario, runs: dict | None = None, learner_name: str | None = None) -> dict:
-    return {}
+def without_claims(experiment: Experiment) -> Experiment:
+    """`experiment` judging no claim: for runs that keep only some of a scenario's
+    controllers (a sweep's, a served one), since the claims compare controllers.
+
+    Parameters
+    ----------
+    experiment : Experiment
+
+    Returns
+    -------
+    Experiment
+        The same metrics, table and figures; its claims are {}.
+    """
+    return dc.replace(experiment, claims=lambda metrics, scenario, runs=None, learner_name=None: {})
 
 
 def run_loaded_scenario(scenario: Scenario, path: str | Path | None = None, out_dir: str | Path | None = None,
@@ -204,7 +216,7 @@ def run_loaded_scenario(scenario: Scenario, path: str | Path | None = None, out_
     out_dir = Path(out_dir or Path("out") / scenario.name)
     build = diagram_factory(scenario)
     runs = run_controllers(scenario, reporter, build, LiveView(scenario, meshcat) if meshcat is not None else None)
-    metrics = evaluate(runs, scenario, experiment if claims else dc.replace(experiment, claims=_no_claims))
+    metrics = evaluate(runs, scenario, experiment if claims else without_claims(experiment))
     figures = experiment.figures(runs, scenario) if metrics["status"] == "ok" else {}
     write_results(out_dir, scenario, runs, metrics, figures, build(next(iter(scenario.controllers))).diagram)
     return ScenarioResult(metrics, out_dir, experiment.table(metrics["controllers"]), experiment, scenario)

@@ -40,7 +40,7 @@ from hlcmp_drake.io.runs import RunResult
 from hlcmp_drake.io.skill import Skill
 from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.run.learning import learning_scenario
-from hlcmp_drake.run.runner import evaluate, write_results
+from hlcmp_drake.run.runner import evaluate, without_claims, write_results
 from hlcmp_drake.run.sim_driver import DriverSummary, SimulatedIiwaDriver
 from hlcmp_drake.systems.monitor import plant_state_check
 from hlcmp_drake.worlds.arm import ArmSetup, arm_check, arm_tick, prepare
@@ -168,7 +168,8 @@ class TorqueClient:
         self.log_t: list[float] = []
         self.log_rows: dict[str, list] = {name: [] for name in ("x", "xd", "f_ext", "fc", "plant_state",
                                                                  "saturated_joints")}
-        self.log_rows.update({series: [] for series, _ in controller_kind(scenario, controller).logs})
+        self._law_series = controller_kind(scenario, controller).logs   # (series, log column) pairs
+        self.log_rows.update({series: [] for series, _ in self._law_series})
         self.stopped_because: str | None = None
         self.status = FINISHED
         lcm.Subscribe(self.config.status_channel, self._on_status)
@@ -325,7 +326,7 @@ class TorqueClient:
         logs["fc"].append(row[columns["force"]])
         logs["plant_state"].append(state)
         logs["saturated_joints"].append(row[columns["saturated"]])
-        for series, field in controller_kind(self.scenario, self.controller).logs:
+        for series, field in self._law_series:
             logs[series].append(row[columns[field]])
 
     def run_result(self) -> RunResult:
@@ -427,7 +428,7 @@ def write_served(client: TorqueClient, out_dir: str | Path, lcm_url: str) -> Ser
     out_dir = Path(out_dir)
     experiment = experiment_of(client.scenario)
     scenario = dc.replace(client.scenario, controllers={client.controller: client.scenario.controllers[client.controller]})
-    metrics = evaluate({run.controller: run}, scenario, dc.replace(experiment, claims=lambda *args: {}))
+    metrics = evaluate({run.controller: run}, scenario, without_claims(experiment))
     metrics["status"] = run.status
     if len(run.t):
         write_results(out_dir, scenario, {run.controller: run}, metrics, {})
