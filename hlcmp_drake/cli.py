@@ -108,12 +108,16 @@ def print_summary(result) -> None:
     metrics = result.metrics
     _print_table(result.table)
     for controller, problem in metrics.get("instability", {}).items():
-        print(f"UNSTABLE {controller}: {problem['reason']} at t = {problem['time_s']:.3f} s "
-              "(stopped there; its logs up to then are in timeseries.npz)")
+        print(
+            f"UNSTABLE {controller}: {problem['reason']} at t = {problem['time_s']:.3f} s "
+            "(stopped there; its logs up to then are in timeseries.npz)"
+        )
     for learner, claims in metrics.get("claims", {}).items():
         for claim, verdict in claims.items():
-            print(f"{claim} [{learner}]: {'reproduced' if verdict['holds'] else 'NOT reproduced'} -- "
-                  f"{verdict['evidence']}")
+            print(
+                f"{claim} [{learner}]: {'reproduced' if verdict['holds'] else 'NOT reproduced'} -- "
+                f"{verdict['evidence']}"
+            )
     print(f"status: {metrics['status']}; results in {result.out_dir}")
 
 
@@ -126,11 +130,19 @@ def cmd_run(args):
         from pydrake.geometry import Meshcat
 
         meshcat = Meshcat()
-        print(f"live view: {meshcat.web_url()} (open it in a browser; it closes when the command ends)",
-              flush=True)
+        print(
+            f"live view: {meshcat.web_url()} (open it in a browser; it closes when the command ends)",
+            flush=True,
+        )
     try:
-        result = run_scenario(args.scenario, args.out, Progress(args.quiet),
-                              drake_models_iiwa=args.iiwa == "drake_models", overrides=args.set, meshcat=meshcat)
+        result = run_scenario(
+            args.scenario,
+            args.out,
+            Progress(args.quiet),
+            drake_models_iiwa=args.iiwa == "drake_models",
+            overrides=args.set,
+            meshcat=meshcat,
+        )
     finally:
         # The live view's replay diagrams keep the Meshcat in reference cycles (pybind keep-alives),
         # so its server would outlive the command until Python's next collection.
@@ -145,7 +157,9 @@ def cmd_report(args):
 
     _quiet_drake(args)
     result = run_report(args.out, args.scenarios, Progress(args.quiet))
-    print(f"report: {result.page} ({result.wall_s:.0f} s for {', '.join(s.name for s in result.sections)})")
+    print(
+        f"report: {result.page} ({result.wall_s:.0f} s for {', '.join(s.name for s in result.sections)})"
+    )
     return 0 if result.all_ok else EXIT_UNSTABLE
 
 
@@ -159,15 +173,26 @@ def cmd_learn(args):
 def cmd_reproduce(args):
     from hlcmp_drake.io.skill import load_skill
 
-    return _learn_or_reproduce(args, demo=None, skill=load_skill(args.skill), trials=1, freeze=args.freeze)
+    return _learn_or_reproduce(
+        args, demo=None, skill=load_skill(args.skill), trials=1, freeze=args.freeze
+    )
 
 
 def _learn_or_reproduce(args, demo, skill, trials, freeze):
     from hlcmp_drake.run.learning import learn, trials_table
 
     _quiet_drake(args)
-    result = learn(args.scenario, args.out, demo=demo, skill=skill, skill_path=args.skill, trials=trials,
-                   freeze=freeze, reporter=Progress(args.quiet), overrides=args.set)
+    result = learn(
+        args.scenario,
+        args.out,
+        demo=demo,
+        skill=skill,
+        skill_path=args.skill,
+        trials=trials,
+        freeze=freeze,
+        reporter=Progress(args.quiet),
+        overrides=args.set,
+    )
     _print_table(trials_table(result.metrics))
     if result.skill_path is not None:
         print(f"skill: {result.skill_path}")
@@ -195,9 +220,11 @@ def cmd_probe(args):
     _quiet_drake(args)
     result = run_probe(args.scenario, args.out, args.speed, overrides=args.set)
     readings = result.readings
-    print(f"probe {readings['scenario']} at {readings['speed_m_per_s']:.3f} m/s: peak {readings['peak_force_N']:.2f} N "
-          f"at {1000 * readings['depth_at_peak_m']:.1f} mm, residual {readings['residual_force_N']:.2f} N, "
-          f"max lateral {readings['max_lateral_force_N']:.3f} N; {readings['status']}")
+    print(
+        f"probe {readings['scenario']} at {readings['speed_m_per_s']:.3f} m/s: peak {readings['peak_force_N']:.2f} N "
+        f"at {1000 * readings['depth_at_peak_m']:.1f} mm, residual {readings['residual_force_N']:.2f} N, "
+        f"max lateral {readings['max_lateral_force_N']:.3f} N; {readings['status']}"
+    )
     print(f"probe.json, probe.png in {result.out_dir}")
     return 0 if readings["status"] == "ok" else EXIT_UNSTABLE
 
@@ -209,16 +236,18 @@ def cmd_fit(args):
 
     try:
         settings = DmpSettings(n_basis=args.basis, smoothing_s=args.smoothing)
-    except ValueError as error:   # the message starts with the settings' field
+    except ValueError as error:  # the message starts with the settings' field
         option = "--basis" if str(error).startswith("n_basis") else "--smoothing"
         raise InputError(f"{option}: {error}") from None
     t, positions, axes = read_demonstration(args.demo)
     dmp = Dmp.fit(t, positions, axes, settings)
     save_skill(args.out, Skill.untrained(dmp))
     flat = [a for a, scaled in zip(axes, dmp.goal_scaled) if not scaled]
-    print(f"fitted {len(axes)} axis DMP ({','.join(axes)}), N = {args.basis}, tau = {dmp.tau:.3f} s"
-          + (f"; g ~ p0 on {','.join(flat)}: amplitude = demonstration range" if flat else "")
-          + f" -> {args.out}")
+    print(
+        f"fitted {len(axes)} axis DMP ({','.join(axes)}), N = {args.basis}, tau = {dmp.tau:.3f} s"
+        + (f"; g ~ p0 on {','.join(flat)}: amplitude = demonstration range" if flat else "")
+        + f" -> {args.out}"
+    )
     return 0
 
 
@@ -230,8 +259,10 @@ def cmd_rollout(args):
     if args.goal is not None:
         goal = _floats(args.goal, "--goal")
         if len(goal) != dmp.n_axes:
-            raise InputError(f"--goal: the skill has {dmp.n_axes} axes ({','.join(dmp.axis_names)}), "
-                             f"got {len(goal)} value(s)")
+            raise InputError(
+                f"--goal: the skill has {dmp.n_axes} axes ({','.join(dmp.axis_names)}), "
+                f"got {len(goal)} value(s)"
+            )
         dmp = dmp.with_goal(goal)
     tau = args.duration or dmp.tau
     if tau / args.dt > 2_000_000:
@@ -256,20 +287,29 @@ def cmd_sweep(args):
 
     if args.dry_run:
         plan = plan_sweep(args.sweep, args.out)
-        counts = {state: list(plan.states.values()).count(state) for state in ("done", "stale", "pending")}
-        print(f"sweep {plan.sweep.path}: {len(plan.tasks)} tasks of {plan.sweep.scenario_path.name} into "
-              f"{plan.out_dir} ({counts['done']} done, {counts['stale']} to rerun (changed), "
-              f"{counts['pending']} to run)")
+        counts = {
+            state: list(plan.states.values()).count(state) for state in ("done", "stale", "pending")
+        }
+        print(
+            f"sweep {plan.sweep.path}: {len(plan.tasks)} tasks of {plan.sweep.scenario_path.name} into "
+            f"{plan.out_dir} ({counts['done']} done, {counts['stale']} to rerun (changed), "
+            f"{counts['pending']} to run)"
+        )
         for task in plan.tasks:
             print(f"  {plan.states[task.id]:8s} {task.id}   " + " ".join(task.overrides))
         return 0
     _quiet_drake(args)
     try:
-        result = run_sweep(args.sweep, args.out, args.engine, args.workers, args.address, Progress(args.quiet))
+        result = run_sweep(
+            args.sweep, args.out, args.engine, args.workers, args.address, Progress(args.quiet)
+        )
     except KeyboardInterrupt:
         out = args.out or f"out/sweeps/{Path(args.sweep).stem}"
-        print(f"hlcmp: interrupted; every finished task is kept (listed in {out}/sweep.csv); "
-              "the same command again runs only the rest", file=sys.stderr)
+        print(
+            f"hlcmp: interrupted; every finished task is kept (listed in {out}/sweep.csv); "
+            "the same command again runs only the rest",
+            file=sys.stderr,
+        )
         return 130
     counts = result.summary["counts"]
     _print_table(result.table)
@@ -283,10 +323,12 @@ def cmd_sweep(args):
         print(f"all {counts['tasks']} tasks were already done; nothing to run")
     else:
         done = result.already_done
-        print(f"{len(result.ran)} task(s) ran, {done} {'was' if done == 1 else 'were'} already done"
-              + (f", {result.stale} ran again because their scenario changed" if result.stale else "")
-              + (f", {len(result.failed)} failed (a re-run retries them)" if result.failed else "")
-              + f"; {result.wall_s:.1f} s")
+        print(
+            f"{len(result.ran)} task(s) ran, {done} {'was' if done == 1 else 'were'} already done"
+            + (f", {result.stale} ran again because their scenario changed" if result.stale else "")
+            + (f", {len(result.failed)} failed (a re-run retries them)" if result.failed else "")
+            + f"; {result.wall_s:.1f} s"
+        )
     print(f"results in {result.out_dir}: sweep.csv, sweep.json, plots/, tasks/")
     if result.failed:
         return 1
@@ -304,16 +346,30 @@ def cmd_serve(args):
     skill = load_skill(args.skill) if args.skill else None
     overrides = list(args.set) + ([f"duration_s={args.duration}"] if args.duration else [])
     try:
-        result = serve_scenario(args.scenario, args.lcm, args.out or _default_out(args), args.controller, skill,
-                                args.freeze, overrides, Progress(args.quiet))
-    except DriverAbort as error:   # memq://: the simulated driver runs in this process
+        result = serve_scenario(
+            args.scenario,
+            args.lcm,
+            args.out or _default_out(args),
+            args.controller,
+            skill,
+            args.freeze,
+            overrides,
+            Progress(args.quiet),
+        )
+    except DriverAbort as error:  # memq://: the simulated driver runs in this process
         print(f"hlcmp serve: the simulated driver aborted: {error}", file=sys.stderr)
         return EXIT_DRIVER_ABORT
     record = result.record
     ticks = record["tick_us"]
-    timing = f"tick p50 {ticks['p50']:.0f} us, p99 {ticks['p99']:.0f} us" if ticks["p50"] is not None else "no tick"
-    print(f"served {record['controller']} for {record['served_s']:.3f} s: {record['ticks']} ticks, "
-          f"{record['missed_ticks']} missed, {timing}")
+    timing = (
+        f"tick p50 {ticks['p50']:.0f} us, p99 {ticks['p99']:.0f} us"
+        if ticks["p50"] is not None
+        else "no tick"
+    )
+    print(
+        f"served {record['controller']} for {record['served_s']:.3f} s: {record['ticks']} ticks, "
+        f"{record['missed_ticks']} missed, {timing}"
+    )
     print(f"{record['status']}: {record['stopped_because']}")
     print(f"serve.json, metrics.json, timeseries.npz in {result.out_dir}")
     return 0 if record["status"] == "ok" else EXIT_UNSTABLE
@@ -324,14 +380,23 @@ def cmd_sim_driver(args):
 
     _quiet_drake(args)
     try:
-        summary = run_sim_driver(args.scenario, args.lcm, args.realtime, args.duration, args.idle_timeout,
-                                 args.set, Progress(args.quiet))
+        summary = run_sim_driver(
+            args.scenario,
+            args.lcm,
+            args.realtime,
+            args.duration,
+            args.idle_timeout,
+            args.set,
+            Progress(args.quiet),
+        )
     except DriverAbort as error:
         print(f"hlcmp sim-driver: aborted: {error}", file=sys.stderr)
         return EXIT_DRIVER_ABORT
     late = f", {summary.late_steps} late" if args.realtime else ""
-    print(f"sim-driver: {summary.steps} steps ({summary.commanded_steps} commanded, {summary.held_steps} held{late}), "
-          f"{summary.sim_time_s:.3f} s simulated in {summary.wall_s:.1f} s; {summary.stopped_because}")
+    print(
+        f"sim-driver: {summary.steps} steps ({summary.commanded_steps} commanded, {summary.held_steps} held{late}), "
+        f"{summary.sim_time_s:.3f} s simulated in {summary.wall_s:.1f} s; {summary.stopped_because}"
+    )
     return 0
 
 
@@ -342,130 +407,245 @@ def build_parser():
 
     try:
         own_version = version("hlcmp_drake")
-    except PackageNotFoundError:   # run from a source tree that was never installed
+    except PackageNotFoundError:  # run from a source tree that was never installed
         own_version = "unknown"
     bundled = bundled_scenarios()
     # --debug and --quiet are accepted before or after the subcommand.
     common = argparse.ArgumentParser(add_help=False)
-    common.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
-                        help="show tracebacks of errors")
+    common.add_argument(
+        "--debug", action="store_true", default=argparse.SUPPRESS, help="show tracebacks of errors"
+    )
     quiet = argparse.ArgumentParser(add_help=False)
     quiet.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     overrides = argparse.ArgumentParser(add_help=False)
-    overrides.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                           help="override a scenario value, e.g. duration_s=4 or "
-                                "controllers.hlcmp.q_k=[300,300,300] (repeatable)")
+    overrides.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a scenario value, e.g. duration_s=4 or "
+        "controllers.hlcmp.q_k=[300,300,300] (repeatable)",
+    )
 
-    world = argparse.ArgumentParser(add_help=False)   # where learn and reproduce run, and write
-    world.add_argument("--scenario", required=True, help="the world: insertion, cutting, or a YAML path")
-    world.add_argument("--out", required=True,
-                       help="output folder (metrics, figures, recording; and skill.npz when learning)")
+    world = argparse.ArgumentParser(add_help=False)  # where learn and reproduce run, and write
+    world.add_argument(
+        "--scenario", required=True, help="the world: insertion, cutting, or a YAML path"
+    )
+    world.add_argument(
+        "--out",
+        required=True,
+        help="output folder (metrics, figures, recording; and skill.npz when learning)",
+    )
 
-    parser = _Parser(prog="hlcmp", description="Hl-CMPs: learn human-like compliant skills on Drake.",
-                     parents=[common])
+    parser = _Parser(
+        prog="hlcmp",
+        description="Hl-CMPs: learn human-like compliant skills on Drake.",
+        parents=[common],
+    )
     parser.add_argument("--version", action="version", version=f"hlcmp_drake {own_version}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
-    run = sub.add_parser("run", parents=[common, quiet, overrides],
-                         help="run a scenario (bundled name or YAML path)")
-    run.add_argument("scenario", help=f"a bundled scenario ({', '.join(bundled)}) or a scenario .yaml")
+    run = sub.add_parser(
+        "run", parents=[common, quiet, overrides], help="run a scenario (bundled name or YAML path)"
+    )
+    run.add_argument(
+        "scenario", help=f"a bundled scenario ({', '.join(bundled)}) or a scenario .yaml"
+    )
     run.add_argument("--out", help="output folder (default out/SCENARIO)")
-    run.add_argument("--meshcat", action="store_true",
-                     help="also show the runs in a live Meshcat while they simulate (prints its URL)")
-    run.add_argument("--iiwa", choices=("ours", "drake_models"), default="ours",
-                     help="the iiwa14 model: ours (models/iiwa14.sdf, default) or Drake's official "
-                          "one from drake_models (downloaded by Drake on first use: needs internet)")
+    run.add_argument(
+        "--meshcat",
+        action="store_true",
+        help="also show the runs in a live Meshcat while they simulate (prints its URL)",
+    )
+    run.add_argument(
+        "--iiwa",
+        choices=("ours", "drake_models"),
+        default="ours",
+        help="the iiwa14 model: ours (models/iiwa14.sdf, default) or Drake's official "
+        "one from drake_models (downloaded by Drake on first use: needs internet)",
+    )
     run.set_defaults(func=cmd_run)
 
-    report = sub.add_parser("report", parents=[common, quiet],
-                            help="run every bundled scenario and write one offline report page")
+    report = sub.add_parser(
+        "report",
+        parents=[common, quiet],
+        help="run every bundled scenario and write one offline report page",
+    )
     report.add_argument("--out", default="out/report", help="output folder (default out/report)")
-    report.add_argument("--scenarios", nargs="+", choices=bundled,
-                        help="a subset to run, in this order (default all, in the paper's order)")
+    report.add_argument(
+        "--scenarios",
+        nargs="+",
+        choices=bundled,
+        help="a subset to run, in this order (default all, in the paper's order)",
+    )
     report.set_defaults(func=cmd_report)
 
-    bench = sub.add_parser("bench", parents=[common], help="measure where the time goes (bench.json and a table)")
-    bench.add_argument("--out", default="out/bench", help="output folder for bench.json (default out/bench)")
-    bench.add_argument("--quick", action="store_true", help="a few iterations of everything (CI smoke mode)")
+    bench = sub.add_parser(
+        "bench", parents=[common], help="measure where the time goes (bench.json and a table)"
+    )
+    bench.add_argument(
+        "--out", default="out/bench", help="output folder for bench.json (default out/bench)"
+    )
+    bench.add_argument(
+        "--quick", action="store_true", help="a few iterations of everything (CI smoke mode)"
+    )
     bench.set_defaults(func=cmd_bench)
 
-    learn = sub.add_parser("learn", parents=[common, quiet, overrides, world],
-                           help="learn a skill from your demonstration by reproducing it in a scenario")
-    learn.add_argument("demo", help="demonstration CSV (t,x,y,z; world frame of the scenario, metres)")
-    learn.add_argument("--trials", type=_trial_count, default=1, help="reproductions, each continuing "
-                       "from the previous one's learned profiles (default 1)")
-    learn.add_argument("--skill", help="start from this saved skill's profiles instead of theta = 0")
+    learn = sub.add_parser(
+        "learn",
+        parents=[common, quiet, overrides, world],
+        help="learn a skill from your demonstration by reproducing it in a scenario",
+    )
+    learn.add_argument(
+        "demo", help="demonstration CSV (t,x,y,z; world frame of the scenario, metres)"
+    )
+    learn.add_argument(
+        "--trials",
+        type=_trial_count,
+        default=1,
+        help="reproductions, each continuing from the previous one's learned profiles (default 1)",
+    )
+    learn.add_argument(
+        "--skill", help="start from this saved skill's profiles instead of theta = 0"
+    )
     learn.set_defaults(func=cmd_learn)
 
-    reproduce = sub.add_parser("reproduce", parents=[common, quiet, overrides, world],
-                               help="replay a learned skill in a scenario")
+    reproduce = sub.add_parser(
+        "reproduce",
+        parents=[common, quiet, overrides, world],
+        help="replay a learned skill in a scenario",
+    )
     reproduce.add_argument("skill", help="skill file (.npz) from hlcmp learn or fit")
-    reproduce.add_argument("--freeze", action="store_true", help="no adaptation: the learned profiles as they are")
+    reproduce.add_argument(
+        "--freeze", action="store_true", help="no adaptation: the learned profiles as they are"
+    )
     reproduce.set_defaults(func=cmd_reproduce)
 
-    probe = sub.add_parser("probe", parents=[common, overrides],
-                           help="measure a scenario's world alone: its tool pushed through its object")
-    probe.add_argument("scenario", help="an arm scenario with a probe section (insertion, cutting) or a YAML path")
+    probe = sub.add_parser(
+        "probe",
+        parents=[common, overrides],
+        help="measure a scenario's world alone: its tool pushed through its object",
+    )
+    probe.add_argument(
+        "scenario", help="an arm scenario with a probe section (insertion, cutting) or a YAML path"
+    )
     probe.add_argument("--out", help="output folder (default out/probe_SCENARIO)")
-    probe.add_argument("--speed", type=_positive, help="carriage speed in m/s (default the scenario's)")
+    probe.add_argument(
+        "--speed", type=_positive, help="carriage speed in m/s (default the scenario's)"
+    )
     probe.set_defaults(func=cmd_probe)
 
-    fit = sub.add_parser("fit", parents=[common], help="fit the DMP of a demonstration CSV (t,x,y,z)")
+    fit = sub.add_parser(
+        "fit", parents=[common], help="fit the DMP of a demonstration CSV (t,x,y,z)"
+    )
     fit.add_argument("demo")
     fit.add_argument("--out", required=True, help="skill file to write (.npz)")
-    fit.add_argument("--basis", type=_whole_number, default=DEFAULTS.n_basis,
-                     help=f"basis functions N (default {DEFAULTS.n_basis})")
-    fit.add_argument("--smoothing", type=_non_negative, default=DEFAULTS.smoothing_s,
-                     help=f"std-dev in s of the Gaussian smoothing before differentiation "
-                          f"(default {DEFAULTS.smoothing_s}; about 0.05 removes a hand's 8-12 Hz tremor)")
+    fit.add_argument(
+        "--basis",
+        type=_whole_number,
+        default=DEFAULTS.n_basis,
+        help=f"basis functions N (default {DEFAULTS.n_basis})",
+    )
+    fit.add_argument(
+        "--smoothing",
+        type=_non_negative,
+        default=DEFAULTS.smoothing_s,
+        help=f"std-dev in s of the Gaussian smoothing before differentiation "
+        f"(default {DEFAULTS.smoothing_s}; about 0.05 removes a hand's 8-12 Hz tremor)",
+    )
     fit.set_defaults(func=cmd_fit)
 
-    rollout = sub.add_parser("rollout", parents=[common], help="roll a skill's DMP out into a trajectory CSV")
+    rollout = sub.add_parser(
+        "rollout", parents=[common], help="roll a skill's DMP out into a trajectory CSV"
+    )
     rollout.add_argument("skill")
     rollout.add_argument("--out", required=True, help="trajectory CSV to write")
-    rollout.add_argument("--duration", type=_positive, help="new duration tau in s (temporal scaling)")
+    rollout.add_argument(
+        "--duration", type=_positive, help="new duration tau in s (temporal scaling)"
+    )
     rollout.add_argument("--goal", help="new goal, comma-separated, one value per axis")
-    rollout.add_argument("--dt", type=_positive, default=0.01, help="sample period in s (default 0.01)")
+    rollout.add_argument(
+        "--dt", type=_positive, default=0.01, help="sample period in s (default 0.01)"
+    )
     rollout.set_defaults(func=cmd_rollout)
 
-    sweep = sub.add_parser("sweep", parents=[common, quiet],
-                           help="run a scenario over a grid or list of overrides (resumable)")
-    sweep.add_argument("sweep", help="a sweep file (.yaml) or a bundled sweep's name (diagrams/sweeps/)")
-    sweep.add_argument("--out", help="output folder (default out/sweeps/SWEEP): sweep.csv, sweep.json, "
-                                     "plots/, and tasks/ID/ per task; finished tasks there are skipped")
-    sweep.add_argument("--engine", choices=("local", "ray"), default="local",
-                       help="local: a process pool on this machine (default); ray: Ray tasks, "
-                            "needs pip install -e '.[ray]'")
+    sweep = sub.add_parser(
+        "sweep",
+        parents=[common, quiet],
+        help="run a scenario over a grid or list of overrides (resumable)",
+    )
+    sweep.add_argument(
+        "sweep", help="a sweep file (.yaml) or a bundled sweep's name (diagrams/sweeps/)"
+    )
+    sweep.add_argument(
+        "--out",
+        help="output folder (default out/sweeps/SWEEP): sweep.csv, sweep.json, "
+        "plots/, and tasks/ID/ per task; finished tasks there are skipped",
+    )
+    sweep.add_argument(
+        "--engine",
+        choices=("local", "ray"),
+        default="local",
+        help="local: a process pool on this machine (default); ray: Ray tasks, "
+        "needs pip install -e '.[ray]'",
+    )
     sweep.add_argument("--address", help="with --engine ray: join the Ray cluster at this address")
-    sweep.add_argument("--workers", type=_positive_count,
-                       help="tasks at once (local default: the number of CPUs)")
-    sweep.add_argument("--dry-run", action="store_true", help="list the tasks and which are done; run nothing")
+    sweep.add_argument(
+        "--workers", type=_positive_count, help="tasks at once (local default: the number of CPUs)"
+    )
+    sweep.add_argument(
+        "--dry-run", action="store_true", help="list the tasks and which are done; run nothing"
+    )
     sweep.set_defaults(func=cmd_sweep)
 
-    lcm_help = ("LCM URL, e.g. 'udpm://239.255.76.67:7667?ttl=0' (this machine only); memq:// runs "
-                "the scenario's simulated driver in the same process")
-    serve = sub.add_parser("serve", parents=[common, quiet, overrides],
-                           help="serve a scenario's controller to an iiwa driver over LCM (torque-only)")
+    lcm_help = (
+        "LCM URL, e.g. 'udpm://239.255.76.67:7667?ttl=0' (this machine only); memq:// runs "
+        "the scenario's simulated driver in the same process"
+    )
+    serve = sub.add_parser(
+        "serve",
+        parents=[common, quiet, overrides],
+        help="serve a scenario's controller to an iiwa driver over LCM (torque-only)",
+    )
     serve.add_argument("scenario", help="an arm scenario (insertion, cutting) or a YAML path")
     serve.add_argument("--lcm", required=True, help=lcm_help)
-    serve.add_argument("--controller", help="the controller's label (default: the scenario's Hl-CMP)")
-    serve.add_argument("--skill", help="serve the Hl-CMP from this skill file's DMP and learned profiles")
+    serve.add_argument(
+        "--controller", help="the controller's label (default: the scenario's Hl-CMP)"
+    )
+    serve.add_argument(
+        "--skill", help="serve the Hl-CMP from this skill file's DMP and learned profiles"
+    )
     serve.add_argument("--freeze", action="store_true", help="with --skill: no adaptation")
-    serve.add_argument("--duration", type=_positive, help="seconds to serve (default the scenario's duration_s)")
+    serve.add_argument(
+        "--duration", type=_positive, help="seconds to serve (default the scenario's duration_s)"
+    )
     serve.add_argument("--out", help="output folder (default out/serve_SCENARIO)")
     serve.set_defaults(func=cmd_serve)
 
-    sim_driver = sub.add_parser("sim-driver", parents=[common, quiet, overrides],
-                                help="a scenario's simulated iiwa, driven over LCM like drake-iiwa-driver "
-                                     "in torque-only mode (status every 1 ms)")
+    sim_driver = sub.add_parser(
+        "sim-driver",
+        parents=[common, quiet, overrides],
+        help="a scenario's simulated iiwa, driven over LCM like drake-iiwa-driver "
+        "in torque-only mode (status every 1 ms)",
+    )
     sim_driver.add_argument("scenario", help="an arm scenario (insertion, cutting) or a YAML path")
     sim_driver.add_argument("--lcm", required=True, help=lcm_help)
-    sim_driver.add_argument("--realtime", action="store_true",
-                            help="one period of wall-clock time per step (default: as fast as the client answers)")
-    sim_driver.add_argument("--duration", type=_positive, help="stop at this simulated time in s "
-                                                               "(default: when the client stops commanding)")
-    sim_driver.add_argument("--idle-timeout", type=_positive, default=1.0,
-                            help="seconds without a command after which the client counts as gone (default 1)")
+    sim_driver.add_argument(
+        "--realtime",
+        action="store_true",
+        help="one period of wall-clock time per step (default: as fast as the client answers)",
+    )
+    sim_driver.add_argument(
+        "--duration",
+        type=_positive,
+        help="stop at this simulated time in s (default: when the client stops commanding)",
+    )
+    sim_driver.add_argument(
+        "--idle-timeout",
+        type=_positive,
+        default=1.0,
+        help="seconds without a command after which the client counts as gone (default 1)",
+    )
     sim_driver.set_defaults(func=cmd_sim_driver)
     return parser
 
@@ -500,7 +680,7 @@ def _check_output(args):
 
     from hlcmp_drake.io.outputs import check_output_file, check_output_folder
 
-    if getattr(args, "dry_run", False):   # writes nothing: a read-only sweep may be looked at
+    if getattr(args, "dry_run", False):  # writes nothing: a read-only sweep may be looked at
         return
     out = getattr(args, "out", None)
     if out is None:
@@ -512,7 +692,7 @@ def _check_output(args):
         check_output_file(out)
         return
     check_output_folder(out)
-    for name in getattr(args, "scenarios", None) or ():   # report: one folder per scenario
+    for name in getattr(args, "scenarios", None) or ():  # report: one folder per scenario
         check_output_folder(Path(out) / name, "--out")
 
 
@@ -522,7 +702,7 @@ def main(argv=None):
     parser = build_parser()
     args = parser.parse_args(argv)
     args.debug = getattr(args, "debug", False)
-    WRITTEN.clear()   # this command's files only (main may run more than once in a process)
+    WRITTEN.clear()  # this command's files only (main may run more than once in a process)
     try:
         _check_output(args)
         return args.func(args)
@@ -532,7 +712,11 @@ def main(argv=None):
         print(f"hlcmp: error: {error}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
-        done = f"written before it: {', '.join(map(str, WRITTEN))}" if WRITTEN else "nothing was written"
+        done = (
+            f"written before it: {', '.join(map(str, WRITTEN))}"
+            if WRITTEN
+            else "nothing was written"
+        )
         print(f"hlcmp: interrupted; {done}; every other file is as it was before", file=sys.stderr)
         return 130
 

@@ -1,6 +1,6 @@
 """Measure where the time goes (same as `hlcmp bench`): writes DIR/bench.json and prints a table.
 
-    python scripts/benchmark.py --out DIR [--quick]
+python scripts/benchmark.py --out DIR [--quick]
 """
 
 import sys

@@ -30,17 +30,25 @@ from hlcmp_drake.worlds.models import add_plant
 
 def build(scenario, setup, meshcat):
     builder = DiagramBuilder()
-    plant, scene_graph = add_plant(builder, scenario)           # iiwa14 + rod + foam plank
+    plant, scene_graph = add_plant(builder, scenario)  # iiwa14 + rod + foam plank
     tip = plant.GetFrameByName("tip", plant.GetModelInstanceByName("insertion_tool"))
 
-    dmp = builder.AddSystem(DmpSource(setup.dmp))              # x_d, x_d', x_d'', s
-    task_space = builder.AddSystem(TaskSpaceDynamics(plant, tip))   # x, x', J, M, C, G
+    dmp = builder.AddSystem(DmpSource(setup.dmp))  # x_d, x_d', x_d'', s
+    task_space = builder.AddSystem(TaskSpaceDynamics(plant, tip))  # x, x', J, M, C, G
     controller = builder.AddSystem(hlcmp_controller(scenario.controllers["hlcmp"], scenario))
     task = scenario.task
-    null_space = builder.AddSystem(NullSpaceImpedance(
-        plant, tip, setup.tool_orientation, setup.q0,
-        task.orientation_stiffness_Nm_per_rad, task.orientation_damping_Nms_per_rad,
-        task.posture_stiffness_Nm_per_rad, task.posture_damping_Nms_per_rad))
+    null_space = builder.AddSystem(
+        NullSpaceImpedance(
+            plant,
+            tip,
+            setup.tool_orientation,
+            setup.q0,
+            task.orientation_stiffness_Nm_per_rad,
+            task.orientation_damping_Nms_per_rad,
+            task.posture_stiffness_Nm_per_rad,
+            task.posture_damping_Nms_per_rad,
+        )
+    )
     effort = [plant.get_joint_actuator(i).effort_limit() for i in plant.GetJointActuatorIndices()]
     torque_map = builder.AddSystem(TaskForceToJointTorque(3, effort, extra_torque=True))
     sensor = builder.AddSystem(ToolContactForce(plant, tip.body()))
@@ -59,10 +67,16 @@ def build(scenario, setup, meshcat):
     builder.Connect(torque_map.GetOutputPort("joint_torque"), plant.get_actuation_input_port())
     builder.Connect(plant.get_contact_results_output_port(), sensor.contact_results)
 
-    logs = {name: LogVectorOutput(port, builder, scenario.log_period_s) for name, port in [
-        ("x", task_space.GetOutputPort("position")), ("xd", dmp.GetOutputPort("desired_position")),
-        ("f_ext", sensor.GetOutputPort("force")), ("Ks", controller.GetOutputPort("stiffness")),
-        ("v", controller.GetOutputPort("feedforward"))]}
+    logs = {
+        name: LogVectorOutput(port, builder, scenario.log_period_s)
+        for name, port in [
+            ("x", task_space.GetOutputPort("position")),
+            ("xd", dmp.GetOutputPort("desired_position")),
+            ("f_ext", sensor.GetOutputPort("force")),
+            ("Ks", controller.GetOutputPort("stiffness")),
+            ("v", controller.GetOutputPort("feedforward")),
+        ]
+    }
     MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat)
     return builder.Build(), plant, logs
 
@@ -70,12 +84,14 @@ def build(scenario, setup, meshcat):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("out/by_hand"))
-    parser.add_argument("--duration", type=float, default=None, help="seconds (default: the scenario's)")
+    parser.add_argument(
+        "--duration", type=float, default=None, help="seconds (default: the scenario's)"
+    )
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
 
     scenario, _ = load_scenario("insertion")
-    setup = arm.prepare(scenario)                   # fit the DMP, inverse kinematics for q0
+    setup = arm.prepare(scenario)  # fit the DMP, inverse kinematics for q0
     meshcat = Meshcat()
     diagram, plant, logs = build(scenario, setup, meshcat)
     graph = write_diagram_graph(args.out, diagram)
@@ -91,8 +107,10 @@ def main():
 
     context = simulator.get_context()
     f_z = logs["f_ext"].FindLog(context).data()[2]
-    print(f"simulated {context.get_time():.2f} s; peak wrist force in z {np.max(np.abs(f_z)):.2f} N; "
-          f"wrote {args.out / 'recording.html'} and {graph}")
+    print(
+        f"simulated {context.get_time():.2f} s; peak wrist force in z {np.max(np.abs(f_z)):.2f} N; "
+        f"wrote {args.out / 'recording.html'} and {graph}"
+    )
 
 
 if __name__ == "__main__":

@@ -16,9 +16,15 @@ from pathlib import Path
 def numbers(tree, path=""):
     """{dotted path: value} for every number in a metrics.json tree."""
     if isinstance(tree, dict):
-        return {k: v for key, item in tree.items() for k, v in numbers(item, f"{path}.{key}" if path else key).items()}
+        return {
+            k: v
+            for key, item in tree.items()
+            for k, v in numbers(item, f"{path}.{key}" if path else key).items()
+        }
     if isinstance(tree, list):
-        return {k: v for i, item in enumerate(tree) for k, v in numbers(item, f"{path}[{i}]").items()}
+        return {
+            k: v for i, item in enumerate(tree) for k, v in numbers(item, f"{path}[{i}]").items()
+        }
     if isinstance(tree, (int, float)) and not isinstance(tree, bool):
         return {path: float(tree)}
     return {}
@@ -39,18 +45,27 @@ def main():
     parser.add_argument("first", type=Path, help="a run's output folder (metrics.json)")
     parser.add_argument("second", type=Path, help="the other run's output folder")
     args = parser.parse_args()
-    first, second = (json.loads((folder / "metrics.json").read_text()) for folder in (args.first, args.second))
+    first, second = (
+        json.loads((folder / "metrics.json").read_text()) for folder in (args.first, args.second)
+    )
     print("| controller | largest relative difference of its metrics | where |")
     print("|---|---|---|")
     for name, metrics in first["controllers"].items():
         a, b = numbers(metrics), numbers(second["controllers"][name])
         # relative to the metric's own size, ignoring values that are zero to rounding in both
-        diffs = {key: abs(a[key] - b[key]) / max(abs(a[key]), abs(b[key])) for key in a
-                 if key in b and max(abs(a[key]), abs(b[key])) > 1e-9}
+        diffs = {
+            key: abs(a[key] - b[key]) / max(abs(a[key]), abs(b[key]))
+            for key in a
+            if key in b and max(abs(a[key]), abs(b[key])) > 1e-9
+        }
         worst = max(diffs, key=diffs.get)
-        print(f"| {name} | {100 * diffs[worst]:.2f} % | {worst} ({a[worst]:.4g} vs {b[worst]:.4g}) |")
+        print(
+            f"| {name} | {100 * diffs[worst]:.2f} % | {worst} ({a[worst]:.4g} vs {b[worst]:.4g}) |"
+        )
     same = verdicts(first["claims"]) == verdicts(second["claims"])
-    print(f"\nclaims' verdicts: {'the same' if same else 'DIFFERENT'} ({len(verdicts(first['claims']))} verdicts)")
+    print(
+        f"\nclaims' verdicts: {'the same' if same else 'DIFFERENT'} ({len(verdicts(first['claims']))} verdicts)"
+    )
 
 
 if __name__ == "__main__":

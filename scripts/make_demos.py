@@ -27,17 +27,17 @@ ROOT = Path(__file__).resolve().parent.parent
 # (time at which the waypoint is reached [s], tool point [m]) per task
 WAYPOINTS = {
     "insertion": [
-        (0.0, (0.55, -0.05, 0.45)),   # start: above and beside the plank
-        (2.0, (0.60, 0.00, 0.36)),    # approach: 3 cm above the top face
-        (5.5, (0.60, 0.00, 0.26)),    # push through: 4 cm below the bottom face
-        (6.0, (0.60, 0.00, 0.26)),    # hold
-        (8.5, (0.60, 0.00, 0.42)),    # retreat: back up out of the plank
+        (0.0, (0.55, -0.05, 0.45)),  # start: above and beside the plank
+        (2.0, (0.60, 0.00, 0.36)),  # approach: 3 cm above the top face
+        (5.5, (0.60, 0.00, 0.26)),  # push through: 4 cm below the bottom face
+        (6.0, (0.60, 0.00, 0.26)),  # hold
+        (8.5, (0.60, 0.00, 0.42)),  # retreat: back up out of the plank
     ],
     "cutting": [
-        (0.0, (0.60, -0.10, 0.34)),   # start: 7 cm above the block
+        (0.0, (0.60, -0.10, 0.34)),  # start: 7 cm above the block
         (2.0, (0.60, -0.10, 0.255)),  # reach down: the edge 1.5 cm into the block
-        (6.0, (0.62, 0.08, 0.255)),   # cut along y, drifting in x, pressing lightly
-        (8.0, (0.62, 0.08, 0.34)),    # lift back to the start height
+        (6.0, (0.62, 0.08, 0.255)),  # cut along y, drifting in x, pressing lightly
+        (8.0, (0.62, 0.08, 0.34)),  # lift back to the start height
     ],
 }
 

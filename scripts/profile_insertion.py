@@ -17,9 +17,16 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=5.0)
     parser.add_argument("--top", type=int, default=15)
-    parser.add_argument("--path", choices=("fast", "modular"), default="fast", help="the control path (task.control_path)")
+    parser.add_argument(
+        "--path",
+        choices=("fast", "modular"),
+        default="fast",
+        help="the control path (task.control_path)",
+    )
     args = parser.parse_args()
-    scenario, _ = load_scenario("insertion", [f"duration_s={args.seconds}", f"task.control_path={args.path}"])
+    scenario, _ = load_scenario(
+        "insertion", [f"duration_s={args.seconds}", f"task.control_path={args.path}"]
+    )
     built = diagram_factory(scenario)("hlcmp")
     profile = cProfile.Profile()
     profile.enable()

@@ -43,7 +43,12 @@ def main() -> None:
     tick = arm_tick(scenario, "hlcmp", plant, setup)
     rng = np.random.default_rng(0)
     state = np.concatenate([setup.q0 + 0.01, rng.normal(0, 0.1, 7)])
-    reference = (setup.dmp.start, np.array([0.0, 0.0, -0.03]), np.array([0.0, 0.0, 0.01]), np.array([0.5]))
+    reference = (
+        setup.dmp.start,
+        np.array([0.0, 0.0, -0.03]),
+        np.array([0.0, 0.0, 0.01]),
+        np.array([0.5]),
+    )
     theta = rng.uniform(0, 100, tick.law.theta_size)
     driver = SimulatedIiwaDriver(scenario, DrakeLcm("memq://"), setup)
     big = np.random.rand(4_000_000)

@@ -10,34 +10,46 @@
         --bench out/bench --sweeps out/sweeps
 """
 
-import json
-
 import argparse
+import json
 import shutil
 from pathlib import Path
 
 from hlcmp_drake.experiments import EXPERIMENTS
 from hlcmp_drake.present.report import update_readme, write_block
-from hlcmp_drake.present.tables import to_markdown
 from hlcmp_drake.present.sweep import sweep_table
+from hlcmp_drake.present.tables import to_markdown
 from hlcmp_drake.run.benchmark import table as bench_table
 from hlcmp_drake.run.learning import trials_table
 
 ROOT = Path(__file__).resolve().parent.parent
 # The README's blocks made from bundled sweeps: sweep file name (diagrams/sweeps/NAME.yaml,
 # run into SWEEPS/NAME) -> block name.
-SWEEP_BLOCKS = {"one_dof_sensitivity": "one_dof sensitivity", "insertion_learning_rate": "insertion learning rate"}
+SWEEP_BLOCKS = {
+    "one_dof_sensitivity": "one_dof sensitivity",
+    "insertion_learning_rate": "insertion learning rate",
+}
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--runs", type=Path, default=ROOT / "out" / "report",
-                        help="folder with one sub-folder per scenario (default out/report)")
+    parser.add_argument(
+        "--runs",
+        type=Path,
+        default=ROOT / "out" / "report",
+        help="folder with one sub-folder per scenario (default out/report)",
+    )
     parser.add_argument("--learn", type=Path, help="an `hlcmp learn` output folder")
     parser.add_argument("--bench", type=Path, help="an `hlcmp bench` output folder (bench.json)")
-    parser.add_argument("--reproduce", type=Path, help="an `hlcmp reproduce --freeze` output folder")
-    parser.add_argument("--sweeps", type=Path, help="a folder with one `hlcmp sweep` output folder per bundled "
-                                                    f"sweep ({', '.join(SWEEP_BLOCKS)}); each found fills its block")
+    parser.add_argument(
+        "--reproduce", type=Path, help="an `hlcmp reproduce --freeze` output folder"
+    )
+    parser.add_argument(
+        "--sweeps",
+        type=Path,
+        help="a folder with one `hlcmp sweep` output folder per bundled "
+        f"sweep ({', '.join(SWEEP_BLOCKS)}); each found fills its block",
+    )
     args = parser.parse_args()
     if args.sweeps:
         for name, block in SWEEP_BLOCKS.items():
@@ -45,28 +57,49 @@ def main():
             if summary_path.exists():
                 summary = json.loads(summary_path.read_text())
                 if summary["counts"]["pending"] or summary["counts"]["error"]:
-                    parser.error(f"{summary_path}: the sweep is not finished (run it again to complete it)")
-                write_block(ROOT / "README.md", block, to_markdown(sweep_table(summary), code_first_column=False))
+                    parser.error(
+                        f"{summary_path}: the sweep is not finished (run it again to complete it)"
+                    )
+                write_block(
+                    ROOT / "README.md",
+                    block,
+                    to_markdown(sweep_table(summary), code_first_column=False),
+                )
     if args.learn:
         learn = json.loads((args.learn / "metrics.json").read_text())
-        replay = json.loads((args.reproduce / "metrics.json").read_text()) if args.reproduce else None
+        replay = (
+            json.loads((args.reproduce / "metrics.json").read_text()) if args.reproduce else None
+        )
         better = learn["improves_over_trials"] or {}
-        verdict = ", ".join(f"{key.replace('_', ' ')}: {'better' if ok else 'not better'}" for key, ok in better.items())
-        write_block(ROOT / "README.md", "learning results",
-                    to_markdown(trials_table(learn, replay), code_first_column=False)
-                    + f"\nLast trial against the first -- {verdict}.\n")
+        verdict = ", ".join(
+            f"{key.replace('_', ' ')}: {'better' if ok else 'not better'}"
+            for key, ok in better.items()
+        )
+        write_block(
+            ROOT / "README.md",
+            "learning results",
+            to_markdown(trials_table(learn, replay), code_first_column=False)
+            + f"\nLast trial against the first -- {verdict}.\n",
+        )
     if args.bench:
-        table = to_markdown(bench_table(json.loads((args.bench / "bench.json").read_text())), code_first_column=False)
+        table = to_markdown(
+            bench_table(json.loads((args.bench / "bench.json").read_text())),
+            code_first_column=False,
+        )
         for document in (ROOT / "README.md", ROOT / "docs" / "performance.md"):
             write_block(document, "benchmark", table)
-    run_dirs = {name: args.runs / name for name in EXPERIMENTS if (args.runs / name / "metrics.json").exists()}
+    run_dirs = {
+        name: args.runs / name
+        for name in EXPERIMENTS
+        if (args.runs / name / "metrics.json").exists()
+    }
     update_readme(ROOT / "README.md", run_dirs)
     for name, run_dir in run_dirs.items():
         target = ROOT / "docs" / "figures" / name
         target.mkdir(parents=True, exist_ok=True)
         for figure in (run_dir / "figures").glob("*.png"):
             shutil.copy(figure, target / figure.name)
-        if (run_dir / "probe" / "probe.png").exists():   # hlcmp report probes each arm world
+        if (run_dir / "probe" / "probe.png").exists():  # hlcmp report probes each arm world
             shutil.copy(run_dir / "probe" / "probe.png", target / "probe.png")
     print(f"README.md and docs/figures updated from {', '.join(map(str, run_dirs.values()))}")
 

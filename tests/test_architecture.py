@@ -29,8 +29,12 @@ def _imports(path: Path, modules) -> set:
             names = [alias.name for alias in node.names]
         elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
             # `from pkg import sub` imports the submodule when there is one
-            names = [f"{node.module}.{alias.name}" if f"{node.module}.{alias.name}" in modules else node.module
-                     for alias in node.names]
+            names = [
+                f"{node.module}.{alias.name}"
+                if f"{node.module}.{alias.name}" in modules
+                else node.module
+                for alias in node.names
+            ]
         else:
             continue
         found |= {name for name in names if name in modules}
@@ -57,7 +61,7 @@ def find_cycle(graph):
         stack.append(node)
         for target in sorted(graph.get(node, ())):
             if state.get(target) == "open":
-                return stack[stack.index(target):] + [target]
+                return stack[stack.index(target) :] + [target]
             if target not in state:
                 cycle = visit(target)
                 if cycle:
@@ -90,9 +94,13 @@ def _layer(module: str):
 
 
 def test_each_layer_imports_only_from_the_layers_before_it():
-    bad = [f"{module} imports {target}"
-           for module, targets in _graph().items() if _layer(module) is not None
-           for target in targets if _layer(target) is not None and _layer(target) > _layer(module)]
+    bad = [
+        f"{module} imports {target}"
+        for module, targets in _graph().items()
+        if _layer(module) is not None
+        for target in targets
+        if _layer(target) is not None and _layer(target) > _layer(module)
+    ]
     assert not bad, bad
 
 
@@ -100,15 +108,26 @@ def test_the_numpy_core_never_imports_drake():
     for name, path in _modules().items():
         if name.startswith("hlcmp_drake.core"):
             tree = ast.parse(path.read_text())
-            imported = [alias.name for node in ast.walk(tree) if isinstance(node, ast.Import) for alias in node.names]
-            imported += [node.module or "" for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)]
+            imported = [
+                alias.name
+                for node in ast.walk(tree)
+                if isinstance(node, ast.Import)
+                for alias in node.names
+            ]
+            imported += [
+                node.module or "" for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)
+            ]
             assert not [m for m in imported if m.startswith("pydrake")], name
 
 
 def test_the_config_layer_imports_no_world_or_experiment():
     for module, targets in _graph().items():
         if module.startswith("hlcmp_drake.config"):
-            assert not [t for t in targets if t.startswith(("hlcmp_drake.worlds", "hlcmp_drake.experiments"))]
+            assert not [
+                t
+                for t in targets
+                if t.startswith(("hlcmp_drake.worlds", "hlcmp_drake.experiments"))
+            ]
 
 
 def test_no_print_in_library_modules():
@@ -117,7 +136,11 @@ def test_no_print_in_library_modules():
         if name in MAY_PRINT:
             continue
         for node in ast.walk(ast.parse(path.read_text())):
-            if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "print":
+            if (
+                isinstance(node, ast.Call)
+                and isinstance(node.func, ast.Name)
+                and node.func.id == "print"
+            ):
                 offenders.append(f"{name}:{node.lineno}")
     assert not offenders, offenders
 

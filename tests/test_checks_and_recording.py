@@ -2,7 +2,6 @@
 
 import numpy as np
 import pytest
-
 from pydrake.geometry import Meshcat
 
 from hlcmp_drake.config.loading import load_scenario
@@ -41,7 +40,7 @@ def test_a_too_fast_demonstration_is_refused(insertion):
 def test_a_recording_replays_each_run_under_its_label():
     scenario, _ = load_scenario("one_dof")
     t = np.linspace(0.0, 0.5, 51)
-    state = np.column_stack([-0.1 * t, -0.1 * np.ones_like(t)])      # q, v of the slider
+    state = np.column_stack([-0.1 * t, -0.1 * np.ones_like(t)])  # q, v of the slider
     runs = {label: RunResult(label, t, {"plant_state": state}) for label in ("learner", "baseline")}
     meshcat = Meshcat()
     html = record_runs(scenario, runs, meshcat)
@@ -58,4 +57,4 @@ def test_a_live_meshcat_shows_each_run_while_it_simulates(tmp_path):
     run_scenario("one_dof", tmp_path, overrides=["duration_s=0.3"], meshcat=meshcat)
     for label in ("hlcmp", "hlcmp_per_step", "vic_fd_0.5"):
         assert meshcat.HasPath(f"/drake/runs/{label}")
-    assert (tmp_path / "recording.html").exists()   # the offline recording is still written
+    assert (tmp_path / "recording.html").exists()  # the offline recording is still written

@@ -10,8 +10,13 @@ from hlcmp_drake.io.demos import read_demonstration
 
 
 def hlcmp(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "hlcmp_drake.cli", *map(str, args)],
-                          capture_output=True, text=True, cwd=cwd, timeout=120)
+    return subprocess.run(
+        [sys.executable, "-m", "hlcmp_drake.cli", *map(str, args)],
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+        timeout=120,
+    )
 
 
 def write_demo(path, t, positions, header="t,x,y,z"):
@@ -25,8 +30,18 @@ def test_fit_then_rollout_with_new_goal_and_duration(tmp_path, smooth_demo):
     fit = hlcmp("fit", demo, "--out", tmp_path / "skill.npz", "--basis", 25)
     assert fit.returncode == 0, fit.stderr
     out = tmp_path / "traj.csv"
-    roll = hlcmp("rollout", tmp_path / "skill.npz", "--out", out, "--duration", 4, "--goal",
-                 "0.35,-0.1,0.1", "--dt", 0.01)
+    roll = hlcmp(
+        "rollout",
+        tmp_path / "skill.npz",
+        "--out",
+        out,
+        "--duration",
+        4,
+        "--goal",
+        "0.35,-0.1,0.1",
+        "--dt",
+        0.01,
+    )
     assert roll.returncode == 0, roll.stderr
     t, positions, axes = read_demonstration(out)
     assert axes == ("x", "y", "z")
@@ -38,20 +53,26 @@ def test_fit_then_rollout_with_new_goal_and_duration(tmp_path, smooth_demo):
 GOOD = "t,x\n" + "".join(f"{k * 0.1:.1f},{k * 0.01:.2f}\n" for k in range(12))
 
 
-@pytest.mark.parametrize("content, expected", [
-    (None, "no such file"),
-    ("", "the file is empty"),
-    ("x,y\n1,2\n", ":1: the first column must be 't'"),
-    ("t\n" + "".join(f"{k},\n" for k in range(12)), ":1: no position column"),
-    ("t,x,w\n0,1,2\n", ":1: unknown column 'w'"),
-    ("t,z,x\n0,1,2\n", ":1: position columns must be in the order x, y, z"),
-    (GOOD.replace("0.3,0.03", "0.3,abc"), ":5: column 'x' is not a number: 'abc'"),
-    (GOOD.replace("0.3,0.03", "0.3,nan"), ":5: column 'x' is not finite"),
-    (GOOD.replace("0.3,0.03", "0.3,inf"), ":5: column 'x' is not finite"),
-    (GOOD.replace("0.3,0.03", "0.1,0.03"), ":5: time must increase strictly"),
-    (GOOD.replace("0.3,0.03", "0.3"), ":5: expected 2 values (t,x), found 1"),
-    ("t,x\n" + "".join(f"{k},{k}\n" for k in range(5)), "5 samples; a demonstration needs at least 10"),
-])
+@pytest.mark.parametrize(
+    "content, expected",
+    [
+        (None, "no such file"),
+        ("", "the file is empty"),
+        ("x,y\n1,2\n", ":1: the first column must be 't'"),
+        ("t\n" + "".join(f"{k},\n" for k in range(12)), ":1: no position column"),
+        ("t,x,w\n0,1,2\n", ":1: unknown column 'w'"),
+        ("t,z,x\n0,1,2\n", ":1: position columns must be in the order x, y, z"),
+        (GOOD.replace("0.3,0.03", "0.3,abc"), ":5: column 'x' is not a number: 'abc'"),
+        (GOOD.replace("0.3,0.03", "0.3,nan"), ":5: column 'x' is not finite"),
+        (GOOD.replace("0.3,0.03", "0.3,inf"), ":5: column 'x' is not finite"),
+        (GOOD.replace("0.3,0.03", "0.1,0.03"), ":5: time must increase strictly"),
+        (GOOD.replace("0.3,0.03", "0.3"), ":5: expected 2 values (t,x), found 1"),
+        (
+            "t,x\n" + "".join(f"{k},{k}\n" for k in range(5)),
+            "5 samples; a demonstration needs at least 10",
+        ),
+    ],
+)
 def test_bad_demonstrations_exit_2_with_one_line(tmp_path, content, expected):
     demo = tmp_path / "demo.csv"
     if content is not None:
@@ -71,22 +92,39 @@ def test_good_one_axis_demo_is_accepted(tmp_path):
     assert hlcmp("fit", demo, "--out", tmp_path / "s.npz").returncode == 0
 
 
-@pytest.mark.parametrize("args, expected", [
-    (["rollout", "SKILL", "--out", "T", "--goal", "1,2"], "--goal: the skill has 3 axes"),
-    (["rollout", "SKILL", "--out", "T", "--goal", "a,b,c"], "--goal: expected comma-separated numbers"),
-    (["rollout", "SKILL", "--out", "T", "--dt", "-1"], "must be a positive number"),
-    (["fit", "DEMO", "--out", "S", "--basis", "1"], "--basis: n_basis must be at least 2"),
-    (["rollout", "NOSKILL", "--out", "T"], "no such file"),
-    (["run", "no_such_scenario"], "not a bundled scenario"),
-    (["frobnicate"], "invalid choice"),
-    (["learn", "DEMO", "--scenario", "one_dof", "--out", "T"], "does not follow a demonstration"),
-    (["learn", "DEMO", "--scenario", "insertion", "--out", "T", "--trials", "0"], "must be between 1 and 100"),
-])
+@pytest.mark.parametrize(
+    "args, expected",
+    [
+        (["rollout", "SKILL", "--out", "T", "--goal", "1,2"], "--goal: the skill has 3 axes"),
+        (
+            ["rollout", "SKILL", "--out", "T", "--goal", "a,b,c"],
+            "--goal: expected comma-separated numbers",
+        ),
+        (["rollout", "SKILL", "--out", "T", "--dt", "-1"], "must be a positive number"),
+        (["fit", "DEMO", "--out", "S", "--basis", "1"], "--basis: n_basis must be at least 2"),
+        (["rollout", "NOSKILL", "--out", "T"], "no such file"),
+        (["run", "no_such_scenario"], "not a bundled scenario"),
+        (["frobnicate"], "invalid choice"),
+        (
+            ["learn", "DEMO", "--scenario", "one_dof", "--out", "T"],
+            "does not follow a demonstration",
+        ),
+        (
+            ["learn", "DEMO", "--scenario", "insertion", "--out", "T", "--trials", "0"],
+            "must be between 1 and 100",
+        ),
+    ],
+)
 def test_bad_arguments_exit_2_with_one_line(tmp_path, smooth_demo, args, expected):
     demo = write_demo(tmp_path / "demo.csv", *smooth_demo)
     assert hlcmp("fit", demo, "--out", tmp_path / "skill.npz").returncode == 0
-    names = {"SKILL": tmp_path / "skill.npz", "T": tmp_path / "t.csv", "DEMO": demo,
-             "S": tmp_path / "s2.npz", "NOSKILL": tmp_path / "missing.npz"}
+    names = {
+        "SKILL": tmp_path / "skill.npz",
+        "T": tmp_path / "t.csv",
+        "DEMO": demo,
+        "S": tmp_path / "s2.npz",
+        "NOSKILL": tmp_path / "missing.npz",
+    }
     result = hlcmp(*[names.get(a, a) for a in args])
     assert result.returncode == 2
     assert len(result.stderr.strip().splitlines()) == 1, result.stderr
@@ -115,11 +153,23 @@ def test_drake_models_without_internet_is_one_clear_line(tmp_path):
 def test_debug_shows_the_traceback(tmp_path):
     result = hlcmp("--debug", "fit", tmp_path / "missing.csv", "--out", tmp_path / "s.npz")
     assert result.returncode != 0
-    assert "Traceback" in result.stderr and "InputError" in result.stderr and "no such file" in result.stderr
+    assert (
+        "Traceback" in result.stderr
+        and "InputError" in result.stderr
+        and "no such file" in result.stderr
+    )
 
 
-@pytest.mark.parametrize("command", [["run", "one_dof"], ["learn", "DEMO", "--scenario", "insertion"],
-                                     ["probe", "insertion"], ["report"], ["bench"]])
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["run", "one_dof"],
+        ["learn", "DEMO", "--scenario", "insertion"],
+        ["probe", "insertion"],
+        ["report"],
+        ["bench"],
+    ],
+)
 def test_an_output_folder_that_is_a_file_is_refused_before_any_work(tmp_path, command):
     import time
 
@@ -129,7 +179,9 @@ def test_an_output_folder_that_is_a_file_is_refused_before_any_work(tmp_path, co
     start = time.perf_counter()
     result = hlcmp(*[demo if a == "DEMO" else a for a in command], "--out", blocker)
     assert result.returncode == 2 and time.perf_counter() - start < 10
-    assert result.stderr.strip().splitlines() == [f"hlcmp: error: --out {blocker}: is a file, not a folder"]
+    assert result.stderr.strip().splitlines() == [
+        f"hlcmp: error: --out {blocker}: is a file, not a folder"
+    ]
     assert blocker.read_text() == "keep me"
 
 
@@ -151,4 +203,8 @@ def test_a_text_file_given_as_a_skill_gets_its_own_message(tmp_path):
     fake = tmp_path / "skill.npz"
     fake.write_text("t,x\n0,1\n")
     result = hlcmp("rollout", fake, "--out", tmp_path / "t.csv")
-    assert result.returncode == 2 and "not a skill file" in result.stderr and "allow_pickle" not in result.stderr
+    assert (
+        result.returncode == 2
+        and "not a skill file" in result.stderr
+        and "allow_pickle" not in result.stderr
+    )

@@ -3,17 +3,23 @@
 import numpy as np
 import pytest
 
-from hlcmp_drake.core.metrics import (force_smoothness, max_abs_force, mean_abs_force,
-                                      mean_abs_position_error, settle_time, value_at)
+from hlcmp_drake.core.metrics import (
+    force_smoothness,
+    max_abs_force,
+    mean_abs_force,
+    mean_abs_position_error,
+    settle_time,
+    value_at,
+)
 
 
 def test_settle_time_is_the_start_of_the_last_stretch_inside():
     t = np.arange(0.0, 1.0, 0.1)
     x = np.array([0.0, 0.5, 0.9, 1.0, 1.2, 1.0, 1.0, 1.0, 1.0, 1.0])
-    assert settle_time(t, x, 1.0, 0.05, 0.0, 2.0) == pytest.approx(0.5)   # 1.2 at 0.4 s breaks it
+    assert settle_time(t, x, 1.0, 0.05, 0.0, 2.0) == pytest.approx(0.5)  # 1.2 at 0.4 s breaks it
     assert settle_time(t, x, 1.0, 0.25, 0.0, 2.0) == pytest.approx(0.2)
-    assert settle_time(t, x, 2.0, 0.05, 0.0, 2.0) is None                  # never there
-    assert settle_time(t, x, 1.0, 0.05, 0.0, 0.45) is None                 # not inside at the window's end
+    assert settle_time(t, x, 2.0, 0.05, 0.0, 2.0) is None  # never there
+    assert settle_time(t, x, 1.0, 0.05, 0.0, 0.45) is None  # not inside at the window's end
 
 
 def test_value_at_interpolates():
@@ -28,7 +34,7 @@ def test_per_axis_means_and_peaks():
 
 
 def test_smoothness_is_the_sum_of_second_differences():
-    f = np.array([[0.0], [1.0], [4.0], [9.0]])     # second differences 2, 2
+    f = np.array([[0.0], [1.0], [4.0], [9.0]])  # second differences 2, 2
     assert force_smoothness(f)[0] == pytest.approx(4.0)
     assert force_smoothness(np.linspace(0, 5, 20)[:, None])[0] == pytest.approx(0.0, abs=1e-12)
 
@@ -36,10 +42,10 @@ def test_smoothness_is_the_sum_of_second_differences():
 def test_probe_readings_by_hand():
     from hlcmp_drake.core.metrics import probe_readings
 
-    distance = np.arange(61) * 0.001 - 0.01            # 1 mm steps; contact from sample 11 (1 mm)
+    distance = np.arange(61) * 0.001 - 0.01  # 1 mm steps; contact from sample 11 (1 mm)
     resisting = np.zeros(61)
-    resisting[10:30] = 500 * distance[10:30]          # rises to 9.5 N at 19 mm ...
-    resisting[30:] = 3.0                               # ... then the foam gives way
+    resisting[10:30] = 500 * distance[10:30]  # rises to 9.5 N at 19 mm ...
+    resisting[30:] = 3.0  # ... then the foam gives way
     lateral = np.full(61, 0.1)
     lateral[40] = -0.4
     in_push = np.ones(61, bool)

@@ -6,13 +6,13 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from hlcmp_drake.worlds.arm import fit_demonstration
-from hlcmp_drake.experiments import cutting
-from hlcmp_drake.present.report import results_markdown
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.scenario import ArmTask, HlcmpConfig
+from hlcmp_drake.experiments import cutting
+from hlcmp_drake.present.report import results_markdown
+from hlcmp_drake.worlds.arm import fit_demonstration
 
-REPO_ROOT = Path(__file__).resolve().parents[1]   # the checkout (README.md, scripts/, .ci/)
+REPO_ROOT = Path(__file__).resolve().parents[1]  # the checkout (README.md, scripts/, .ci/)
 
 CONTROLLERS = ["hlcmp", "hlcmp_per_step", "const_500", "const_1000"]
 
@@ -32,24 +32,32 @@ def test_the_dmp_brings_z_back_to_the_start_height():
     dmp = fit_demonstration(scenario)
     assert list(dmp.goal_scaled) == [True, True, False]
     t, p, *_ = dmp.rollout(duration=dmp.tau + 1.0)
-    assert p[:, 2].min() < dmp.start[2] - 0.08        # it goes down into the block ...
-    assert abs(p[-1, 2] - dmp.start[2]) < 1e-3         # ... and comes back up
+    assert p[:, 2].min() < dmp.start[2] - 0.08  # it goes down into the block ...
+    assert abs(p[-1, 2] - dmp.start[2]) < 1e-3  # ... and comes back up
     np.testing.assert_allclose(p[-1], dmp.goal, atol=1e-3)
 
 
 def test_run_writes_the_contract_and_its_metrics_agree(cutting_run):
     metrics = json.loads((cutting_run / "metrics.json").read_text())
     assert metrics["status"] == "ok" and list(metrics["controllers"]) == CONTROLLERS
-    assert list(metrics["claims"]) == ["hlcmp", "hlcmp_per_step"]   # one set of claims per reading of Q
+    assert list(metrics["claims"]) == [
+        "hlcmp",
+        "hlcmp_per_step",
+    ]  # one set of claims per reading of Q
     assert all(set(claims) == {"C2", "C3"} for claims in metrics["claims"].values())
     data = np.load(cutting_run / "timeseries.npz")
     scenario, _ = load_scenario("cutting")
     for name in CONTROLLERS:
-        series = {key.split("/", 1)[1]: data[key] for key in data.files if key.startswith(f"{name}/")}
+        series = {
+            key.split("/", 1)[1]: data[key] for key in data.files if key.startswith(f"{name}/")
+        }
         assert series["f_ext"].shape == (len(data["t"]), 3)
-        assert cutting.controller_metrics(SimpleNamespace(t=data["t"], series=series),
-                                          scenario.controllers[name], scenario) == \
-            metrics["controllers"][name]
+        assert (
+            cutting.controller_metrics(
+                SimpleNamespace(t=data["t"], series=series), scenario.controllers[name], scenario
+            )
+            == metrics["controllers"][name]
+        )
     for figure in ("fig11_profiles_xyz.png", "fig12_force_z_smoothness.png"):
         assert (cutting_run / "figures" / figure).read_bytes()[:4] == b"\x89PNG"
     assert (cutting_run / "recording.html").stat().st_size > 100_000
@@ -61,13 +69,15 @@ def test_the_blade_cuts_through_the_block(cutting_run):
     cutting_phase = (t > 2.5) & (t < 5.5)
     for name in ("const_500", "const_1000"):
         z, f = data[f"{name}/x"][:, 2], data[f"{name}/f_ext"]
-        assert np.all(z[cutting_phase] < 0.27)                 # the edge is inside the block
-        assert np.all(f[cutting_phase, 1] < 0)                 # the block resists the cut along +y
-        assert np.all(f[cutting_phase, 2] > 0)                 # and pushes the blade up
+        assert np.all(z[cutting_phase] < 0.27)  # the edge is inside the block
+        assert np.all(f[cutting_phase, 1] < 0)  # the block resists the cut along +y
+        assert np.all(f[cutting_phase, 2] > 0)  # and pushes the blade up
 
 
 def test_readme_results_come_from_this_run(cutting_run):
     metrics = json.loads((cutting_run / "metrics.json").read_text())
     readme = (REPO_ROOT / "README.md").read_text()
-    block = readme.split("<!-- BEGIN cutting results -->\n")[1].split("<!-- END cutting results -->")[0]
+    block = readme.split("<!-- BEGIN cutting results -->\n")[1].split(
+        "<!-- END cutting results -->"
+    )[0]
     assert block == results_markdown(metrics, cutting.EXPERIMENT)

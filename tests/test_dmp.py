@@ -1,13 +1,24 @@
 import numpy as np
 import pytest
 
-from hlcmp_drake.core.dmp import (Dmp, DmpSettings, basis_centers_and_widths, forcing_basis,
-                             forcing_target, normalized_basis, phase_at, rbf_activations,
-                             resample_and_differentiate, transformation_rates)
+from hlcmp_drake.core.dmp import (
+    Dmp,
+    DmpSettings,
+    basis_centers_and_widths,
+    forcing_basis,
+    forcing_target,
+    normalized_basis,
+    phase_at,
+    rbf_activations,
+    resample_and_differentiate,
+    transformation_rates,
+)
 
 
 def _interp(t_new, t, positions):
-    return np.column_stack([np.interp(t_new, t, positions[:, m]) for m in range(positions.shape[1])])
+    return np.column_stack(
+        [np.interp(t_new, t, positions[:, m]) for m in range(positions.shape[1])]
+    )
 
 
 def test_normalized_basis_is_a_partition_of_unity():
@@ -17,8 +28,9 @@ def test_normalized_basis_is_a_partition_of_unity():
     assert g.shape == (50, 20)
     np.testing.assert_allclose(g.sum(axis=1), 1.0)
     # Eq. 10 directly
-    np.testing.assert_allclose(rbf_activations(0.5, centers, widths),
-                               np.exp(-0.5 * widths * (0.5 - centers) ** 2))
+    np.testing.assert_allclose(
+        rbf_activations(0.5, centers, widths), np.exp(-0.5 * widths * (0.5 - centers) ** 2)
+    )
 
 
 def test_forcing_basis_scales_with_phase_and_amplitude():
@@ -75,8 +87,8 @@ def test_goal_equal_to_start_axis_is_reproduced():
     t_r, p, *_ = dmp.rollout(dt=0.002)
     error = np.abs(p - _interp(t_r, t, positions)).max(axis=0) / np.ptp(positions, axis=0)
     assert np.all(error < 0.01), error
-    assert p[:, 1].min() == pytest.approx(0.3, abs=0.002)   # it does go down
-    assert p[-1, 1] == pytest.approx(0.4, abs=0.002)        # and comes back up
+    assert p[:, 1].min() == pytest.approx(0.3, abs=0.002)  # it does go down
+    assert p[-1, 1] == pytest.approx(0.4, abs=0.002)  # and comes back up
 
 
 def test_without_the_substitute_amplitude_the_flat_axis_is_lost():
@@ -84,8 +96,16 @@ def test_without_the_substitute_amplitude_the_flat_axis_is_lost():
     t = np.linspace(0, 3, 601)
     z = 0.4 - 0.1 * np.sin(np.pi * t / 3) ** 2
     dmp = Dmp.fit(t, z[:, None], ("z",))
-    broken = Dmp(dmp.settings, dmp.tau, dmp.start, dmp.goal, dmp.theta_p,
-                 np.array([dmp.goal[0] - dmp.start[0]]), np.array([True]), ("z",))
+    broken = Dmp(
+        dmp.settings,
+        dmp.tau,
+        dmp.start,
+        dmp.goal,
+        dmp.theta_p,
+        np.array([dmp.goal[0] - dmp.start[0]]),
+        np.array([True]),
+        ("z",),
+    )
     _, p, *_ = broken.rollout(dt=0.002)
     assert p[:, 0].min() > 0.39
 
@@ -115,7 +135,7 @@ def test_settings_validation():
         DmpSettings(n_basis=1)
     assert DmpSettings(alpha=40).beta_value == 10
     settings = DmpSettings()
-    settings.alpha = 40   # as the YAML loader sets it: beta follows alpha
+    settings.alpha = 40  # as the YAML loader sets it: beta follows alpha
     assert settings.beta_value == 10
 
 

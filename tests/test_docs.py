@@ -21,8 +21,11 @@ def _public_definitions():
                 if isinstance(node, ast.ClassDef):
                     for method in node.body:
                         # Drake's own overrides (DoCalc...) are documented by Drake.
-                        if (isinstance(method, ast.FunctionDef) and not method.name.startswith("_")
-                                and not method.name.startswith("Do")):
+                        if (
+                            isinstance(method, ast.FunctionDef)
+                            and not method.name.startswith("_")
+                            and not method.name.startswith("Do")
+                        ):
                             yield path, method
 
 
@@ -37,7 +40,9 @@ def _problems(path, node):
     problems = []
     if args and "Parameters" not in doc:
         problems.append(f"{where}: no Parameters section")
-    if any(a.annotation is None for a in args) or (node.returns is None and node.name != "__init__"):
+    if any(a.annotation is None for a in args) or (
+        node.returns is None and node.name != "__init__"
+    ):
         problems.append(f"{where}: signature without type hints")
     return problems
 

@@ -12,10 +12,22 @@ from hlcmp_drake.io.paths import MODELS_DIR
 
 SDF = (MODELS_DIR / "iiwa14.sdf").read_text()
 EFFORT = [320, 320, 176, 176, 110, 40, 40]
-VELOCITY = [1.4835298641951802] * 2 + [1.7453292519943295, 1.3089969389957472,
-                                       2.2689280275926285, 2.356194490192345, 2.356194490192345]
-LIMITS = [2.96705972839, 2.09439510239, 2.96705972839, 2.09439510239, 2.96705972839,
-          2.09439510239, 3.05432619099]
+VELOCITY = [1.4835298641951802] * 2 + [
+    1.7453292519943295,
+    1.3089969389957472,
+    2.2689280275926285,
+    2.356194490192345,
+    2.356194490192345,
+]
+LIMITS = [
+    2.96705972839,
+    2.09439510239,
+    2.96705972839,
+    2.09439510239,
+    2.96705972839,
+    2.09439510239,
+    3.05432619099,
+]
 
 
 def _arm(text=SDF):
@@ -29,7 +41,9 @@ def _arm(text=SDF):
 def test_mass_and_upright_height():
     plant, context = _arm()
     instance = plant.GetModelInstanceByName("iiwa14")
-    assert sum(plant.get_body(b).default_mass() for b in plant.GetBodyIndices(instance)) == pytest.approx(30.61)
+    assert sum(
+        plant.get_body(b).default_mass() for b in plant.GetBodyIndices(instance)
+    ) == pytest.approx(30.61)
     link7 = plant.GetFrameByName("iiwa_link_7").CalcPoseInWorld(context).translation()
     np.testing.assert_allclose(link7, [0, 0, 1.261], atol=1e-9)
     flange = plant.GetFrameByName("flange").CalcPoseInWorld(context).translation()
@@ -43,12 +57,16 @@ def test_joint_limits_efforts_and_actuators():
         joint = plant.GetJointByName(f"iiwa_joint_{i + 1}")
         assert joint.position_upper_limits()[0] == pytest.approx(LIMITS[i])
         assert joint.velocity_upper_limits()[0] == pytest.approx(VELOCITY[i])
-        assert plant.get_joint_actuator(plant.GetJointActuatorIndices()[i]).effort_limit() == EFFORT[i]
+        assert (
+            plant.get_joint_actuator(plant.GetJointActuatorIndices()[i]).effort_limit() == EFFORT[i]
+        )
 
 
 def test_reflected_rotor_inertia_on_the_mass_matrix_diagonal():
     plant, context = _arm()
-    bare, bare_context = _arm(re.sub(r"<drake:(rotor_inertia|gear_ratio)>[^<]*</drake:\w+>", "", SDF))
+    bare, bare_context = _arm(
+        re.sub(r"<drake:(rotor_inertia|gear_ratio)>[^<]*</drake:\w+>", "", SDF)
+    )
     q = np.array([0.3, -0.5, 0.2, -1.2, 0.4, 0.9, -0.3])
     plant.SetPositions(context, q)
     bare.SetPositions(bare_context, q)
@@ -66,8 +84,14 @@ def test_gravity_torques_match_the_sum_over_link_masses():
     for index in plant.GetBodyIndices(plant.GetModelInstanceByName("iiwa14")):
         body = plant.get_body(index)
         com = body.CalcCenterOfMassInBodyFrame(context).reshape(3, 1)
-        jac = plant.CalcJacobianTranslationalVelocity(context, JacobianWrtVariable.kV, body.body_frame(),
-                                                      com, plant.world_frame(), plant.world_frame())
+        jac = plant.CalcJacobianTranslationalVelocity(
+            context,
+            JacobianWrtVariable.kV,
+            body.body_frame(),
+            com,
+            plant.world_frame(),
+            plant.world_frame(),
+        )
         expected -= jac.T @ (body.default_mass() * g)
     np.testing.assert_allclose(-plant.CalcGravityGeneralizedForces(context), expected, atol=1e-9)
     # and a number to hold on to: joint 2 carries the most at this pose

@@ -3,9 +3,15 @@
 import numpy as np
 
 from hlcmp_drake.core.adaptation import adaptation_rates, compliant_profiles
+from hlcmp_drake.core.control_law import (
+    commanded_force,
+    impedance_force,
+    nominal_force,
+    reference_motion,
+    sliding_error,
+    tracking_errors,
+)
 from hlcmp_drake.core.duan2018 import duan_adaptation_step, duan_admittance_acceleration
-from hlcmp_drake.core.control_law import (commanded_force, impedance_force, nominal_force,
-                                     reference_motion, sliding_error, tracking_errors)
 
 
 def test_adaptation_rates_hand_computed():
@@ -16,28 +22,42 @@ def test_adaptation_rates_hand_computed():
     g = np.array([0.25, 0.75])
     q = np.array([3000.0, 3000.0]), np.array([90.0, 90.0]), np.array([9.0, 9.0])
     rk, rd, rv = adaptation_rates(eps, e, edot, g, *q)
-    np.testing.assert_allclose(rk[0], 3000 * 0.4 * 0.1 * g)       # 120 * g: stiffness grows
-    np.testing.assert_allclose(rk[1], 3000 * -0.1 * -0.05 * g)    # eps e > 0 again: grows
+    np.testing.assert_allclose(rk[0], 3000 * 0.4 * 0.1 * g)  # 120 * g: stiffness grows
+    np.testing.assert_allclose(rk[1], 3000 * -0.1 * -0.05 * g)  # eps e > 0 again: grows
     np.testing.assert_allclose(rd[0], 90 * 0.4 * 0.2 * g)
     np.testing.assert_allclose(rd[1], 0.0)
     np.testing.assert_allclose(rv[0], 9 * 0.4 * g)
-    np.testing.assert_allclose(rv[1], 9 * -0.1 * g)               # feed-forward falls
+    np.testing.assert_allclose(rv[1], 9 * -0.1 * g)  # feed-forward falls
 
 
 def test_theta_constant_when_errors_vanish():
     g = np.array([0.2, 0.3, 0.5])
     zero = np.zeros(3)
     e, edot = tracking_errors(np.ones(3), np.ones(3), np.ones(3), np.ones(3))
-    rates = adaptation_rates(sliding_error(e, edot, 5.0), e, edot, g, np.full(3, 3000.0),
-                             np.full(3, 90.0), np.full(3, 9.0))
+    rates = adaptation_rates(
+        sliding_error(e, edot, 5.0),
+        e,
+        edot,
+        g,
+        np.full(3, 3000.0),
+        np.full(3, 90.0),
+        np.full(3, 9.0),
+    )
     for rate in rates:
         np.testing.assert_array_equal(rate, np.zeros((3, 3)))
     assert zero.shape == (3,)
 
 
 def test_zero_learning_rate_keeps_feedforward():
-    _, _, rv = adaptation_rates(np.array([1.0]), np.array([1.0]), np.array([1.0]), np.ones(2),
-                                np.array([1.0]), np.array([1.0]), np.array([0.0]))
+    _, _, rv = adaptation_rates(
+        np.array([1.0]),
+        np.array([1.0]),
+        np.array([1.0]),
+        np.ones(2),
+        np.array([1.0]),
+        np.array([1.0]),
+        np.array([0.0]),
+    )
     np.testing.assert_array_equal(rv, 0.0)
 
 
@@ -51,11 +71,12 @@ def test_commanded_force_hand_computed():
     # 1 axis, M = 5, C = 0.5, G = 2, x_d' = 0.1, x_d'' = 0, e = 0.05, e' = -0.02, pi = 4, L = 3
     e, edot = tracking_errors(np.array([0.15]), np.array([0.08]), np.array([0.1]), np.array([0.1]))
     np.testing.assert_allclose([e[0], edot[0]], [0.05, -0.02])
-    eps = sliding_error(e, edot, 4.0)                       # 0.18
+    eps = sliding_error(e, edot, 4.0)  # 0.18
     xe_dot, xe_ddot = reference_motion(np.array([0.1]), np.array([0.0]), e, edot, 4.0)
     np.testing.assert_allclose([xe_dot[0], xe_ddot[0]], [0.1 - 0.2, 0.08])
-    f0 = nominal_force(np.array([[5.0]]), np.array([[0.5]]), np.array([2.0]), xe_dot, xe_ddot,
-                       np.array([3.0]), eps)
+    f0 = nominal_force(
+        np.array([[5.0]]), np.array([[0.5]]), np.array([2.0]), xe_dot, xe_ddot, np.array([3.0]), eps
+    )
     np.testing.assert_allclose(f0, [5 * 0.08 + 0.5 * -0.1 + 2.0 - 3 * 0.18])
     u = impedance_force(np.array([100.0]), np.array([10.0]), e, edot)
     np.testing.assert_allclose(u, [100 * 0.05 + 10 * -0.02])
@@ -67,6 +88,7 @@ def test_duan_law_presses_harder_when_force_is_too_low():
     # commanded position against the reaction (negative along the axis).
     phi = duan_adaptation_step(np.array([0.0]), np.array([1.0]), sigma=0.01, b=10.0)
     np.testing.assert_allclose(phi, [0.001])
-    acc = duan_admittance_acceleration(np.zeros(1), np.zeros(1), phi, np.array([1.0]),
-                                       np.ones(1), np.array([10.0]), np.zeros(1))
+    acc = duan_admittance_acceleration(
+        np.zeros(1), np.zeros(1), phi, np.array([1.0]), np.ones(1), np.array([10.0]), np.zeros(1)
+    )
     assert acc[0] < 0

@@ -22,7 +22,9 @@ def short_world():
 @pytest.fixture(scope="module")
 def learned(short_world, tmp_path_factory):
     out = tmp_path_factory.mktemp("learned")
-    assert main(["learn", str(DEMO), *short_world, "--trials", "2", "--out", str(out), "--quiet"]) == 0
+    assert (
+        main(["learn", str(DEMO), *short_world, "--trials", "2", "--out", str(out), "--quiet"]) == 0
+    )
     return out
 
 
@@ -31,9 +33,20 @@ def test_two_trials_each_continuing_from_the_last(learned):
     metrics = json.loads((learned / "metrics.json").read_text())
     assert metrics["status"] == "ok" and [row["trial"] for row in metrics["trials"]] == [1, 2]
     for row in metrics["trials"]:
-        assert set(row) == {"trial", "status", "mean_abs_position_error_m", "mean_abs_force_N",
-                            "force_smoothness_N", "effort_N"}
-    assert set(metrics["improves_over_trials"]) == {"position_error", "mean_force", "smoothness_z", "effort"}
+        assert set(row) == {
+            "trial",
+            "status",
+            "mean_abs_position_error_m",
+            "mean_abs_force_N",
+            "force_smoothness_N",
+            "effort_N",
+        }
+    assert set(metrics["improves_over_trials"]) == {
+        "position_error",
+        "mean_force",
+        "smoothness_z",
+        "effort",
+    }
     data = np.load(learned / "timeseries.npz")
     # Trial 2 starts with the stiffness trial 1 ended with: not zero, unlike trial 1.
     assert data["trial_1/Ks"][0].max() == 0.0 and data["trial_2/Ks"][0].max() > 0.0
@@ -45,25 +58,48 @@ def test_two_trials_each_continuing_from_the_last(learned):
 @pytest.mark.slow
 def test_frozen_reproduction_keeps_the_learned_profiles(learned, short_world, tmp_path):
     out = tmp_path / "replay"
-    assert main(["reproduce", str(learned / "skill.npz"), *short_world, "--freeze",
-                 "--out", str(out), "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "reproduce",
+                str(learned / "skill.npz"),
+                *short_world,
+                "--freeze",
+                "--out",
+                str(out),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["adaptation"] == "frozen" and not (out / "skill.npz").exists()
     skill = load_skill(learned / "skill.npz")
     data = np.load(out / "timeseries.npz")
-    centers, widths = basis_centers_and_widths(skill.dmp.settings.n_basis, skill.dmp.settings.alpha_s)
+    centers, widths = basis_centers_and_widths(
+        skill.dmp.settings.n_basis, skill.dmp.settings.alpha_s
+    )
     for k in (0, 150, 300, 440):
         s = phase_at(data["t"][k], skill.dmp.tau, skill.dmp.settings.alpha_s)
-        np.testing.assert_allclose(data["trial_1/Ks"][k], skill.theta_k @ normalized_basis(s, centers, widths),
-                                   rtol=1e-3, atol=1e-6)
+        np.testing.assert_allclose(
+            data["trial_1/Ks"][k],
+            skill.theta_k @ normalized_basis(s, centers, widths),
+            rtol=1e-3,
+            atol=1e-6,
+        )
 
 
 def test_a_skill_of_other_axes_is_refused(tmp_path, short_world, capsys):
     demo = tmp_path / "xz.csv"
-    demo.write_text("t,x,z\n" + "".join(f"{k * 0.1:.1f},{0.6 + 0.001 * k:.3f},0.4\n" for k in range(20)))
+    demo.write_text(
+        "t,x,z\n" + "".join(f"{k * 0.1:.1f},{0.6 + 0.001 * k:.3f},0.4\n" for k in range(20))
+    )
     assert main(["fit", str(demo), "--out", str(tmp_path / "xz.npz")]) == 0
     capsys.readouterr()
-    assert main(["reproduce", str(tmp_path / "xz.npz"), *short_world, "--out", str(tmp_path / "o")]) == 2
+    assert (
+        main(["reproduce", str(tmp_path / "xz.npz"), *short_world, "--out", str(tmp_path / "o")])
+        == 2
+    )
     error = capsys.readouterr().err.strip().splitlines()
     assert len(error) == 1 and "the skill's axes (x,z) do not match" in error[0]
 
@@ -73,16 +109,27 @@ def test_effort_and_improvement_by_hand():
 
     from hlcmp_drake.run.learning import effort, improvement
 
-    run = SimpleNamespace(series={"u": np.array([[1.0, -2.0, 0.0], [3.0, 0.0, 1.0]]),
-                                  "v": np.array([[1.0, 0.0, 0.0], [-1.0, 0.0, 1.0]])})
+    run = SimpleNamespace(
+        series={
+            "u": np.array([[1.0, -2.0, 0.0], [3.0, 0.0, 1.0]]),
+            "v": np.array([[1.0, 0.0, 0.0], [-1.0, 0.0, 1.0]]),
+        }
+    )
     # mean |u + v| per axis: x (2 + 2)/2 = 2, y (2 + 0)/2 = 1, z (0 + 2)/2 = 1 -> 4
     assert effort(run) == 4.0
 
     def row(error, force, smooth, work):
-        return {"mean_abs_position_error_m": {"x": error, "y": 0.0, "z": 0.0},
-                "mean_abs_force_N": {"x": force, "y": 0.0, "z": 0.0},
-                "force_smoothness_N": {"x": 0.0, "y": 0.0, "z": smooth}, "effort_N": work}
+        return {
+            "mean_abs_position_error_m": {"x": error, "y": 0.0, "z": 0.0},
+            "mean_abs_force_N": {"x": force, "y": 0.0, "z": 0.0},
+            "force_smoothness_N": {"x": 0.0, "y": 0.0, "z": smooth},
+            "effort_N": work,
+        }
 
     assert improvement([row(2.0, 1.0, 5.0, 1.0)]) is None
     assert improvement([row(2.0, 1.0, 5.0, 1.0), row(1.0, 2.0, 4.0, 3.0)]) == {
-        "position_error": True, "mean_force": False, "smoothness_z": True, "effort": False}
+        "position_error": True,
+        "mean_force": False,
+        "smoothness_z": True,
+        "effort": False,
+    }

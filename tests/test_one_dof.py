@@ -7,11 +7,11 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.experiments import one_dof
 from hlcmp_drake.present.report import results_markdown
-from hlcmp_drake.config.loading import load_scenario
 
-REPO_ROOT = Path(__file__).resolve().parents[1]   # the checkout (README.md, scripts/, .ci/)
+REPO_ROOT = Path(__file__).resolve().parents[1]  # the checkout (README.md, scripts/, .ci/)
 
 CONTROLLERS = ["hlcmp", "hlcmp_per_step", "vic_fd_0.5", "vic_fd_1.5", "vic_fd_5.0"]
 
@@ -26,7 +26,12 @@ def test_outputs_follow_the_contract(run_dir):
     assert metrics["scenario"] == "one_dof" and metrics["status"] == "ok"
     assert list(metrics["controllers"]) == CONTROLLERS
     for values in metrics["controllers"].values():
-        assert set(values) == {"position_at_10s_m", "final_position_m", "reach_time_s", "return_time_s"}
+        assert set(values) == {
+            "position_at_10s_m",
+            "final_position_m",
+            "reach_time_s",
+            "return_time_s",
+        }
     c5 = metrics["claims"]["hlcmp"]["C5"]
     assert isinstance(c5["holds"], bool) and "x(10 s)" in c5["evidence"]
     data = np.load(run_dir / "timeseries.npz")
@@ -46,9 +51,15 @@ def test_metrics_agree_with_the_time_series(run_dir):
     scenario, _ = load_scenario("one_dof")
     for name in CONTROLLERS:
         run = SimpleNamespace(t=data["t"], series={"x": data[f"{name}/x"]})
-        assert one_dof.controller_metrics(run, scenario.controllers[name], scenario) == metrics["controllers"][name]
+        assert (
+            one_dof.controller_metrics(run, scenario.controllers[name], scenario)
+            == metrics["controllers"][name]
+        )
     for learner in ("hlcmp", "hlcmp_per_step"):
-        assert one_dof.claims(metrics["controllers"], scenario, None, learner) == metrics["claims"][learner]
+        assert (
+            one_dof.claims(metrics["controllers"], scenario, None, learner)
+            == metrics["claims"][learner]
+        )
 
 
 def test_physics_of_the_runs(run_dir):
@@ -74,7 +85,9 @@ def test_readme_results_come_from_this_run(run_dir):
     """The README's 1-DOF table is what scripts/update_readme.py makes of a fresh run."""
     metrics = json.loads((run_dir / "metrics.json").read_text())
     readme = (REPO_ROOT / "README.md").read_text()
-    block = readme.split("<!-- BEGIN one_dof results -->\n")[1].split("<!-- END one_dof results -->")[0]
+    block = readme.split("<!-- BEGIN one_dof results -->\n")[1].split(
+        "<!-- END one_dof results -->"
+    )[0]
     assert block == results_markdown(metrics, one_dof.EXPERIMENT)
 
 
@@ -84,7 +97,10 @@ def test_a_run_shorter_than_the_return_command_has_no_x_at_10s_and_no_verdict():
     scenario, _ = load_scenario("one_dof", ["duration_s=2"])
     t = np.linspace(0.0, 2.0, 201)
     run = SimpleNamespace(t=t, series={"x": -0.1 * t[:, None] / 2.0})
-    metrics = {name: one_dof.controller_metrics(run, config, scenario) for name, config in scenario.controllers.items()}
+    metrics = {
+        name: one_dof.controller_metrics(run, config, scenario)
+        for name, config in scenario.controllers.items()
+    }
     assert all(m["position_at_10s_m"] is None for m in metrics.values())
     assert one_dof.claims(metrics, scenario) == {}
     assert "n/a" in one_dof.table(metrics).rows[0]

@@ -23,8 +23,8 @@ def test_atomic_write_replaces_whole_or_not_at_all(tmp_path):
 
     with pytest.raises(RuntimeError):
         outputs.atomic_write(path, broken)
-    assert path.read_text() == '{\n  "a": 1\n}\n'                  # the old file is intact
-    assert os.listdir(path.parent) == ["metrics.json"]               # no temporary left behind
+    assert path.read_text() == '{\n  "a": 1\n}\n'  # the old file is intact
+    assert os.listdir(path.parent) == ["metrics.json"]  # no temporary left behind
 
 
 def test_figures_are_made_without_pyplot_and_saved_as_png(tmp_path):
@@ -48,8 +48,10 @@ def test_one_table_three_renderings():
     with pytest.raises(ValueError):
         table.add("too", "few")
     text = to_text(table).splitlines()
-    assert text[0].startswith("controller") and text[2].startswith("hlcmp") and text[3].endswith("no")
-    assert len({len(line) for line in text[:2]}) == 1          # aligned columns
+    assert (
+        text[0].startswith("controller") and text[2].startswith("hlcmp") and text[3].endswith("no")
+    )
+    assert len({len(line) for line in text[:2]}) == 1  # aligned columns
     markdown = to_markdown(table)
     assert "| `hlcmp` | 1.25 | yes |" in markdown and "mean \\|e\\| [mm]" in markdown
     html = to_html(table, verdict_columns=("reproduced",))

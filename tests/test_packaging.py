@@ -11,12 +11,12 @@ from pathlib import Path
 
 import pytest
 
-REPO_ROOT = Path(__file__).resolve().parents[1]   # the checkout (pyproject.toml, models/, ...)
-DATA = "hlcmp_drake/data/"                        # where a wheel puts the repository's data
+REPO_ROOT = Path(__file__).resolve().parents[1]  # the checkout (pyproject.toml, models/, ...)
+DATA = "hlcmp_drake/data/"  # where a wheel puts the repository's data
 
 
 def _pyproject() -> dict:
-    tomllib = pytest.importorskip("tomllib")       # Python 3.11+
+    tomllib = pytest.importorskip("tomllib")  # Python 3.11+
     return tomllib.loads((REPO_ROOT / "pyproject.toml").read_text())
 
 
@@ -24,8 +24,10 @@ def test_every_subpackage_is_listed():
     # The package list is explicit (the data package cannot be found by a directory
     # search); a folder left out of it would be missing from the wheel.
     listed = set(_pyproject()["tool"]["setuptools"]["packages"])
-    found = {".".join(p.parent.relative_to(REPO_ROOT).parts)
-             for p in (REPO_ROOT / "hlcmp_drake").rglob("__init__.py")}
+    found = {
+        ".".join(p.parent.relative_to(REPO_ROOT).parts)
+        for p in (REPO_ROOT / "hlcmp_drake").rglob("__init__.py")
+    }
     assert found <= listed, f"add to [tool.setuptools] packages: {sorted(found - listed)}"
     assert "hlcmp_drake.data" in listed
 
@@ -33,10 +35,17 @@ def test_every_subpackage_is_listed():
 def test_every_data_file_matches_a_package_data_pattern():
     tool = _pyproject()["tool"]["setuptools"]
     assert tool["package-dir"]["hlcmp_drake.data"] == "."
-    shipped = {path for pattern in tool["package-data"]["hlcmp_drake.data"]
-               for path in REPO_ROOT.glob(pattern)}
-    data = {path for folder in ("models", "diagrams") for path in (REPO_ROOT / folder).rglob("*")
-            if path.is_file() and not path.name.startswith(".") and "__pycache__" not in path.parts}
+    shipped = {
+        path
+        for pattern in tool["package-data"]["hlcmp_drake.data"]
+        for path in REPO_ROOT.glob(pattern)
+    }
+    data = {
+        path
+        for folder in ("models", "diagrams")
+        for path in (REPO_ROOT / folder).rglob("*")
+        if path.is_file() and not path.name.startswith(".") and "__pycache__" not in path.parts
+    }
     data.add(REPO_ROOT / "package.xml")
     missing = sorted(str(p.relative_to(REPO_ROOT)) for p in data - shipped)
     assert not missing, f"not shipped in the wheel (add a package-data pattern): {missing}"
@@ -47,10 +56,24 @@ def _build_wheel(tmp_path: Path) -> Path:
     built the way `pip install .` builds it (in an isolated environment with the
     build-system requirements of pyproject.toml)."""
     source = tmp_path / "src"
-    shutil.copytree(REPO_ROOT, source, ignore=shutil.ignore_patterns(
-        ".git", ".venv*", "build", "dist", "out", "*.egg-info", "__pycache__", ".pytest_cache"))
-    command = [sys.executable, "-m", "pip", "wheel", str(source), "--no-deps", "-q",
-               "-w", str(tmp_path / "dist")]
+    shutil.copytree(
+        REPO_ROOT,
+        source,
+        ignore=shutil.ignore_patterns(
+            ".git", ".venv*", "build", "dist", "out", "*.egg-info", "__pycache__", ".pytest_cache"
+        ),
+    )
+    command = [
+        sys.executable,
+        "-m",
+        "pip",
+        "wheel",
+        str(source),
+        "--no-deps",
+        "-q",
+        "-w",
+        str(tmp_path / "dist"),
+    ]
     result = subprocess.run(command, capture_output=True, text=True, cwd=tmp_path)
     assert result.returncode == 0, result.stdout + result.stderr
     (wheel,) = (tmp_path / "dist").glob("hlcmp_drake-*.whl")
@@ -61,9 +84,16 @@ def _build_wheel(tmp_path: Path) -> Path:
 def test_wheel_carries_the_worlds_and_paths_find_them(tmp_path):
     wheel = _build_wheel(tmp_path)
     names = set(zipfile.ZipFile(wheel).namelist())
-    for name in ["package.xml", "models/iiwa14.sdf", "models/one_dof_slider.sdf",
-                 "diagrams/one_dof.yaml", "diagrams/insertion.yaml", "diagrams/cutting.yaml",
-                 "diagrams/demos/insertion_demo.csv", "diagrams/demos/cutting_demo.csv"]:
+    for name in [
+        "package.xml",
+        "models/iiwa14.sdf",
+        "models/one_dof_slider.sdf",
+        "diagrams/one_dof.yaml",
+        "diagrams/insertion.yaml",
+        "diagrams/cutting.yaml",
+        "diagrams/demos/insertion_demo.csv",
+        "diagrams/demos/cutting_demo.csv",
+    ]:
         assert DATA + name in names, name
     assert "hlcmp_drake/io/paths.py" in names
     assert not [n for n in names if n.startswith(DATA) and n.endswith((".py", ".md", ".toml"))]
@@ -100,6 +130,7 @@ def test_wheel_carries_the_worlds_and_paths_find_them(tmp_path):
     env = {**os.environ, "PYTHONPATH": str(site)}
     outside = tmp_path / "elsewhere"
     outside.mkdir()
-    result = subprocess.run([sys.executable, "-c", check], capture_output=True, text=True,
-                            cwd=outside, env=env)
+    result = subprocess.run(
+        [sys.executable, "-c", check], capture_output=True, text=True, cwd=outside, env=env
+    )
     assert result.returncode == 0 and result.stdout.strip() == "ok", result.stdout + result.stderr

@@ -6,11 +6,17 @@ import subprocess
 
 import pytest
 
-pytestmark = pytest.mark.slow   # both read the recordings of whole bundled scenarios
+pytestmark = pytest.mark.slow  # both read the recordings of whole bundled scenarios
 
 RUNS = {
-    "one_dof_run": (["hlcmp", "hlcmp_per_step", "vic_fd_0.5", "vic_fd_1.5", "vic_fd_5.0"], "body_visual"),
-    "insertion_run": (["hlcmp", "hlcmp_per_step", "const_500", "const_1000", "const_2000"], "foam_visual"),
+    "one_dof_run": (
+        ["hlcmp", "hlcmp_per_step", "vic_fd_0.5", "vic_fd_1.5", "vic_fd_5.0"],
+        "body_visual",
+    ),
+    "insertion_run": (
+        ["hlcmp", "hlcmp_per_step", "const_500", "const_1000", "const_2000"],
+        "foam_visual",
+    ),
 }
 
 
@@ -19,7 +25,9 @@ def _chromium():
         path = shutil.which(name)
         if path:
             return path
-    pytest.skip("no Chromium on this machine (install Debian's 'chromium' package; .ci/run tries to)")
+    pytest.skip(
+        "no Chromium on this machine (install Debian's 'chromium' package; .ci/run tries to)"
+    )
 
 
 @pytest.mark.parametrize("run", RUNS)
@@ -35,11 +43,24 @@ def test_recording_draws_every_run_offline_in_chromium(request, run, tmp_path):
     out_dir = request.getfixturevalue(run)
     controllers, geometry = RUNS[run]
     result = subprocess.run(
-        [browser, "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-         "--disable-component-update", "--disable-sync", "--no-first-run",
-         f"--user-data-dir={tmp_path / 'profile'}", "--virtual-time-budget=10000", "--dump-dom",
-         (out_dir / "recording.html").as_uri()],
-        capture_output=True, text=True, timeout=180)
+        [
+            browser,
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--no-first-run",
+            f"--user-data-dir={tmp_path / 'profile'}",
+            "--virtual-time-budget=10000",
+            "--dump-dom",
+            (out_dir / "recording.html").as_uri(),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=180,
+    )
     titles = re.findall(r'<li class="title">([^<]*)', result.stdout)
     # The Meshcat scene tree lists the replayed runs and their geometry, and an animation.
     assert "runs" in titles, titles[:40]

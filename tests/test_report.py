@@ -12,14 +12,20 @@ import pytest
 from hlcmp_drake.experiments import EXPERIMENTS
 from hlcmp_drake.present.report import ReportSection, report_page
 
-REPO_ROOT = Path(__file__).resolve().parents[1]   # the checkout (README.md, scripts/, .ci/)
+REPO_ROOT = Path(__file__).resolve().parents[1]  # the checkout (README.md, scripts/, .ci/)
 
 
 @pytest.fixture(scope="session")
 def report(one_dof_run, insertion_run, cutting_run, tmp_path_factory):
-    base = tmp_path_factory.getbasetemp()   # the three run folders live below it
-    sections = [ReportSection(name, run, 1.0, EXPERIMENTS[name]) for name, run in
-                [("one_dof", one_dof_run), ("insertion", insertion_run), ("cutting", cutting_run)]]
+    base = tmp_path_factory.getbasetemp()  # the three run folders live below it
+    sections = [
+        ReportSection(name, run, 1.0, EXPERIMENTS[name])
+        for name, run in [
+            ("one_dof", one_dof_run),
+            ("insertion", insertion_run),
+            ("cutting", cutting_run),
+        ]
+    ]
     page = base / "index.html"
     page.write_text(report_page(base, sections))
     return page, sections
@@ -29,7 +35,9 @@ def test_every_local_link_and_image_resolves(report):
     page, _ = report
     text = page.read_text()
     targets = re.findall(r"(?:src|href)='([^'#][^']*)'", text)
-    assert len([t for t in targets if t.endswith(".png")]) == 1 + 6 + 2   # Fig. 4 once per reading of Q
+    assert (
+        len([t for t in targets if t.endswith(".png")]) == 1 + 6 + 2
+    )  # Fig. 4 once per reading of Q
     assert sum(t.endswith("recording.html") for t in targets) == 3
     for target in targets:
         assert not target.startswith(("http:", "https:", "//")), target
@@ -48,13 +56,29 @@ def test_every_number_is_the_runs_own(report):
 def test_the_page_renders_in_chromium_with_every_image(report, tmp_path):
     browser = shutil.which("chromium")
     if browser is None:
-        pytest.skip("no Chromium on this machine (install Debian's 'chromium' package; .ci/run tries to)")
+        pytest.skip(
+            "no Chromium on this machine (install Debian's 'chromium' package; .ci/run tries to)"
+        )
     page, _ = report
     result = subprocess.run(
-        [browser, "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-         "--disable-component-update", "--disable-sync", "--no-first-run",
-         f"--user-data-dir={tmp_path / 'profile'}", "--virtual-time-budget=5000", "--dump-dom", page.as_uri()],
-        capture_output=True, text=True, timeout=180)
+        [
+            browser,
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--no-first-run",
+            f"--user-data-dir={tmp_path / 'profile'}",
+            "--virtual-time-budget=5000",
+            "--dump-dom",
+            page.as_uri(),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=180,
+    )
     assert result.stdout.count("<img") == 9
     images = re.findall(r"<img[^>]*>", result.stdout)
     assert images and not [img for img in images if re.search(r'class="[^"]*missing', img)]
@@ -77,5 +101,7 @@ def test_readme_claims_summary_comes_from_the_runs(one_dof_run, insertion_run, c
     runs = {"one_dof": one_dof_run, "insertion": insertion_run, "cutting": cutting_run}
     metrics = {name: json.loads((run / "metrics.json").read_text()) for name, run in runs.items()}
     readme = (REPO_ROOT / "README.md").read_text()
-    block = readme.split("<!-- BEGIN claims summary -->\n")[1].split("<!-- END claims summary -->")[0]
+    block = readme.split("<!-- BEGIN claims summary -->\n")[1].split("<!-- END claims summary -->")[
+        0
+    ]
     assert block == to_markdown(claims_summary_table(metrics), code_first_column=False)

@@ -2,10 +2,10 @@ import re
 
 import pytest
 
-from hlcmp_drake.io.errors import InputError
-from hlcmp_drake.io.paths import DIAGRAMS_DIR
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.scenario import HlcmpConfig, VariableImpedanceConfig
+from hlcmp_drake.io.errors import InputError
+from hlcmp_drake.io.paths import DIAGRAMS_DIR
 
 ONE_DOF = (DIAGRAMS_DIR / "one_dof.yaml").read_text()
 
@@ -13,7 +13,13 @@ ONE_DOF = (DIAGRAMS_DIR / "one_dof.yaml").read_text()
 def test_bundled_one_dof_loads_into_typed_configs():
     scenario, path = load_scenario("one_dof")
     assert path.name == "one_dof.yaml"
-    assert list(scenario.controllers) == ["hlcmp", "hlcmp_per_step", "vic_fd_0.5", "vic_fd_1.5", "vic_fd_5.0"]
+    assert list(scenario.controllers) == [
+        "hlcmp",
+        "hlcmp_per_step",
+        "vic_fd_0.5",
+        "vic_fd_1.5",
+        "vic_fd_5.0",
+    ]
     hl = scenario.controllers["hlcmp"]
     assert isinstance(hl, HlcmpConfig)
     assert (hl.q_k, hl.q_d, hl.q_v) == ([2000.0], [500.0], [0.0])
@@ -27,15 +33,22 @@ def _line_of(text, needle):
     return next(n for n, line in enumerate(text.splitlines(), 1) if needle in line)
 
 
-@pytest.mark.parametrize("old, new, expected", [
-    ("duration_s: 20.0", "duration_s: 20.0\nspeed: 3", "speed"),
-    ("duration_s: 20.0", "duration_s: fast", "could not convert string to float"),
-    ("q_k: [2000.0]", "q_k: [-2000.0]", "q_k: controller 'hlcmp': every value must be non-negative"),
-    ("pi: 5.0 ", "pi: 0.0 ", "pi: controller 'hlcmp': pi must be > 0"),
-    ("q_d: [500.0]", "q_d: [500.0, 1.0]", "q_d: controller 'hlcmp' needs 1 value(s)"),
-    ("hlcmp: !HlcmpConfig", "hlcmp: !Hlcmp", "did not match any of the allowed type options"),
-    ("times_s: [0.0, 10.0]", "times_s: [0.0, 10.0", "expected ',' or ']'"),
-])
+@pytest.mark.parametrize(
+    "old, new, expected",
+    [
+        ("duration_s: 20.0", "duration_s: 20.0\nspeed: 3", "speed"),
+        ("duration_s: 20.0", "duration_s: fast", "could not convert string to float"),
+        (
+            "q_k: [2000.0]",
+            "q_k: [-2000.0]",
+            "q_k: controller 'hlcmp': every value must be non-negative",
+        ),
+        ("pi: 5.0 ", "pi: 0.0 ", "pi: controller 'hlcmp': pi must be > 0"),
+        ("q_d: [500.0]", "q_d: [500.0, 1.0]", "q_d: controller 'hlcmp' needs 1 value(s)"),
+        ("hlcmp: !HlcmpConfig", "hlcmp: !Hlcmp", "did not match any of the allowed type options"),
+        ("times_s: [0.0, 10.0]", "times_s: [0.0, 10.0", "expected ',' or ']'"),
+    ],
+)
 def test_bad_scenarios_name_file_and_line(tmp_path, old, new, expected):
     assert old in ONE_DOF
     path = tmp_path / "bad.yaml"
@@ -64,8 +77,11 @@ def test_drake_models_variant_swaps_the_arm_and_the_flange_weld():
     variant = use_drake_models_iiwa(scenario)
     files = [d.add_model.file for d in variant.directives if d.add_model is not None]
     assert DRAKE_MODELS_IIWA in files and not any("hlcmp_drake/models/iiwa14" in f for f in files)
-    weld = next(d.add_weld for d in variant.directives
-                if d.add_weld is not None and d.add_weld.child == "insertion_tool::mount")
+    weld = next(
+        d.add_weld
+        for d in variant.directives
+        if d.add_weld is not None and d.add_weld.child == "insertion_tool::mount"
+    )
     assert weld.parent == "iiwa::iiwa_link_7"
     assert list(weld.X_PC.GetDeterministicValue().translation()) == [0.0, 0.0, 0.045]
     assert len(variant.directives) == len(scenario.directives)

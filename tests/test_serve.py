@@ -15,8 +15,16 @@ from pydrake.lcm import DrakeLcm
 from pydrake.multibody.tree import JacobianWrtVariable
 
 from hlcmp_drake.config.loading import load_scenario
-from hlcmp_drake.io.iiwa_lcm import (IiwaStatus, ProtocolError, decode_status, decode_torque_command,
-                                     decode_wrench, encode_status, encode_torque_command, encode_wrench)
+from hlcmp_drake.io.iiwa_lcm import (
+    IiwaStatus,
+    ProtocolError,
+    decode_status,
+    decode_torque_command,
+    decode_wrench,
+    encode_status,
+    encode_torque_command,
+    encode_wrench,
+)
 from hlcmp_drake.run.serve import STOPPED, UNSAFE, TorqueClient, serve, serve_scenario, write_served
 from hlcmp_drake.run.sim_driver import DriverAbort, SimulatedIiwaDriver
 from hlcmp_drake.worlds.arm import prepare
@@ -27,8 +35,12 @@ METRICS_RTOL = 1e-6
 
 
 def hlcmp(*args):
-    return subprocess.Popen([sys.executable, "-m", "hlcmp_drake.cli", *map(str, args)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    return subprocess.Popen(
+        [sys.executable, "-m", "hlcmp_drake.cli", *map(str, args)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
 
 
 def serve_two_processes(tmp_path, driver_args, duration):
@@ -36,8 +48,19 @@ def serve_two_processes(tmp_path, driver_args, duration):
     own; both must exit 0. Returns the driver's output and serve.json."""
     url = f"udpm://239.255.76.{random.randint(100, 250)}:{random.randint(20000, 60000)}?ttl=0"
     driver = hlcmp("sim-driver", "insertion", "--lcm", url, "--quiet", *driver_args)
-    client = hlcmp("serve", "insertion", "--lcm", url, "--duration", duration, "--out", tmp_path / "serve",
-                   "--quiet", "--set", "iiwa_driver.first_status_timeout_s=120")   # a driver may start slowly
+    client = hlcmp(
+        "serve",
+        "insertion",
+        "--lcm",
+        url,
+        "--duration",
+        duration,
+        "--out",
+        tmp_path / "serve",
+        "--quiet",
+        "--set",
+        "iiwa_driver.first_status_timeout_s=120",
+    )  # a driver may start slowly
     client_out, client_err = client.communicate(timeout=300)
     driver_out, driver_err = driver.communicate(timeout=60)
     assert client.returncode == 0, client_err + client_out
@@ -64,7 +87,9 @@ def test_messages_round_trip_and_bad_ones_are_named():
     assert back.utime == 1234
     for field in ("position", "velocity", "torque_commanded", "torque_measured", "torque_external"):
         np.testing.assert_array_equal(getattr(back, field), getattr(status, field))
-    utime, torque = decode_torque_command(encode_torque_command(99, status.position, status.velocity), 7)
+    utime, torque = decode_torque_command(
+        encode_torque_command(99, status.position, status.velocity), 7
+    )
     assert utime == 99
     np.testing.assert_array_equal(torque, status.velocity)
     utime, force = decode_wrench(encode_wrench(5, [1.0, -2.0, 3.0]))
@@ -96,7 +121,7 @@ def test_served_hlcmp_matches_the_simulated_run(served_insertion, insertion_run)
     assert result.record["ticks"] == 9501
     simulated = json.loads((insertion_run / "metrics.json").read_text())["controllers"]["hlcmp"]
     served = json.loads((result.out_dir / "metrics.json").read_text())["controllers"]["hlcmp"]
-    assert max(served["max_abs_force_N"].values()) > 5.0     # it went through the foam
+    assert max(served["max_abs_force_N"].values()) > 5.0  # it went through the foam
     assert_metrics_match(served, simulated)
     logged = np.load(insertion_run / "timeseries.npz")
     np.testing.assert_allclose(result.run.t, logged["t"], atol=1e-12)
@@ -123,7 +148,9 @@ def test_two_processes_over_udpm(tmp_path):
 
     scenario, _ = load_scenario("insertion", ["duration_s=1.5"])
     run = simulate(diagram_factory(scenario)("hlcmp"), scenario, "hlcmp")
-    simulated = experiment_of(scenario).controller_metrics(run, scenario.controllers["hlcmp"], scenario)
+    simulated = experiment_of(scenario).controller_metrics(
+        run, scenario.controllers["hlcmp"], scenario
+    )
     served = json.loads((tmp_path / "serve" / "metrics.json").read_text())["controllers"]["hlcmp"]
     assert_metrics_match(served, json.loads(json.dumps(simulated)))
 
@@ -141,7 +168,7 @@ def test_a_stale_status_stops_the_commands(tmp_path, monkeypatch):
     monkeypatch.setattr("hlcmp_drake.run.sim_driver.START_COMMAND_GUARD_S", 0.0)
     driver.publish_status()
     lcm.HandleSubscriptions(0)
-    time.sleep(0.002)   # past the client's start guard
+    time.sleep(0.002)  # past the client's start guard
     for _ in range(50):
         driver.publish_status()
         lcm.HandleSubscriptions(0)
@@ -150,7 +177,7 @@ def test_a_stale_status_stops_the_commands(tmp_path, monkeypatch):
         driver.step(driver.command[1])
     answered = len(commands)
     assert answered == 50 and not client.done
-    serve(client, lcm, "memq://")   # no driver any more: returns when the watchdog stops it
+    serve(client, lcm, "memq://")  # no driver any more: returns when the watchdog stops it
     assert client.status == STOPPED
     assert client.stopped_because.startswith("no status for 50 ms (stale) at t = 0.049 s")
     assert len(commands) == answered
@@ -161,8 +188,9 @@ def test_a_stale_status_stops_the_commands(tmp_path, monkeypatch):
 
 
 def _client_fed_by_hand(scenario_overrides=(), controller="hlcmp"):
-    scenario, _ = load_scenario("insertion", ["duration_s=1.0", "iiwa_driver.start_guard_s=0.001",
-                                              *scenario_overrides])
+    scenario, _ = load_scenario(
+        "insertion", ["duration_s=1.0", "iiwa_driver.start_guard_s=0.001", *scenario_overrides]
+    )
     lcm = DrakeLcm("memq://")
     client = TorqueClient(scenario, controller, lcm)
     commands = []
@@ -170,20 +198,35 @@ def _client_fed_by_hand(scenario_overrides=(), controller="hlcmp"):
 
     def send(utime, q, v=None, torque_external=None):
         zeros = np.zeros(7)
-        lcm.Publish(scenario.iiwa_driver.status_channel, encode_status(IiwaStatus(
-            utime, np.asarray(q, float), zeros if v is None else v, zeros, zeros,
-            zeros if torque_external is None else torque_external)))
+        lcm.Publish(
+            scenario.iiwa_driver.status_channel,
+            encode_status(
+                IiwaStatus(
+                    utime,
+                    np.asarray(q, float),
+                    zeros if v is None else v,
+                    zeros,
+                    zeros,
+                    zeros if torque_external is None else torque_external,
+                )
+            ),
+        )
         lcm.HandleSubscriptions(0)
         client.poll()
         lcm.HandleSubscriptions(0)
+
     return client, send, commands
 
 
 def test_watchdogs_name_the_problem():
     client, send, commands = _client_fed_by_hand()
     send(0, client.q0 + 0.2)
-    assert client.status == STOPPED and "not at the scenario's start posture: joint 1 is 0.200 rad away" \
-        in client.stopped_because and not commands
+    assert (
+        client.status == STOPPED
+        and "not at the scenario's start posture: joint 1 is 0.200 rad away"
+        in client.stopped_because
+        and not commands
+    )
 
     client, send, commands = _client_fed_by_hand()
     send(0, client.q0)
@@ -192,16 +235,23 @@ def test_watchdogs_name_the_problem():
     send(1000, client.q0)
     assert len(commands) == 2 and not client.done
     beyond = client.q0.copy()
-    beyond[3] = -2.2   # iiwa joint 4's limit is ±2.094 rad
+    beyond[3] = -2.2  # iiwa joint 4's limit is ±2.094 rad
     send(2000, beyond)
-    assert client.status == UNSAFE and "joint iiwa_joint_4 at -2.200 rad, beyond its limit" in client.stopped_because
+    assert (
+        client.status == UNSAFE
+        and "joint iiwa_joint_4 at -2.200 rad, beyond its limit" in client.stopped_because
+    )
     assert len(commands) == 2
 
     client, send, commands = _client_fed_by_hand()
     send(0, client.q0)
     time.sleep(0.002)
     send(0, client.q0 + np.r_[np.nan, np.zeros(6)])
-    assert client.status == UNSAFE and "non-finite value in the status" in client.stopped_because and not commands
+    assert (
+        client.status == UNSAFE
+        and "non-finite value in the status" in client.stopped_because
+        and not commands
+    )
 
     # The wrist force estimated from the external torques: 300 N at the tool point trips the
     # scenario's 200 N contact-force limit.
@@ -212,10 +262,14 @@ def test_watchdogs_name_the_problem():
     context = plant.CreateDefaultContext()
     plant.SetPositions(context, client.q0)
     tool = plant.GetFrameByName("tip", plant.GetModelInstanceByName("insertion_tool"))
-    jacobian = plant.CalcJacobianTranslationalVelocity(context, JacobianWrtVariable.kV, tool, np.zeros(3),
-                                                       world, world)
+    jacobian = plant.CalcJacobianTranslationalVelocity(
+        context, JacobianWrtVariable.kV, tool, np.zeros(3), world, world
+    )
     send(0, client.q0, torque_external=jacobian.T @ np.array([0.0, 0.0, 300.0]))
-    assert client.status == UNSAFE and "contact force 300 N above max_contact_force_N" in client.stopped_because
+    assert (
+        client.status == UNSAFE
+        and "contact force 300 N above max_contact_force_N" in client.stopped_because
+    )
 
 
 def test_saturated_torques_stop_the_client_after_max_saturation_s():
@@ -226,14 +280,21 @@ def test_saturated_torques_stop_the_client_after_max_saturation_s():
     client, send, commands = _client_fed_by_hand([stiff], controller="const_2000")
     send(0, client.q0)
     time.sleep(0.002)
-    displaced = client.q0 + np.r_[0.0, 0.08, 0.0, 0.0, 0.0, 0.0, 0.0]   # the shoulder: the tip moves ~5 cm
+    displaced = (
+        client.q0 + np.r_[0.0, 0.08, 0.0, 0.0, 0.0, 0.0, 0.0]
+    )  # the shoulder: the tip moves ~5 cm
     for k in range(400):
         send(1000 * k, client.q0 if k == 0 else displaced)
         if client.done:
             break
     assert client.status == UNSAFE
-    assert client.stopped_because == "joint torques saturated for more than max_saturation_s = 0.25 s at t = 0.260 s"
-    assert len(commands) == 261   # saturated from the check at 0.01 s; the check after tick 260 stops the next
+    assert (
+        client.stopped_because
+        == "joint torques saturated for more than max_saturation_s = 0.25 s at t = 0.260 s"
+    )
+    assert (
+        len(commands) == 261
+    )  # saturated from the check at 0.01 s; the check after tick 260 stops the next
 
 
 def test_the_driver_aborts_on_a_command_within_its_start_guard():
@@ -241,24 +302,40 @@ def test_the_driver_aborts_on_a_command_within_its_start_guard():
     lcm = DrakeLcm("memq://")
     driver = SimulatedIiwaDriver(scenario, lcm)
     driver.publish_status()
-    lcm.Publish(scenario.iiwa_driver.command_channel, encode_torque_command(0, np.zeros(7), np.zeros(7)))
+    lcm.Publish(
+        scenario.iiwa_driver.command_channel, encode_torque_command(0, np.zeros(7), np.zeros(7))
+    )
     with pytest.raises(DriverAbort, match="within 0.25 s of the driver's first status"):
         lcm.HandleSubscriptions(0)
 
 
-@pytest.mark.parametrize("args, message", [
-    (["serve", "one_dof", "--lcm", "memq://"], "has no arm: hlcmp serve drives an iiwa"),
-    (["serve", "insertion", "--lcm", "memq://", "--controller", "nope"], "has no controller 'nope'"),
-    (["serve", "insertion", "--lcm", "memq://", "--freeze"], "--freeze needs --skill"),
-    (["serve", "insertion", "--lcm", "tcp://x:1"], "expected udpm://GROUP:PORT?ttl=0"),
-    (["sim-driver", "insertion", "--lcm", "memq://"], "memq:// reaches only this process"),
-    (["serve", "insertion", "--lcm", "memq://", "--set", "iiwa_driver.force_source=guess"],
-     "iiwa_driver.force_source"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["serve", "one_dof", "--lcm", "memq://"], "has no arm: hlcmp serve drives an iiwa"),
+        (
+            ["serve", "insertion", "--lcm", "memq://", "--controller", "nope"],
+            "has no controller 'nope'",
+        ),
+        (["serve", "insertion", "--lcm", "memq://", "--freeze"], "--freeze needs --skill"),
+        (["serve", "insertion", "--lcm", "tcp://x:1"], "expected udpm://GROUP:PORT?ttl=0"),
+        (["sim-driver", "insertion", "--lcm", "memq://"], "memq:// reaches only this process"),
+        (
+            ["serve", "insertion", "--lcm", "memq://", "--set", "iiwa_driver.force_source=guess"],
+            "iiwa_driver.force_source",
+        ),
+    ],
+)
 def test_bad_serve_input_is_one_line_and_exit_2(args, message, tmp_path):
-    process = subprocess.run([sys.executable, "-m", "hlcmp_drake.cli", *args, "--out", str(tmp_path / "o")]
-                             if args[0] == "serve" else [sys.executable, "-m", "hlcmp_drake.cli", *args],
-                             capture_output=True, text=True, timeout=120, env={**os.environ})
+    process = subprocess.run(
+        [sys.executable, "-m", "hlcmp_drake.cli", *args, "--out", str(tmp_path / "o")]
+        if args[0] == "serve"
+        else [sys.executable, "-m", "hlcmp_drake.cli", *args],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ},
+    )
     assert process.returncode == 2, process.stderr
     lines = [line for line in process.stderr.splitlines() if line.strip()]
     assert len(lines) == 1 and message in lines[0], process.stderr
@@ -271,7 +348,7 @@ def test_real_time_pacing(tmp_path):
     driver_out, record = serve_two_processes(tmp_path, ["--realtime", "--duration", 0.8], 0.5)
     assert "reached --duration 0.8 s" in driver_out
     assert record["status"] == "ok"
-    assert record["ticks"] + record["missed_ticks"] == 501   # every status from t = 0 to 0.5 s
+    assert record["ticks"] + record["missed_ticks"] == 501  # every status from t = 0 to 0.5 s
     assert record["ticks"] > 250
 
 
@@ -281,21 +358,51 @@ def test_serve_in_one_process_from_the_command_line(tmp_path):
     from hlcmp_drake.cli import main
     from hlcmp_drake.io.paths import DIAGRAMS_DIR
 
-    assert main(["fit", str(DIAGRAMS_DIR / "demos" / "insertion_demo.csv"), "--out", str(tmp_path / "skill.npz"),
-                 "--basis", "30"]) == 0
+    assert (
+        main(
+            [
+                "fit",
+                str(DIAGRAMS_DIR / "demos" / "insertion_demo.csv"),
+                "--out",
+                str(tmp_path / "skill.npz"),
+                "--basis",
+                "30",
+            ]
+        )
+        == 0
+    )
     out = tmp_path / "served"
-    assert main(["serve", "insertion", "--lcm", "memq://", "--skill", str(tmp_path / "skill.npz"), "--freeze",
-                 "--duration", "0.3", "--out", str(out), "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "serve",
+                "insertion",
+                "--lcm",
+                "memq://",
+                "--skill",
+                str(tmp_path / "skill.npz"),
+                "--freeze",
+                "--duration",
+                "0.3",
+                "--out",
+                str(out),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     record = json.loads((out / "serve.json").read_text())
     assert record["ticks"] == 301 and record["missed_ticks"] == 0 and record["status"] == "ok"
     arrays = np.load(out / "timeseries.npz")
     assert arrays["t"][-1] == pytest.approx(0.3)
-    assert np.all(arrays[f"{record['controller']}/Ks"] == 0.0)   # frozen: no adaptation
+    assert np.all(arrays[f"{record['controller']}/Ks"] == 0.0)  # frozen: no adaptation
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["status"] == "ok" and record["controller"] in metrics["controllers"]
 
 
-@pytest.mark.parametrize("scenario_name, controller", [("insertion", "const_500"), ("cutting", "hlcmp")])
+@pytest.mark.parametrize(
+    "scenario_name, controller", [("insertion", "const_500"), ("cutting", "hlcmp")]
+)
 def test_served_controller_equals_its_simulated_run(scenario_name, controller, tmp_path):
     """A constant impedance, and the cutting's Hl-CMP: served over memq://, the same numbers
     as simulated (0.5 s)."""
@@ -304,8 +411,12 @@ def test_served_controller_equals_its_simulated_run(scenario_name, controller, t
 
     scenario, _ = load_scenario(scenario_name, ["duration_s=0.5"])
     simulated = simulate(diagram_factory(scenario)(controller), scenario, controller)
-    served = serve_scenario(scenario_name, "memq://", tmp_path, controller, overrides=["duration_s=0.5"]).run
+    served = serve_scenario(
+        scenario_name, "memq://", tmp_path, controller, overrides=["duration_s=0.5"]
+    ).run
     assert served.status == "ok" and served.series.keys() == simulated.series.keys()
     np.testing.assert_allclose(served.t, simulated.t, atol=1e-12)
     for name, values in simulated.series.items():
-        assert np.abs(served.series[name] - values).max() <= 1e-9 * max(1.0, np.abs(values).max()), name
+        assert np.abs(served.series[name] - values).max() <= 1e-9 * max(
+            1.0, np.abs(values).max()
+        ), name

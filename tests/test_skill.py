@@ -35,13 +35,16 @@ def _rewrite(path, **changes):
     np.savez(path, **arrays)
 
 
-@pytest.mark.parametrize("changes, message", [
-    ({"format_version": np.array(FORMAT_VERSION + 1)}, "format_version 2 is not supported"),
-    ({"theta_k": np.zeros((3, 7))}, "field 'theta_k' has shape (3, 7), expected (3, 30)"),
-    ({"goal": np.zeros(2)}, "field 'goal' has shape (2,)"),
-    ({"theta_v": None}, "missing field(s): theta_v"),
-    ({"theta_d": np.full((3, 30), np.nan)}, "NaN"),
-])
+@pytest.mark.parametrize(
+    "changes, message",
+    [
+        ({"format_version": np.array(FORMAT_VERSION + 1)}, "format_version 2 is not supported"),
+        ({"theta_k": np.zeros((3, 7))}, "field 'theta_k' has shape (3, 7), expected (3, 30)"),
+        ({"goal": np.zeros(2)}, "field 'goal' has shape (2,)"),
+        ({"theta_v": None}, "missing field(s): theta_v"),
+        ({"theta_d": np.full((3, 30), np.nan)}, "NaN"),
+    ],
+)
 def test_bad_skill_files(tmp_path, skill, changes, message):
     path = save_skill(tmp_path / "skill.npz", skill)
     _rewrite(path, **changes)

@@ -90,7 +90,7 @@ def line_of(text: str, dotted_key: str) -> int | None:
     parts = dotted_key.split(".")
     start, found, i = 0, None, 0
     while i < len(parts):
-        for j in range(len(parts), i, -1):   # the longest run of parts that names a key
+        for j in range(len(parts), i, -1):  # the longest run of parts that names a key
             pattern = re.compile(rf"\s*(- )?{re.escape('.'.join(parts[i:j]))}\s*:")
             found = next((n for n in range(start, len(lines)) if pattern.match(lines[n])), None)
             if found is not None:
@@ -112,7 +112,11 @@ class _Source:
         `file:line: key: problem` (the line omitted when it cannot be found)."""
         leaf = dotted_key.split(".")[-1]
         for label, key in reversed(self.overrides):
-            if key == dotted_key or key.startswith(dotted_key + ".") or dotted_key.startswith(key + "."):
+            if (
+                key == dotted_key
+                or key.startswith(dotted_key + ".")
+                or dotted_key.startswith(key + ".")
+            ):
                 return InputError(f"override '{label}': {leaf}: {problem}")
         line = line_of(self.text, dotted_key) or line_of(self.text, leaf)
         where = f"{self.path}:{line}" if line else f"{self.path}"
@@ -131,7 +135,9 @@ def _yaml_error(path, text, error) -> InputError:
     """One line `file:line: problem` for whatever the YAML parser or the schema raised."""
     mark = getattr(error, "problem_mark", None) or getattr(error, "context_mark", None)
     if mark is not None:  # a YAML syntax error: PyYAML knows the line
-        problem = " ".join(filter(None, [getattr(error, "context", None), getattr(error, "problem", None)]))
+        problem = " ".join(
+            filter(None, [getattr(error, "context", None), getattr(error, "problem", None)])
+        )
         return InputError(f"{path}:{mark.line + 1}: {problem}")
     message = " ".join(str(error).split())
     line = None
@@ -140,8 +146,14 @@ def _yaml_error(path, text, error) -> InputError:
     if field:
         line = line_of(text, next(g for g in field.groups() if g))
     elif value:  # a value of the wrong type: find the line that holds it
-        line = next((n for n, row in enumerate(text.splitlines(), 1)
-                     if re.search(rf":\s*{re.escape(value.group(1))}\s*(#.*)?$", row)), None)
+        line = next(
+            (
+                n
+                for n, row in enumerate(text.splitlines(), 1)
+                if re.search(rf":\s*{re.escape(value.group(1))}\s*(#.*)?$", row)
+            ),
+            None,
+        )
     return InputError(f"{path}:{line}: {message}" if line else f"{path}: {message}")
 
 
@@ -198,13 +210,17 @@ def override_yaml(scenario: Scenario, dotted_key: str, value_yaml: str) -> str:
         key, i = _split_key(owner, parts, i)
         if isinstance(owner, dict):
             node = owner.get(key)
-            members = _union_members(type(scenario), "controllers") if owner is scenario.controllers else ()
+            members = (
+                _union_members(type(scenario), "controllers")
+                if owner is scenario.controllers
+                else ()
+            )
         elif owner is not None and hasattr(owner, "__dataclass_fields__"):
             if key not in owner.__dataclass_fields__:
                 raise KeyError(key)
             node = getattr(owner, key)
             members = _union_members(type(owner), key)
-        elif owner is not None and hasattr(type(owner), "__fields__"):   # Drake's config structs
+        elif owner is not None and hasattr(type(owner), "__fields__"):  # Drake's config structs
             if key not in (field.name for field in type(owner).__fields__):
                 raise KeyError(key)
             node, members = getattr(owner, key), ()
@@ -227,16 +243,26 @@ def _parse_override(override) -> list[tuple[str, str, str]]:
     if isinstance(override, dict):
         import yaml
 
-        return [(f"{k}={v}", k, yaml.safe_dump(v, default_flow_style=True).strip().removesuffix("...").strip())
-                for k, v in override.items()]
+        return [
+            (
+                f"{k}={v}",
+                k,
+                yaml.safe_dump(v, default_flow_style=True).strip().removesuffix("...").strip(),
+            )
+            for k, v in override.items()
+        ]
     key, sep, value = str(override).partition("=")
     if not sep or not key.strip() or not re.fullmatch(r"[A-Za-z0-9_.\-]+", key.strip()):
-        raise InputError(f"override '{override}': expected KEY=VALUE with a dotted KEY, "
-                         "e.g. controllers.hlcmp.q_k=[300,300,300]")
+        raise InputError(
+            f"override '{override}': expected KEY=VALUE with a dotted KEY, "
+            "e.g. controllers.hlcmp.q_k=[300,300,300]"
+        )
     return [(str(override), key.strip(), value.strip())]
 
 
-def load_scenario(name_or_path: str | Path, overrides: Sequence[str | dict] = ()) -> tuple[Scenario, Path]:
+def load_scenario(
+    name_or_path: str | Path, overrides: Sequence[str | dict] = ()
+) -> tuple[Scenario, Path]:
     """Load, override and validate a scenario.
 
     Parameters
@@ -265,7 +291,9 @@ def load_scenario(name_or_path: str | Path, overrides: Sequence[str | dict] = ()
     return _load_text(text, path, overrides), path
 
 
-def load_scenario_text(text: str, path: str | Path, overrides: Sequence[str | dict] = ()) -> Scenario:
+def load_scenario_text(
+    text: str, path: str | Path, overrides: Sequence[str | dict] = ()
+) -> Scenario:
     """Load, override and validate a scenario given as YAML text (e.g. one that
     `pydrake.common.yaml.yaml_dump_typed` wrote, as a sweep ships it to its workers).
 
@@ -304,9 +332,13 @@ def _load_text(text: str, path: Path, overrides: Sequence[str | dict]) -> Scenar
             try:
                 data = override_yaml(scenario, key, value)
             except KeyError as error:
-                raise InputError(f"override '{label}': no field '{error.args[0]}' in the scenario") from None
+                raise InputError(
+                    f"override '{label}': no field '{error.args[0]}' in the scenario"
+                ) from None
             try:
-                scenario = yaml_load_typed(schema=Scenario, data=data, defaults=copy.deepcopy(scenario))
+                scenario = yaml_load_typed(
+                    schema=Scenario, data=data, defaults=copy.deepcopy(scenario)
+                )
             except Exception as error:
                 message = " ".join(str(getattr(error, "problem", None) or error).split())
                 raise InputError(f"override '{label}': {message}") from None

@@ -26,7 +26,9 @@ from hlcmp_drake.core.dmp import DmpSettings
 Fail = Callable[[str, str], None]
 
 
-def check_per_axis(config: object, name: str, key: str, m: int, fail: Fail, rule: str = ">= 0") -> None:
+def check_per_axis(
+    config: object, name: str, key: str, m: int, fail: Fail, rule: str = ">= 0"
+) -> None:
     """Check that controller `name`'s list field `key` holds one finite value per axis.
 
     Parameters
@@ -51,13 +53,21 @@ def check_per_axis(config: object, name: str, key: str, m: int, fail: Fail, rule
     """
     values = getattr(config, key)
     if len(values) != m:
-        fail(f"controllers.{name}.{key}",
-             f"controller '{name}' needs {m} value(s), one per axis, got {len(values)}")
+        fail(
+            f"controllers.{name}.{key}",
+            f"controller '{name}' needs {m} value(s), one per axis, got {len(values)}",
+        )
     for value in values:
-        if not math.isfinite(value) or (rule == ">= 0" and value < 0) or (rule == "> 0" and value <= 0):
+        if (
+            not math.isfinite(value)
+            or (rule == ">= 0" and value < 0)
+            or (rule == "> 0" and value <= 0)
+        ):
             kind = {"> 0": "positive", ">= 0": "non-negative"}.get(rule, "a number")
-            fail(f"controllers.{name}.{key}",
-                 f"controller '{name}': every value must be {kind} and finite, got {value}")
+            fail(
+                f"controllers.{name}.{key}",
+                f"controller '{name}': every value must be {kind} and finite, got {value}",
+            )
 
 
 class ControllerChecks:
@@ -92,7 +102,10 @@ class ControllerChecks:
     def _check_scalars(self, name: str, fail: Fail) -> None:
         """The sliding-surface slope of Eq. 29, for the configs that have one."""
         if not self.pi > 0:
-            fail(f"controllers.{name}.pi", f"controller '{name}': pi must be > 0 (Eq. 29), got {self.pi}")
+            fail(
+                f"controllers.{name}.pi",
+                f"controller '{name}': pi must be > 0 (Eq. 29), got {self.pi}",
+            )
 
 
 @dc.dataclass
@@ -142,10 +155,15 @@ class HlcmpConfig(ControllerChecks):
     def _check_scalars(self, name: str, fail: Fail) -> None:
         super()._check_scalars(name, fail)
         if self.q_units not in self.Q_UNITS:
-            fail(f"controllers.{name}.q_units",
-                 f"controller '{name}': q_units must be one of {', '.join(self.Q_UNITS)}, got '{self.q_units}'")
+            fail(
+                f"controllers.{name}.q_units",
+                f"controller '{name}': q_units must be one of {', '.join(self.Q_UNITS)}, got '{self.q_units}'",
+            )
         if not self.control_step_s > 0:
-            fail(f"controllers.{name}.control_step_s", f"controller '{name}': control_step_s must be positive")
+            fail(
+                f"controllers.{name}.control_step_s",
+                f"controller '{name}': control_step_s must be positive",
+            )
 
 
 @dc.dataclass
@@ -169,8 +187,14 @@ class VariableImpedanceConfig(ControllerChecks):
     value per axis (mass and damping positive, the others non-negative, the force any),
     sigma >= 0 and a positive sample period."""
 
-    PER_AXIS = {"desired_force_N": "any", "mass_kg": "> 0", "damping_Ns_per_m": "> 0",
-                "free_stiffness_N_per_m": ">= 0", "kp": ">= 0", "kv": ">= 0"}
+    PER_AXIS = {
+        "desired_force_N": "any",
+        "mass_kg": "> 0",
+        "damping_Ns_per_m": "> 0",
+        "free_stiffness_N_per_m": ">= 0",
+        "kp": ">= 0",
+        "kv": ">= 0",
+    }
 
     desired_force_N: list[float] = dc.field(default_factory=list)
     force_segments: list[int] = dc.field(default_factory=lambda: [0])
@@ -185,8 +209,10 @@ class VariableImpedanceConfig(ControllerChecks):
     def _check_scalars(self, name: str, fail: Fail) -> None:
         """sigma >= 0 and a positive sample period (the adaptation's lambda)."""
         if not (self.sigma >= 0 and self.sample_period_s > 0):
-            fail(f"controllers.{name}.sigma",
-                 f"controller '{name}': sigma >= 0 and sample_period_s > 0 are required")
+            fail(
+                f"controllers.{name}.sigma",
+                f"controller '{name}': sigma >= 0 and sample_period_s > 0 are required",
+            )
 
 
 ControllerConfig = Union[HlcmpConfig, ConstantImpedanceConfig, VariableImpedanceConfig]
@@ -243,10 +269,15 @@ class PunctureConfig:
         if not self.object_frame:
             return
         if not 0 < self.depth_m <= self.thickness_m:
-            fail("task.puncture.depth_m", f"must be in (0, thickness_m = {self.thickness_m}], got {self.depth_m}")
+            fail(
+                "task.puncture.depth_m",
+                f"must be in (0, thickness_m = {self.thickness_m}], got {self.depth_m}",
+            )
         if not (self.hole_friction_N_per_m >= 0 and self.sliding_speed_m_per_s > 0):
-            fail("task.puncture.hole_friction_N_per_m",
-                 "hole_friction_N_per_m >= 0 and sliding_speed_m_per_s > 0 are required")
+            fail(
+                "task.puncture.hole_friction_N_per_m",
+                "hole_friction_N_per_m >= 0 and sliding_speed_m_per_s > 0 are required",
+            )
 
 
 @dc.dataclass
@@ -270,7 +301,9 @@ class ArmTask:
     axes: list[int] = dc.field(default_factory=lambda: [0, 1, 2])
     tool_direction: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, -1.0])
     tool_rpy_rad: list[float] = dc.field(default_factory=list)
-    ik_seed_rad: list[float] = dc.field(default_factory=lambda: [0.0, 0.6, 0.0, -1.5, 0.0, 1.0, 0.0])
+    ik_seed_rad: list[float] = dc.field(
+        default_factory=lambda: [0.0, 0.6, 0.0, -1.5, 0.0, 1.0, 0.0]
+    )
     orientation_stiffness_Nm_per_rad: float = 100.0
     orientation_damping_Nms_per_rad: float = 10.0
     posture_stiffness_Nm_per_rad: float = 20.0
@@ -294,14 +327,25 @@ class ArmTask:
         InputError
             Through `fail`, for the first problem found.
         """
-        if not self.axes or any(a not in (0, 1, 2) for a in self.axes) or len(set(self.axes)) != len(self.axes):
-            fail("task.axes", f"task axes must be distinct values of 0 (x), 1 (y), 2 (z), got {self.axes}")
+        if (
+            not self.axes
+            or any(a not in (0, 1, 2) for a in self.axes)
+            or len(set(self.axes)) != len(self.axes)
+        ):
+            fail(
+                "task.axes",
+                f"task axes must be distinct values of 0 (x), 1 (y), 2 (z), got {self.axes}",
+            )
         if len(self.tool_direction) != 3 or not any(self.tool_direction):
             fail("task.tool_direction", "needs a non-zero 3-vector")
         if len(self.tool_rpy_rad) not in (0, 3):
             fail("task.tool_rpy_rad", "needs three angles (roll, pitch, yaw), or none")
-        for key in ("orientation_stiffness_Nm_per_rad", "orientation_damping_Nms_per_rad",
-                    "posture_stiffness_Nm_per_rad", "posture_damping_Nms_per_rad"):
+        for key in (
+            "orientation_stiffness_Nm_per_rad",
+            "orientation_damping_Nms_per_rad",
+            "posture_stiffness_Nm_per_rad",
+            "posture_damping_Nms_per_rad",
+        ):
             if not (math.isfinite(getattr(self, key)) and getattr(self, key) >= 0):
                 fail(f"task.{key}", f"must be non-negative, got {getattr(self, key)}")
         if not self.max_contact_force_N > 0:
@@ -310,9 +354,15 @@ class ArmTask:
             fail("task.max_saturation_s", "must be positive")
         self.puncture.check(fail)
         if self.control_path not in CONTROL_PATHS:
-            fail("task.control_path", f"must be one of {', '.join(CONTROL_PATHS)}, got '{self.control_path}'")
+            fail(
+                "task.control_path",
+                f"must be one of {', '.join(CONTROL_PATHS)}, got '{self.control_path}'",
+            )
         if self.puncture.object_frame and list(self.axes) != [0, 1, 2]:
-            fail("task.puncture.object_frame", "a puncture needs the task axes [0, 1, 2] (the tool point in 3-D)")
+            fail(
+                "task.puncture.object_frame",
+                "a puncture needs the task axes [0, 1, 2] (the tool point in 3-D)",
+            )
 
 
 @dc.dataclass
@@ -400,11 +450,20 @@ class IiwaDriverConfig:
             Raises the InputError that names where the key was set.
         """
         if self.force_source not in FORCE_SOURCES:
-            fail("iiwa_driver.force_source", f"must be one of {', '.join(FORCE_SOURCES)}, got '{self.force_source}'")
+            fail(
+                "iiwa_driver.force_source",
+                f"must be one of {', '.join(FORCE_SOURCES)}, got '{self.force_source}'",
+            )
         for key in ("status_channel", "command_channel", "wrist_channel"):
             if not getattr(self, key):
                 fail(f"iiwa_driver.{key}", "must name an LCM channel")
-        for key in ("period_s", "start_guard_s", "stale_status_s", "first_status_timeout_s", "start_tolerance_rad"):
+        for key in (
+            "period_s",
+            "start_guard_s",
+            "stale_status_s",
+            "first_status_timeout_s",
+            "start_tolerance_rad",
+        ):
             value = getattr(self, key)
             if not (math.isfinite(value) and value > 0):
                 fail(f"iiwa_driver.{key}", f"must be a positive number, got {value}")
@@ -429,10 +488,13 @@ class Scenario:
     log_period_s: float = 0.01
     directives: list[ModelDirective] = dc.field(default_factory=list)
     plant_config: MultibodyPlantConfig = dc.field(
-        default_factory=lambda: MultibodyPlantConfig(use_sampled_output_ports=False))
+        default_factory=lambda: MultibodyPlantConfig(use_sampled_output_ports=False)
+    )
     simulator_config: SimulatorConfig = dc.field(default_factory=SimulatorConfig)
     task: Union[SliderTask, ArmTask] = dc.field(default_factory=SliderTask)
-    reference: Union[StepReferenceConfig, DemonstrationConfig] = dc.field(default_factory=StepReferenceConfig)
+    reference: Union[StepReferenceConfig, DemonstrationConfig] = dc.field(
+        default_factory=StepReferenceConfig
+    )
     dmp: DmpSettings = dc.field(default_factory=DmpSettings)
     controllers: dict[str, ControllerConfig] = dc.field(default_factory=dict)
     max_abs_position_m: float = 10.0

@@ -50,7 +50,7 @@ from hlcmp_drake.io.paths import DIAGRAMS_DIR
 
 SWEEPS_DIR = DIAGRAMS_DIR / "sweeps"
 REDUCTIONS = ("max", "min", "max_abs", "mean", "final")
-CASE = "case"   # the parameter key (and default column header) of a sweep's cases
+CASE = "case"  # the parameter key (and default column header) of a sweep's cases
 _KEY = re.compile(r"[A-Za-z0-9_.\-]+")
 
 
@@ -231,7 +231,12 @@ def _yaml_text(value: object) -> str:
     flow style on one line."""
     if isinstance(value, str):
         return value
-    return yaml.safe_dump(value, default_flow_style=True, width=math.inf).strip().removesuffix("...").strip()
+    return (
+        yaml.safe_dump(value, default_flow_style=True, width=math.inf)
+        .strip()
+        .removesuffix("...")
+        .strip()
+    )
 
 
 def _normalized(raw: dict, fail) -> dict:
@@ -262,12 +267,21 @@ def _normalized(raw: dict, fail) -> dict:
         cases = raw["cases"] or []
         if not isinstance(cases, list):
             fail("cases", "cases: expected a list of {label, set}")
-        raw["cases"] = [dict(case, **({"label": _yaml_text(case["label"])} if "label" in case else {}),
-                             **({"set": texts(case["set"], "cases")} if "set" in case else {}))
-                        if isinstance(case, dict) else case for case in cases]
+        raw["cases"] = [
+            dict(
+                case,
+                **({"label": _yaml_text(case["label"])} if "label" in case else {}),
+                **({"set": texts(case["set"], "cases")} if "set" in case else {}),
+            )
+            if isinstance(case, dict)
+            else case
+            for case in cases
+        ]
     if isinstance(raw.get("metrics"), list):
-        raw["metrics"] = [dict(m, label=_yaml_text(m["label"])) if isinstance(m, dict) and "label" in m else m
-                          for m in raw["metrics"]]
+        raw["metrics"] = [
+            dict(m, label=_yaml_text(m["label"])) if isinstance(m, dict) and "label" in m else m
+            for m in raw["metrics"]
+        ]
     return raw
 
 
@@ -282,7 +296,9 @@ def _schema_error(path: Path, text: str, error: Exception) -> InputError:
 def _key_line(text: str, key: str) -> int | None:
     """The first line that sets `key` (block or flow style), for override keys."""
     pattern = re.compile(rf"(^|[\s{{,]){re.escape(key)}\s*:")
-    return next((n for n, row in enumerate(text.splitlines(), 1) if pattern.search(row.split("#")[0])), None)
+    return next(
+        (n for n, row in enumerate(text.splitlines(), 1) if pattern.search(row.split("#")[0])), None
+    )
 
 
 def load_sweep(name_or_path: str | Path) -> Sweep:
@@ -311,23 +327,31 @@ def load_sweep(name_or_path: str | Path) -> Sweep:
 
     def fail(key: str, problem: str):
         section, _, rest = key.partition(".")
-        line = (line_of(text, key) or _key_line(text, key) or (rest and _key_line(text, rest))
-                or line_of(text, section))
+        line = (
+            line_of(text, key)
+            or _key_line(text, key)
+            or (rest and _key_line(text, rest))
+            or line_of(text, section)
+        )
         raise located(path, line, problem)
 
     try:
         raw = yaml.safe_load(text)
     except yaml.YAMLError as error:
         mark = getattr(error, "problem_mark", None) or getattr(error, "context_mark", None)
-        problem = " ".join(filter(None, [getattr(error, "context", None), getattr(error, "problem", None)]))
+        problem = " ".join(
+            filter(None, [getattr(error, "context", None), getattr(error, "problem", None)])
+        )
         raise located(path, mark.line + 1 if mark else None, problem or str(error)) from None
     if not isinstance(raw, dict):
         raise located(path, None, "expected a map with at least `scenario`")
     try:
-        config = yaml_load_typed(schema=SweepConfig, data=yaml.safe_dump(_normalized(raw, fail), sort_keys=False))
+        config = yaml_load_typed(
+            schema=SweepConfig, data=yaml.safe_dump(_normalized(raw, fail), sort_keys=False)
+        )
     except InputError:
         raise
-    except Exception as error:   # Drake's typed loader raises RuntimeError and TypeError
+    except Exception as error:  # Drake's typed loader raises RuntimeError and TypeError
         raise _schema_error(path, text, error) from None
     _check(config, fail)
     scenario_path = _scenario_path(config.scenario, path, fail)
@@ -342,7 +366,9 @@ def _scenario_path(scenario: str, sweep_path: Path, fail) -> Path:
     if candidate.suffix in (".yaml", ".yml") and not candidate.is_absolute():
         candidate = sweep_path.parent / candidate
     try:
-        return resolve_scenario_path(candidate if candidate.suffix in (".yaml", ".yml") else scenario)
+        return resolve_scenario_path(
+            candidate if candidate.suffix in (".yaml", ".yml") else scenario
+        )
     except InputError as error:
         fail("scenario", f"scenario: {error}")
 
@@ -375,23 +401,45 @@ def _check(config: SweepConfig, fail) -> None:
             fail(key, f"'{key}': an override key is dotted, e.g. controllers.hlcmp.pi")
     for key in config.labels:
         if key not in config.grid and not (key == CASE and config.cases):
-            fail(f"labels.{key}", f"labels: '{key}' is not a swept parameter "
-                                  f"({', '.join(([CASE] if config.cases else []) + list(config.grid)) or 'none'})")
+            fail(
+                f"labels.{key}",
+                f"labels: '{key}' is not a swept parameter "
+                f"({', '.join(([CASE] if config.cases else []) + list(config.grid)) or 'none'})",
+            )
     if len(set(config.controllers)) != len(config.controllers):
         fail("controllers", f"controllers: a label is listed twice: {config.controllers}")
     for k, metric in enumerate(config.metrics):
         where = f"metrics: entry {k + 1}"
         if bool(metric.path) == bool(metric.series):
-            fail("metrics", f"{where}: give either `path` (into metrics.json) or `series` (timeseries.npz)")
+            fail(
+                "metrics",
+                f"{where}: give either `path` (into metrics.json) or `series` (timeseries.npz)",
+            )
         if metric.series and metric.reduce not in REDUCTIONS:
-            fail("reduce", f"{where}: reduce must be one of {', '.join(REDUCTIONS)}, got '{metric.reduce}'")
+            fail(
+                "reduce",
+                f"{where}: reduce must be one of {', '.join(REDUCTIONS)}, got '{metric.reduce}'",
+            )
         if metric.series and "/" not in metric.series:
-            fail("series", f"{where}: series is CONTROLLER/NAME, e.g. hlcmp/Ks, got '{metric.series}'")
-        if metric.window_s and (len(metric.window_s) != 2 or not metric.window_s[0] < metric.window_s[1]):
-            fail("window_s", f"{where}: window_s is [start, end] with start < end, got {metric.window_s}")
+            fail(
+                "series",
+                f"{where}: series is CONTROLLER/NAME, e.g. hlcmp/Ks, got '{metric.series}'",
+            )
+        if metric.window_s and (
+            len(metric.window_s) != 2 or not metric.window_s[0] < metric.window_s[1]
+        ):
+            fail(
+                "window_s",
+                f"{where}: window_s is [start, end] with start < end, got {metric.window_s}",
+            )
         if metric.column < 0 or not 0 <= metric.digits <= 12 or not math.isfinite(metric.scale):
-            fail("metrics", f"{where}: column >= 0, 0 <= digits <= 12 and a finite scale are required")
-        metric.label = metric.label or metric.path or f"{metric.reduce} {metric.series}[{metric.column}]"
+            fail(
+                "metrics",
+                f"{where}: column >= 0, 0 <= digits <= 12 and a finite scale are required",
+            )
+        metric.label = (
+            metric.label or metric.path or f"{metric.reduce} {metric.series}[{metric.column}]"
+        )
     names = [m.label for m in config.metrics]
     if len(set(names)) != len(names):
         fail("metrics", f"metrics: two columns share a label: {names}")
@@ -484,26 +532,45 @@ def plan_tasks(sweep: Sweep, out_dir: str | Path) -> list[SweepTask]:
         scenario = _load_task_scenario(sweep, overrides, parameters)
         unknown = [label for label in config.controllers if label not in scenario.controllers]
         if unknown:
-            raise located(sweep.path, line_of(sweep.text, "controllers"),
-                          f"controllers: {', '.join(unknown)} not in the scenario "
-                          f"({', '.join(scenario.controllers)})")
+            raise located(
+                sweep.path,
+                line_of(sweep.text, "controllers"),
+                f"controllers: {', '.join(unknown)} not in the scenario "
+                f"({', '.join(scenario.controllers)})",
+            )
         keep = config.controllers or list(scenario.controllers)
         # The claims compare controllers of different kinds (the Hl-CMP with the baselines):
         # they are judged only when every kind of the scenario is still there.
         kinds = {type(c) for c in scenario.controllers.values()}
         claims = {type(scenario.controllers[label]) for label in keep} == kinds
-        scenario = dc.replace(scenario, controllers={label: scenario.controllers[label] for label in keep})
+        scenario = dc.replace(
+            scenario, controllers={label: scenario.controllers[label] for label in keep}
+        )
         text = yaml_dump_typed(scenario)
         for repetition in range(1, config.repetitions + 1):
             identifier = task_id(parameters, repetition, config.repetitions)
             if identifier in seen:
-                raise located(sweep.path, None, f"two tasks would share the id '{identifier}': "
-                                                f"{seen[identifier]} and {parameters}; make the values differ "
-                                                "in more than brackets, quotes and spaces")
+                raise located(
+                    sweep.path,
+                    None,
+                    f"two tasks would share the id '{identifier}': "
+                    f"{seen[identifier]} and {parameters}; make the values differ "
+                    "in more than brackets, quotes and spaces",
+                )
             seen[identifier] = parameters
-            tasks.append(SweepTask(identifier, dict(parameters), repetition, overrides, text,
-                                   str(sweep.scenario_path), list(keep), claims,
-                                   str(Path(out_dir) / "tasks" / identifier)))
+            tasks.append(
+                SweepTask(
+                    identifier,
+                    dict(parameters),
+                    repetition,
+                    overrides,
+                    text,
+                    str(sweep.scenario_path),
+                    list(keep),
+                    claims,
+                    str(Path(out_dir) / "tasks" / identifier),
+                )
+            )
     return tasks
 
 

@@ -4,8 +4,13 @@ import math
 from pathlib import Path
 from typing import Callable
 
-from hlcmp_drake.config.scenario import (ArmTask, DemonstrationConfig, Fail, Scenario,
-                                         StepReferenceConfig)
+from hlcmp_drake.config.scenario import (
+    ArmTask,
+    DemonstrationConfig,
+    Fail,
+    Scenario,
+    StepReferenceConfig,
+)
 from hlcmp_drake.io.paths import MODELS_DIR, PACKAGE_NAME
 
 
@@ -27,14 +32,15 @@ def model_file_exists(file: str) -> bool:
     """
     prefix = f"package://{PACKAGE_NAME}/models/"
     if file.startswith(prefix):
-        return (MODELS_DIR / file[len(prefix):]).is_file()
+        return (MODELS_DIR / file[len(prefix) :]).is_file()
     if file.startswith("package://"):
         return True
     return Path(file.removeprefix("file://")).is_file()
 
 
-def validate_scenario(scenario: Scenario, folder: Path, fail: Fail,
-                      fail_model: Callable[[str], None]) -> None:
+def validate_scenario(
+    scenario: Scenario, folder: Path, fail: Fail, fail_model: Callable[[str], None]
+) -> None:
     """Raise InputError (through `fail(key, problem)`) for the first problem found.
 
     Parameters
@@ -73,29 +79,42 @@ def validate_scenario(scenario: Scenario, folder: Path, fail: Fail,
             fail("reference", "an arm task needs a !DemonstrationConfig reference")
         if len(reference.times_s) != len(reference.positions_m) or not reference.times_s:
             fail("reference.times_s", "needs one entry per row of positions_m")
-        if reference.times_s[0] != 0 or any(b <= a for a, b in zip(reference.times_s, reference.times_s[1:])):
+        if reference.times_s[0] != 0 or any(
+            b <= a for a, b in zip(reference.times_s, reference.times_s[1:])
+        ):
             fail("reference.times_s", "must start at 0 and increase")
         if len({len(row) for row in reference.positions_m}) != 1:
             fail("reference.positions_m", "every row needs the same number of axes")
     if isinstance(reference, DemonstrationConfig):
         demo = Path(folder) / reference.file
         if not reference.file or not demo.is_file():
-            fail("reference.file", f"demonstration file '{reference.file}' not found (looked for {demo})")
+            fail(
+                "reference.file",
+                f"demonstration file '{reference.file}' not found (looked for {demo})",
+            )
         if not reference.duration_s >= 0:
-            fail("reference.duration_s", "the demonstration's duration_s must be >= 0 (0: as demonstrated)")
+            fail(
+                "reference.duration_s",
+                "the demonstration's duration_s must be >= 0 (0: as demonstrated)",
+            )
     if isinstance(scenario.task, ArmTask):
         scenario.task.check(fail)
         scenario.iiwa_driver.check(fail)
         if scenario.task.control_path == "fast" and not scenario.plant_config.time_step > 0:
-            fail("plant_config.time_step", "the arm's fast path ticks once per plant step: it needs a "
-                 "discrete plant (time_step > 0), or task.control_path: modular")
+            fail(
+                "plant_config.time_step",
+                "the arm's fast path ticks once per plant step: it needs a "
+                "discrete plant (time_step > 0), or task.control_path: modular",
+            )
         if scenario.plant_config.use_sampled_output_ports:
             # The arm's controller and the foam's friction are unrestricted updates at the
             # plant's step; a sampled plant steps in the same pass and would see them a step late.
-            fail("plant_config.use_sampled_output_ports", "an arm world needs false (the controller's "
-                 "tick must come before the plant's step)")
+            fail(
+                "plant_config.use_sampled_output_ports",
+                "an arm world needs false (the controller's "
+                "tick must come before the plant's step)",
+            )
     if not scenario.controllers:
         fail("controllers", "at least one controller is needed")
     for name, config in scenario.controllers.items():
         config.check(name, scenario.n_axes, fail)
-

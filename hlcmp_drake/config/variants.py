@@ -8,10 +8,9 @@ from pydrake.multibody.parsing import AddModel, AddWeld, ModelDirective
 
 from hlcmp_drake.config.scenario import Scenario
 
-
 OWN_IIWA = "package://hlcmp_drake/models/iiwa14.sdf"
 DRAKE_MODELS_IIWA = "package://drake_models/iiwa_description/sdf/iiwa14_no_collision.sdf"
-FLANGE_OFFSET_M = 0.045   # our model's "flange" frame, along link 7's +z
+FLANGE_OFFSET_M = 0.045  # our model's "flange" frame, along link 7's +z
 
 
 def use_drake_models_iiwa(scenario: Scenario) -> Scenario:
@@ -36,14 +35,22 @@ def use_drake_models_iiwa(scenario: Scenario) -> Scenario:
     for directive in scenario.directives:
         model, weld = directive.add_model, directive.add_weld
         if model is not None and model.file == OWN_IIWA:
-            directive = ModelDirective(add_model=AddModel(
-                file=DRAKE_MODELS_IIWA, name=model.name,
-                default_joint_positions=model.default_joint_positions,
-                default_free_body_pose=model.default_free_body_pose))
+            directive = ModelDirective(
+                add_model=AddModel(
+                    file=DRAKE_MODELS_IIWA,
+                    name=model.name,
+                    default_joint_positions=model.default_joint_positions,
+                    default_free_body_pose=model.default_free_body_pose,
+                )
+            )
         elif weld is not None and weld.parent.endswith("::flange"):
             x_pc = weld.X_PC.GetDeterministicValue() if weld.X_PC is not None else RigidTransform()
-            directive = ModelDirective(add_weld=AddWeld(
-                parent=weld.parent[: -len("flange")] + "iiwa_link_7", child=weld.child,
-                X_PC=Transform(RigidTransform([0.0, 0.0, FLANGE_OFFSET_M]) @ x_pc)))
+            directive = ModelDirective(
+                add_weld=AddWeld(
+                    parent=weld.parent[: -len("flange")] + "iiwa_link_7",
+                    child=weld.child,
+                    X_PC=Transform(RigidTransform([0.0, 0.0, FLANGE_OFFSET_M]) @ x_pc),
+                )
+            )
         directives.append(directive)
     return dc.replace(scenario, directives=directives)

@@ -7,8 +7,9 @@ Cartesian axis; g is the (N,) normalized basis g(s) of Eq. 16 at the current pha
 import numpy as np
 
 
-def compliant_profiles(theta_k: np.ndarray, theta_d: np.ndarray, theta_v: np.ndarray,
-                       g: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def compliant_profiles(
+    theta_k: np.ndarray, theta_d: np.ndarray, theta_v: np.ndarray, g: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Eq. 14: K_s,m = theta_k,m . g(s), K_d,m = theta_d,m . g(s), v_m = theta_v,m . g(s).
 
     Parameters
@@ -27,9 +28,15 @@ def compliant_profiles(theta_k: np.ndarray, theta_d: np.ndarray, theta_v: np.nda
     return theta_k @ g, theta_d @ g, theta_v @ g
 
 
-def adaptation_rates(eps: np.ndarray, e: np.ndarray, edot: np.ndarray, g: np.ndarray,
-                     q_k: np.ndarray, q_d: np.ndarray,
-                     q_v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def adaptation_rates(
+    eps: np.ndarray,
+    e: np.ndarray,
+    edot: np.ndarray,
+    g: np.ndarray,
+    q_k: np.ndarray,
+    q_d: np.ndarray,
+    q_v: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Eq. 31, per axis m:
 
         theta_k,m' = Q_k,m eps_m e_m g(s)

@@ -7,8 +7,9 @@ come from Drake (see `systems.task_space.TaskSpaceDynamics`), never from here.
 import numpy as np
 
 
-def tracking_errors(x: np.ndarray, xdot: np.ndarray, xd: np.ndarray,
-                    xd_dot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def tracking_errors(
+    x: np.ndarray, xdot: np.ndarray, xd: np.ndarray, xd_dot: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Eq. 5: e = x - x_d, e' = x' - x_d'.
 
     Parameters
@@ -26,7 +27,9 @@ def tracking_errors(x: np.ndarray, xdot: np.ndarray, xd: np.ndarray,
     return np.asarray(x) - xd, np.asarray(xdot) - xd_dot
 
 
-def impedance_force(k_s: np.ndarray, k_d: np.ndarray, e: np.ndarray, edot: np.ndarray) -> np.ndarray:
+def impedance_force(
+    k_s: np.ndarray, k_d: np.ndarray, e: np.ndarray, edot: np.ndarray
+) -> np.ndarray:
     """Eq. 4: u = K_s e + K_d e' with diagonal K_s, K_d given by their diagonals (M,).
 
     Parameters
@@ -62,8 +65,9 @@ def sliding_error(e: np.ndarray, edot: np.ndarray, pi: float) -> np.ndarray:
     return edot + pi * e
 
 
-def reference_motion(xd_dot: np.ndarray, xd_ddot: np.ndarray, e: np.ndarray, edot: np.ndarray,
-                     pi: float) -> tuple[np.ndarray, np.ndarray]:
+def reference_motion(
+    xd_dot: np.ndarray, xd_ddot: np.ndarray, e: np.ndarray, edot: np.ndarray, pi: float
+) -> tuple[np.ndarray, np.ndarray]:
     """The auxiliary reference of Eq. 34: x_e' = x_d' - pi e and its derivative
     x_e'' = x_d'' - pi e' (so that eps = x' - x_e').
 
@@ -82,8 +86,15 @@ def reference_motion(xd_dot: np.ndarray, xd_ddot: np.ndarray, e: np.ndarray, edo
     return xd_dot - pi * e, xd_ddot - pi * edot
 
 
-def nominal_force(inertia: np.ndarray, coriolis: np.ndarray, gravity: np.ndarray, xe_dot: np.ndarray,
-                  xe_ddot: np.ndarray, gain_l: np.ndarray, eps: np.ndarray) -> np.ndarray:
+def nominal_force(
+    inertia: np.ndarray,
+    coriolis: np.ndarray,
+    gravity: np.ndarray,
+    xe_dot: np.ndarray,
+    xe_ddot: np.ndarray,
+    gain_l: np.ndarray,
+    eps: np.ndarray,
+) -> np.ndarray:
     """Eq. 34: f_0 = M x_e'' + C x_e' + G - L eps, with L given by its diagonal (M,).
 
     Parameters
@@ -125,9 +136,18 @@ def commanded_force(f0: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return f0 - u - v
 
 
-def nominal_command(x: np.ndarray, xdot: np.ndarray, xd: np.ndarray, xd_dot: np.ndarray,
-                    xd_ddot: np.ndarray, inertia: np.ndarray, coriolis: np.ndarray, gravity: np.ndarray,
-                    pi: float, gain_l: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def nominal_command(
+    x: np.ndarray,
+    xdot: np.ndarray,
+    xd: np.ndarray,
+    xd_dot: np.ndarray,
+    xd_ddot: np.ndarray,
+    inertia: np.ndarray,
+    coriolis: np.ndarray,
+    gravity: np.ndarray,
+    pi: float,
+    gain_l: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The part of the command every task-space impedance law here shares: the tracking
     errors (Eq. 5), the sliding error (Eq. 29) and the nominal force f_0 (Eq. 34).
 

@@ -12,7 +12,6 @@ Defaults (the paper leaves them open):
   neighbouring kernels cross at exp(-1) of their peak.
 """
 
-
 import dataclasses
 import functools
 from collections.abc import Sequence
@@ -179,8 +178,9 @@ def normalized_basis(s: float | np.ndarray, centers: np.ndarray, widths: np.ndar
     return omega / np.sum(omega, axis=-1, keepdims=True)
 
 
-def forcing_basis(s: float | np.ndarray, centers: np.ndarray, widths: np.ndarray,
-                  amplitude: np.ndarray) -> np.ndarray:
+def forcing_basis(
+    s: float | np.ndarray, centers: np.ndarray, widths: np.ndarray, amplitude: np.ndarray
+) -> np.ndarray:
     """Eq. 13: [g_p(s)]_n = omega_n(s) s (g - p0) / sum_k omega_k(s).
 
     `amplitude` is (g - p0) per axis, or the documented substitute on a g ~ p0 axis
@@ -208,9 +208,15 @@ def forcing_basis(s: float | np.ndarray, centers: np.ndarray, widths: np.ndarray
 # --------------------------------------------------------------------------------------
 
 
-def transformation_rates(p: float | np.ndarray, z: float | np.ndarray, forcing: float | np.ndarray,
-                         goal: float | np.ndarray, tau: float, alpha: float,
-                         beta: float) -> tuple[float | np.ndarray, float | np.ndarray]:
+def transformation_rates(
+    p: float | np.ndarray,
+    z: float | np.ndarray,
+    forcing: float | np.ndarray,
+    goal: float | np.ndarray,
+    tau: float,
+    alpha: float,
+    beta: float,
+) -> tuple[float | np.ndarray, float | np.ndarray]:
     """Eqs. 15 and 7: tau z' = alpha (beta (g - p) - z) + f,  tau p' = z.
 
     `forcing` is f = theta_p . g_p(s) per axis. Returns (dp/dt, dz/dt).
@@ -257,13 +263,24 @@ def transformation_matrices(tau: float, alpha: float, beta: float) -> tuple[np.n
     b : (2,) array
         The drive's column [1/s].
     """
-    a = np.column_stack([transformation_rates(1.0, 0.0, 0.0, 0.0, tau, alpha, beta),
-                         transformation_rates(0.0, 1.0, 0.0, 0.0, tau, alpha, beta)])
+    a = np.column_stack(
+        [
+            transformation_rates(1.0, 0.0, 0.0, 0.0, tau, alpha, beta),
+            transformation_rates(0.0, 1.0, 0.0, 0.0, tau, alpha, beta),
+        ]
+    )
     return a, np.array(transformation_rates(0.0, 0.0, 1.0, 0.0, tau, alpha, beta))
 
 
-def forcing_target(p: np.ndarray, pdot: np.ndarray, pddot: np.ndarray, goal: float, tau: float,
-                   alpha: float, beta: float) -> np.ndarray:
+def forcing_target(
+    p: np.ndarray,
+    pdot: np.ndarray,
+    pddot: np.ndarray,
+    goal: float,
+    tau: float,
+    alpha: float,
+    beta: float,
+) -> np.ndarray:
     """Eq. 19: f_target = tau^2 p'' + alpha tau p' - alpha beta (g - p).
 
     Parameters
@@ -283,7 +300,9 @@ def forcing_target(p: np.ndarray, pdot: np.ndarray, pddot: np.ndarray, goal: flo
     return tau**2 * pddot + alpha * tau * pdot - alpha * beta * (goal - p)
 
 
-def fit_forcing_weights(features: np.ndarray, targets: np.ndarray, ridge: float = 1e-9) -> np.ndarray:
+def fit_forcing_weights(
+    features: np.ndarray, targets: np.ndarray, ridge: float = 1e-9
+) -> np.ndarray:
     """Eq. 21: theta_p = argmin ||f_target - theta_p . g_p||^2, one axis.
 
     Solved as regularized least squares over all samples at once (not per-kernel LWR):
@@ -331,8 +350,8 @@ def _smooth(values, sigma_samples):
 
 
 def resample_and_differentiate(
-        t: np.ndarray, positions: np.ndarray, smoothing_s: float,
-        dt: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    t: np.ndarray, positions: np.ndarray, smoothing_s: float, dt: float | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Uniform resampling, smoothing and derivatives of a (possibly uneven, noisy) demo.
 
     1. Linear interpolation onto a uniform grid with the demonstration's median spacing
@@ -410,8 +429,13 @@ class Dmp:
         return basis_centers_and_widths(self.settings.n_basis, self.settings.alpha_s)
 
     @classmethod
-    def fit(cls, t: np.ndarray, positions: np.ndarray, axis_names: Sequence[str],
-            settings: DmpSettings | None = None) -> "Dmp":
+    def fit(
+        cls,
+        t: np.ndarray,
+        positions: np.ndarray,
+        axis_names: Sequence[str],
+        settings: DmpSettings | None = None,
+    ) -> "Dmp":
         """Table I step II: fit theta_p to a demonstration (Eqs. 18-21), tau = its duration.
 
         Parameters
@@ -445,12 +469,17 @@ class Dmp:
         dt = t_u[1] - t_u[0]
         t_tail = tau + dt * np.arange(1, int(TAIL_FRACTION * tau / dt) + 1)
         s = phase_at(np.concatenate([t_u, t_tail]), tau, settings.alpha_s)
-        features = forcing_basis(s, centers, widths, amplitude)   # (T, M, N), the basis evaluated once
+        features = forcing_basis(
+            s, centers, widths, amplitude
+        )  # (T, M, N), the basis evaluated once
         theta_p = np.zeros((p.shape[1], settings.n_basis))
         for m in range(p.shape[1]):
-            target = forcing_target(p[:, m], pdot[:, m], pddot[:, m], goal[m], tau,
-                                    settings.alpha, settings.beta_value)
-            theta_p[m] = fit_forcing_weights(features[:, m, :], np.concatenate([target, np.zeros(len(t_tail))]))
+            target = forcing_target(
+                p[:, m], pdot[:, m], pddot[:, m], goal[m], tau, settings.alpha, settings.beta_value
+            )
+            theta_p[m] = fit_forcing_weights(
+                features[:, m, :], np.concatenate([target, np.zeros(len(t_tail))])
+            )
         return cls(settings, tau, start, goal, theta_p, amplitude, goal_scaled, tuple(axis_names))
 
     def with_goal(self, goal: np.ndarray) -> "Dmp":
@@ -479,8 +508,9 @@ class Dmp:
         """
         return np.where(self.goal_scaled, self.goal - self.start, self.amplitude)
 
-    def rates(self, p: np.ndarray, z: np.ndarray, s: float,
-              tau: float | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+    def rates(
+        self, p: np.ndarray, z: np.ndarray, s: float, tau: float | None = None
+    ) -> tuple[np.ndarray, np.ndarray, float]:
         """Time derivatives (p', z', s') of the DMP state, Eqs. 7, 8, 13, 15.
 
         Parameters
@@ -502,8 +532,9 @@ class Dmp:
             ds/dt [1/s].
         """
         tau = self.tau if tau is None else tau
-        pdot, zdot = transformation_rates(p, z, self.forcing(s), self.goal, tau,
-                                          self.settings.alpha, self.settings.beta_value)
+        pdot, zdot = transformation_rates(
+            p, z, self.forcing(s), self.goal, tau, self.settings.alpha, self.settings.beta_value
+        )
         return pdot, zdot, canonical_phase_rate(s, tau, self.settings.alpha_s)
 
     def forcing(self, s: float | np.ndarray) -> np.ndarray:
@@ -520,10 +551,13 @@ class Dmp:
             The forcing term f [m].
         """
         centers, widths = self.basis
-        return np.sum(self.theta_p * forcing_basis(s, centers, widths, self.current_amplitude()), axis=-1)
+        return np.sum(
+            self.theta_p * forcing_basis(s, centers, widths, self.current_amplitude()), axis=-1
+        )
 
-    def rollout(self, duration: float | None = None, dt: float = 0.001, tau: float | None = None
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    def rollout(
+        self, duration: float | None = None, dt: float = 0.001, tau: float | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The DMP from its start, sampled every dt; returns t, p, pdot, pddot, s.
 
         tau defaults to the demonstration's duration; another tau is temporal scaling.
@@ -555,13 +589,13 @@ class Dmp:
         n = int(round(duration / dt)) + 1
         t = np.arange(n) * dt
         s = phase_at(t, tau, self.settings.alpha_s)
-        forcing = self.forcing(s)                                             # (n, M)
+        forcing = self.forcing(s)  # (n, M)
         alpha, beta, goal = self.settings.alpha, self.settings.beta_value, self.goal
         a, b = transformation_matrices(tau, alpha, beta)
         phi, gamma0, gamma1 = _first_order_hold(a, b, dt)
-        u = alpha * beta * goal + forcing                                     # (n, M)
+        u = alpha * beta * goal + forcing  # (n, M)
         slope = np.diff(u, axis=0, append=u[-1:]) / dt
-        drive = gamma0[:, None, None] * u[None] + gamma1[:, None, None] * slope[None]   # (2, n, M)
+        drive = gamma0[:, None, None] * u[None] + gamma1[:, None, None] * slope[None]  # (2, n, M)
         x = np.empty((n, 2, self.n_axes))
         x[0] = [self.start, np.zeros(self.n_axes)]
         for k in range(n - 1):

@@ -31,7 +31,9 @@
 import numpy as np
 
 
-def duan_adaptation_step(phi: np.ndarray, delta_f: np.ndarray, sigma: float, b: np.ndarray) -> np.ndarray:
+def duan_adaptation_step(
+    phi: np.ndarray, delta_f: np.ndarray, sigma: float, b: np.ndarray
+) -> np.ndarray:
     """Duan et al. 2018: Phi(t) = Phi(t - lambda) + sigma Delta_f(t - lambda) / b.
 
     Parameters
@@ -71,9 +73,15 @@ def duan_force_error(f_desired: np.ndarray, f_measured: np.ndarray) -> np.ndarra
     return np.asarray(f_desired) - f_measured
 
 
-def duan_admittance_acceleration(e_c: np.ndarray, e_c_dot: np.ndarray, phi: np.ndarray,
-                                 delta_f: np.ndarray, mass: np.ndarray, damping: np.ndarray,
-                                 stiffness: np.ndarray) -> np.ndarray:
+def duan_admittance_acceleration(
+    e_c: np.ndarray,
+    e_c_dot: np.ndarray,
+    phi: np.ndarray,
+    delta_f: np.ndarray,
+    mass: np.ndarray,
+    damping: np.ndarray,
+    stiffness: np.ndarray,
+) -> np.ndarray:
     """Duan et al. 2018 target impedance solved for e_c'':
 
         m e_c'' + b (e_c' + Phi) + k e_c = -Delta_f
@@ -104,9 +112,19 @@ def duan_admittance_acceleration(e_c: np.ndarray, e_c_dot: np.ndarray, phi: np.n
     return (-delta_f - damping * (e_c_dot + phi) - stiffness * e_c) / mass
 
 
-def inner_position_loop(inertia: np.ndarray, coriolis: np.ndarray, gravity: np.ndarray,
-                        xc_ddot: np.ndarray, xc_dot: np.ndarray, xc: np.ndarray, x: np.ndarray,
-                        xdot: np.ndarray, kp: np.ndarray, kv: np.ndarray, f_ext: np.ndarray) -> np.ndarray:
+def inner_position_loop(
+    inertia: np.ndarray,
+    coriolis: np.ndarray,
+    gravity: np.ndarray,
+    xc_ddot: np.ndarray,
+    xc_dot: np.ndarray,
+    xc: np.ndarray,
+    x: np.ndarray,
+    xdot: np.ndarray,
+    kp: np.ndarray,
+    kv: np.ndarray,
+    f_ext: np.ndarray,
+) -> np.ndarray:
     """Inverse-dynamics PD tracking of the admittance output x_c (the inner loop of a
     position-based impedance controller), with the measured external force cancelled:
     f = M (x_c'' + kv (x_c' - x') + kp (x_c - x)) + C x' + G - f_ext.
@@ -133,4 +151,9 @@ def inner_position_loop(inertia: np.ndarray, coriolis: np.ndarray, gravity: np.n
     (M,) array
         Commanded task-space force f [N].
     """
-    return inertia @ (xc_ddot + kv * (xc_dot - xdot) + kp * (xc - x)) + coriolis @ xdot + gravity - f_ext
+    return (
+        inertia @ (xc_ddot + kv * (xc_dot - xdot) + kp * (xc - x))
+        + coriolis @ xdot
+        + gravity
+        - f_ext
+    )

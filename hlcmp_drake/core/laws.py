@@ -143,18 +143,34 @@ class HlcmpLaw:
         """
         gains = self.gains
         g = normalized_basis(now.phase, self.centers, self.widths)
-        e, edot, eps, f0 = nominal_command(now.x, now.xdot, now.xd, now.xd_dot, now.xd_ddot, now.inertia,
-                                           now.coriolis, now.gravity, gains.pi, gains.gain_l)
+        e, edot, eps, f0 = nominal_command(
+            now.x,
+            now.xdot,
+            now.xd,
+            now.xd_dot,
+            now.xd_ddot,
+            now.inertia,
+            now.coriolis,
+            now.gravity,
+            gains.pi,
+            gains.gain_l,
+        )
         k_s, k_d, v = compliant_profiles(*self.unflatten(theta), g)
         u = impedance_force(k_s, k_d, e, edot)
 
         def rates():
-            return np.concatenate([r.ravel() for r in adaptation_rates(eps, e, edot, g, gains.q_k, gains.q_d,
-                                                                       gains.q_v)])
+            return np.concatenate(
+                [
+                    r.ravel()
+                    for r in adaptation_rates(eps, e, edot, g, gains.q_k, gains.q_d, gains.q_v)
+                ]
+            )
 
-        return LawOutput(commanded_force(f0, u, v),
-                         dict(stiffness=k_s, damping=k_d, feedforward=v, impedance_force=u, sliding_error=eps),
-                         rates)
+        return LawOutput(
+            commanded_force(f0, u, v),
+            dict(stiffness=k_s, damping=k_d, feedforward=v, impedance_force=u, sliding_error=eps),
+            rates,
+        )
 
 
 class ConstantImpedanceLaw:
@@ -196,7 +212,21 @@ class ConstantImpedanceLaw:
         LawOutput
             force f_c [N], no logs, no rates.
         """
-        e, edot, _, f0 = nominal_command(now.x, now.xdot, now.xd, now.xd_dot, now.xd_ddot, now.inertia,
-                                         now.coriolis, now.gravity, self.pi, self.gain_l)
-        return LawOutput(commanded_force(f0, impedance_force(self.k_s, self.k_d, e, edot), np.zeros(self.n_axes)),
-                         {})
+        e, edot, _, f0 = nominal_command(
+            now.x,
+            now.xdot,
+            now.xd,
+            now.xd_dot,
+            now.xd_ddot,
+            now.inertia,
+            now.coriolis,
+            now.gravity,
+            self.pi,
+            self.gain_l,
+        )
+        return LawOutput(
+            commanded_force(
+                f0, impedance_force(self.k_s, self.k_d, e, edot), np.zeros(self.n_axes)
+            ),
+            {},
+        )

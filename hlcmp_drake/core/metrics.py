@@ -3,8 +3,9 @@
 import numpy as np
 
 
-def settle_time(t: np.ndarray, x: np.ndarray, target: float, tolerance: float, start: float,
-                end: float) -> float | None:
+def settle_time(
+    t: np.ndarray, x: np.ndarray, target: float, tolerance: float, start: float, end: float
+) -> float | None:
     """First time in [start, end) after which |x - target| < tolerance holds on every
     sample up to `end`; None if it does not hold on the last sample before `end`.
 
@@ -123,8 +124,13 @@ def max_abs_force(f: np.ndarray) -> np.ndarray:
     return np.max(np.abs(f), axis=0)
 
 
-def probe_readings(distance: np.ndarray, resisting: np.ndarray, lateral: np.ndarray,
-                   in_push: np.ndarray, contact_threshold: float = 0.05) -> dict:
+def probe_readings(
+    distance: np.ndarray,
+    resisting: np.ndarray,
+    lateral: np.ndarray,
+    in_push: np.ndarray,
+    contact_threshold: float = 0.05,
+) -> dict:
     """What `hlcmp probe` reports of a tool pushed through an object at constant speed.
 
     Parameters
@@ -153,7 +159,7 @@ def probe_readings(distance: np.ndarray, resisting: np.ndarray, lateral: np.ndar
     touching = push[resisting[push] > contact_threshold]
     first_contact = touching[0] if touching.size else push[0]
     after_peak = push[push >= peak]
-    last_third = after_peak[len(after_peak) - max(1, len(after_peak) // 3):]
+    last_third = after_peak[len(after_peak) - max(1, len(after_peak) // 3) :]
     return {
         "peak_force_N": float(resisting[peak]),
         "depth_at_peak_m": float(distance[peak] - distance[first_contact]),

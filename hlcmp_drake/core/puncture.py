@@ -36,8 +36,9 @@ def tears(depth: float, inward_speed: float, tear_depth: float) -> bool:
     return depth >= tear_depth and inward_speed > 0.0
 
 
-def hole_friction(depth: float, thickness: float, axial_speed: float, friction_per_m: float,
-                  sliding_speed: float) -> float:
+def hole_friction(
+    depth: float, thickness: float, axial_speed: float, friction_per_m: float, sliding_speed: float
+) -> float:
     """The torn hole's friction on the tool along its axis [N]:
 
         F = -c * clip(depth, 0, thickness) * tanh(v / v_s)

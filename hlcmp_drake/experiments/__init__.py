@@ -50,9 +50,15 @@ def experiment_of(scenario: Scenario, path: str | Path | None = None) -> Experim
     experiment = EXPERIMENTS.get(scenario.experiment)
     where = path or scenario.name
     if experiment is None:
-        raise scenario_error(where, "experiment", f"must be one of {', '.join(EXPERIMENTS)}, "
-                                                  f"got '{scenario.experiment}'")
+        raise scenario_error(
+            where,
+            "experiment",
+            f"must be one of {', '.join(EXPERIMENTS)}, got '{scenario.experiment}'",
+        )
     if not isinstance(scenario.task, experiment.world):
-        raise scenario_error(where, "experiment", f"'{scenario.experiment}' does not fit a "
-                                                  f"{type(scenario.task).__name__}")
+        raise scenario_error(
+            where,
+            "experiment",
+            f"'{scenario.experiment}' does not fit a {type(scenario.task).__name__}",
+        )
     return experiment

@@ -36,12 +36,15 @@ def constant_impedances(scenario: Scenario) -> list[str]:
     -------
     list of str
     """
-    return sorted(scenario.controllers_of(ConstantImpedanceConfig),
-                  key=lambda n: sum(scenario.controllers[n].stiffness_N_per_m))
+    return sorted(
+        scenario.controllers_of(ConstantImpedanceConfig),
+        key=lambda n: sum(scenario.controllers[n].stiffness_N_per_m),
+    )
 
 
-def smoother_force(metrics: dict, learner_name: str, constants: list[str], label: str,
-                   paper_says: str) -> dict:
+def smoother_force(
+    metrics: dict, learner_name: str, constants: list[str], label: str, paper_says: str
+) -> dict:
     """C2: the Hl-CMP's contact force in z is smoother (smaller sum of |second
     difference|, Figs. 8 and 12b) than every constant impedance's.
 
@@ -100,8 +103,11 @@ def verdicts_table(claims: dict, learners: dict) -> Table:
             rows.setdefault(claim_name, {"paper_says": claim["paper_says"]})[name] = claim["holds"]
     table = Table(["claim", "the paper says"] + [reading_label(n, learners) for n in names])
     for claim_name, row in rows.items():
-        table.add(claim_name, row["paper_says"],
-                  *("–" if n not in row else ("yes" if row[n] else "no") for n in names))
+        table.add(
+            claim_name,
+            row["paper_says"],
+            *("–" if n not in row else ("yes" if row[n] else "no") for n in names),
+        )
     return table
 
 
@@ -116,5 +122,10 @@ def evidence_table(claims: dict, learners: dict) -> Table:
     table = Table(["claim", "run", "we measured", "reproduced"])
     for name, by_claim in claims.items():
         for claim_name, claim in by_claim.items():
-            table.add(claim_name, reading_label(name, learners), claim["evidence"], "yes" if claim["holds"] else "no")
+            table.add(
+                claim_name,
+                reading_label(name, learners),
+                claim["evidence"],
+                "yes" if claim["holds"] else "no",
+            )
     return table

@@ -3,23 +3,23 @@
 The per-axis metrics are the insertion's (Figs. 6-8 there, Fig. 12b here)."""
 
 from hlcmp_drake.config.scenario import ArmTask, Scenario
-from hlcmp_drake.experiments.plots import new_figure
 from hlcmp_drake.experiments.claims import constant_impedances, learner, smoother_force
 from hlcmp_drake.experiments.experiment import Experiment
 from hlcmp_drake.experiments.insertion import AXES, controller_metrics, table
-
+from hlcmp_drake.experiments.plots import new_figure
 
 # The paper's sentences each claim tests (Sec. V-E).
 PAPER_SAYS = {
-    "C2": "\"Compared with the constant stiffness impedance control, our approach enables a more compliant "
-          "cutting behaviour which is illustrated by a more smooth force profile.\" (Fig. 12b)",
-    "C3": "\"the compliant profiles in x and z directions do not adapt as obviously as in y direction. This "
-          "may be explained by the fact that the task dynamics in y axis is more difficult\" (Fig. 11)",
+    "C2": '"Compared with the constant stiffness impedance control, our approach enables a more compliant '
+    'cutting behaviour which is illustrated by a more smooth force profile." (Fig. 12b)',
+    "C3": '"the compliant profiles in x and z directions do not adapt as obviously as in y direction. This '
+    'may be explained by the fact that the task dynamics in y axis is more difficult" (Fig. 11)',
 }
 
 
-def claims(metrics: dict, scenario: Scenario, runs: dict | None = None,
-           learner_name: str | None = None) -> dict:
+def claims(
+    metrics: dict, scenario: Scenario, runs: dict | None = None, learner_name: str | None = None
+) -> dict:
     """C2 and C3 for cutting; without a learner, no claims.
 
     Parameters
@@ -42,8 +42,15 @@ def claims(metrics: dict, scenario: Scenario, runs: dict | None = None,
     if name is None:
         return {}
     hl = metrics[name]
-    result = {"C2": smoother_force(metrics, name, constant_impedances(scenario),
-                                   "sum |second difference of f_z| (Fig. 12b)", PAPER_SAYS["C2"])}
+    result = {
+        "C2": smoother_force(
+            metrics,
+            name,
+            constant_impedances(scenario),
+            "sum |second difference of f_z| (Fig. 12b)",
+            PAPER_SAYS["C2"],
+        )
+    }
     # C3 for cutting: the profiles adapt most on the axis where the task pushes back most.
     force = hl["mean_abs_force_N"]
     hardest = max(AXES, key=force.get)
@@ -51,9 +58,11 @@ def claims(metrics: dict, scenario: Scenario, runs: dict | None = None,
     most_k, most_v = max(AXES, key=k.get), max(AXES, key=v.get)
     result["C3"] = {
         "holds": most_k == hardest and most_v == hardest,
-        "evidence": (f"mean |f| x/y/z {force['x']:.2f}/{force['y']:.2f}/{force['z']:.2f} N (hardest: {hardest}); "
-                     f"peak learned stiffness x/y/z {k['x']:.1f}/{k['y']:.1f}/{k['z']:.1f} N/m (most: {most_k}); "
-                     f"peak |feed-forward| x/y/z {v['x']:.2f}/{v['y']:.2f}/{v['z']:.2f} N (most: {most_v})."),
+        "evidence": (
+            f"mean |f| x/y/z {force['x']:.2f}/{force['y']:.2f}/{force['z']:.2f} N (hardest: {hardest}); "
+            f"peak learned stiffness x/y/z {k['x']:.1f}/{k['y']:.1f}/{k['z']:.1f} N/m (most: {most_k}); "
+            f"peak |feed-forward| x/y/z {v['x']:.2f}/{v['y']:.2f}/{v['z']:.2f} N (most: {most_v})."
+        ),
     }
     for claim_name, claim in result.items():
         claim["paper_says"] = PAPER_SAYS[claim_name]
@@ -77,8 +86,13 @@ def figures(runs: dict, scenario: Scenario) -> dict:
     out = {}
     hl = runs.get(learner(scenario))
     if hl is not None:
-        rows = [("position [m]", None), ("FF v [N]", "v"), ("stiffness [N/m]", "Ks"),
-                ("damping [Ns/m]", "Kd"), ("CF u + v [N]", "cf")]
+        rows = [
+            ("position [m]", None),
+            ("FF v [N]", "v"),
+            ("stiffness [N/m]", "Ks"),
+            ("damping [Ns/m]", "Kd"),
+            ("CF u + v [N]", "cf"),
+        ]
         fig, axes = new_figure(len(rows), 3, size=(13, 11), sharex=True)
         for col, axis_name in enumerate(AXES):
             for row, (label, key) in enumerate(rows):
@@ -108,8 +122,10 @@ def figures(runs: dict, scenario: Scenario) -> dict:
     axes[0].set_title("(a) endpoint force in z")
     axes[0].grid(alpha=0.3)
     axes[0].legend(fontsize=8)
-    smooth = [controller_metrics(run, scenario.controllers[name], scenario)["force_smoothness_N"]["z"]
-              for name, run in runs.items()]
+    smooth = [
+        controller_metrics(run, scenario.controllers[name], scenario)["force_smoothness_N"]["z"]
+        for name, run in runs.items()
+    ]
     axes[1].bar(range(len(runs)), smooth, color=[f"C{i}" for i in range(len(runs))])
     axes[1].set_xticks(range(len(runs)), list(runs))
     axes[1].set_ylabel("sum |second difference of f_z| [N]")
@@ -121,5 +137,13 @@ def figures(runs: dict, scenario: Scenario) -> dict:
 
 
 EXPERIMENT = Experiment(
-    name="cutting", title="Cutting a soft block (iiwa14)", paper_section="V-E", paper_figures="Figs. 11-12",
-    world=ArmTask, controller_metrics=controller_metrics, claims=claims, table=table, figures=figures)
+    name="cutting",
+    title="Cutting a soft block (iiwa14)",
+    paper_section="V-E",
+    paper_figures="Figs. 11-12",
+    world=ArmTask,
+    controller_metrics=controller_metrics,
+    claims=claims,
+    table=table,
+    figures=figures,
+)

@@ -3,33 +3,37 @@
 import numpy as np
 
 from hlcmp_drake.config.scenario import ArmTask, ControllerConfig, HlcmpConfig, Scenario
-from hlcmp_drake.core.metrics import (force_smoothness, max_abs_force, mean_abs_force,
-                                      mean_abs_position_error)
-from hlcmp_drake.experiments.plots import bar_chart, new_figure
+from hlcmp_drake.core.metrics import (
+    force_smoothness,
+    max_abs_force,
+    mean_abs_force,
+    mean_abs_position_error,
+)
 from hlcmp_drake.experiments.claims import constant_impedances, learner, smoother_force
 from hlcmp_drake.experiments.experiment import Experiment
+from hlcmp_drake.experiments.plots import bar_chart, new_figure
 from hlcmp_drake.experiments.table import Table, number, per_axis
 from hlcmp_drake.io.runs import RunResult
 
 AXES = ("x", "y", "z")
-CONTACT_FORCE_N = 0.5      # |f_ext| above this counts as contact
-SELECTIVE_FRACTION = 0.2   # C3: "almost zero" in x/y = within 20 % of z
-CHANGE_FRACTION = 0.2      # C4: a rise or fall counts when it is 20 % of the profile's peak
-SMOOTHING_S = 0.25         # C4: profiles are judged after a centred moving average this long
-PIERCE_LAG_S = 0.5         # C4: the profiles may peak up to this long after the pierce
+CONTACT_FORCE_N = 0.5  # |f_ext| above this counts as contact
+SELECTIVE_FRACTION = 0.2  # C3: "almost zero" in x/y = within 20 % of z
+CHANGE_FRACTION = 0.2  # C4: a rise or fall counts when it is 20 % of the profile's peak
+SMOOTHING_S = 0.25  # C4: profiles are judged after a centred moving average this long
+PIERCE_LAG_S = 0.5  # C4: the profiles may peak up to this long after the pierce
 # The paper's sentences each claim tests (Sec. V-D).
 PAPER_SAYS = {
-    "C1": "\"We can see that larger stiffness would result in a better performance of position "
-          "tracking.\" (Fig. 6)",
-    "C2": "\"Our approach ... can allow the robot to learn compliant behaviours resulting in more smooth "
-          "force profiles\" (Fig. 8)",
-    "C3": "\"the force profiles are almost kept zero in x and y axes, which means the proposed Hl-CMPs "
-          "model can automatically decouple the dynamics profiles in different axes and then selectively "
-          "adapt the task-related ones, but the fixed impedance mode could not do so.\" (Figs. 4, 5)",
-    "C4": "\"they slowly increase during the insertion phase ... After the tool piercing the foam plank, "
-          "during the third phase the force and the impedance start to decrease since the external "
-          "resistance becomes smaller ... the value of the feedforward force at each time step is almost "
-          "half of that of the command force\" (Fig. 4)",
+    "C1": '"We can see that larger stiffness would result in a better performance of position '
+    'tracking." (Fig. 6)',
+    "C2": '"Our approach ... can allow the robot to learn compliant behaviours resulting in more smooth '
+    'force profiles" (Fig. 8)',
+    "C3": '"the force profiles are almost kept zero in x and y axes, which means the proposed Hl-CMPs '
+    "model can automatically decouple the dynamics profiles in different axes and then selectively "
+    'adapt the task-related ones, but the fixed impedance mode could not do so." (Figs. 4, 5)',
+    "C4": '"they slowly increase during the insertion phase ... After the tool piercing the foam plank, '
+    "during the third phase the force and the impedance start to decrease since the external "
+    "resistance becomes smaller ... the value of the feedforward force at each time step is almost "
+    'half of that of the command force" (Fig. 4)',
 }
 
 
@@ -92,7 +96,7 @@ def _phase_times(run: RunResult):
     onset = int(np.argmax(mask))
     if onset >= deepest:
         return None
-    pierce = onset + int(np.argmax(np.abs(run.series["f_ext"][onset:deepest + 1, 2])))
+    pierce = onset + int(np.argmax(np.abs(run.series["f_ext"][onset : deepest + 1, 2])))
     last = int(np.flatnonzero(mask)[-1])
     return onset, pierce, last
 
@@ -128,16 +132,26 @@ def rise_and_fall(run: RunResult) -> dict | None:
     onset, pierce, last = phases
     t = run.t
     samples = int(round(SMOOTHING_S / (t[1] - t[0]))) if len(t) > 1 else 1
-    out = {"onset_s": float(t[onset]), "pierce_s": float(t[pierce]), "contact_end_s": float(t[last])}
+    out = {
+        "onset_s": float(t[onset]),
+        "pierce_s": float(t[pierce]),
+        "contact_end_s": float(t[last]),
+    }
     for key, name in (("Ks", "stiffness"), ("v", "feedforward")):
-        z = _smoothed(run.series[key][onset:last + 1, 2], samples)
+        z = _smoothed(run.series[key][onset : last + 1, 2], samples)
         top = int(np.argmax(z))
         peak = float(z[top])
         out[name] = {
-            "at_onset": float(z[0]), "peak": peak, "peak_s": float(t[onset + top]), "at_contact_end": float(z[-1]),
+            "at_onset": float(z[0]),
+            "peak": peak,
+            "peak_s": float(t[onset + top]),
+            "at_contact_end": float(z[-1]),
             "rises": bool(peak > 0 and peak - z[0] >= CHANGE_FRACTION * peak),
-            "falls": bool(peak > 0 and t[onset + top] <= t[pierce] + PIERCE_LAG_S
-                          and peak - z[-1] >= CHANGE_FRACTION * peak),
+            "falls": bool(
+                peak > 0
+                and t[onset + top] <= t[pierce] + PIERCE_LAG_S
+                and peak - z[-1] >= CHANGE_FRACTION * peak
+            ),
         }
     return out
 
@@ -161,15 +175,20 @@ def feedforward_share(run: RunResult, config: HlcmpConfig) -> dict | None:
     lag = float(np.mean(np.abs(run.series["x"][mask, 2] - run.series["xd"][mask, 2])))
     ratio = config.q_k[2] / config.q_v[2] if config.q_v[2] > 0 else float("inf")
     total = float(np.mean(u + v))
-    return {"measured": None if total == 0 else float(np.mean(v) / total), "mean_lag_m": lag,
-            "predicted": float(1.0 / (1.0 + ratio * lag**2))}
+    return {
+        "measured": None if total == 0 else float(np.mean(v) / total),
+        "mean_lag_m": lag,
+        "predicted": float(1.0 / (1.0 + ratio * lag**2)),
+    }
 
 
 def _mean_force(metrics: dict, name: str) -> dict:
     return metrics[name]["mean_abs_force_N"]
 
 
-def claims(metrics: dict, scenario: Scenario, runs: dict | None = None, learner_name: str | None = None) -> dict:
+def claims(
+    metrics: dict, scenario: Scenario, runs: dict | None = None, learner_name: str | None = None
+) -> dict:
     """C1-C4 for one learner (one reading of Q); the baselines are found by config kind,
     the constants ordered by their configured stiffness. Every verdict is recomputable
     from timeseries.npz.
@@ -198,14 +217,17 @@ def claims(metrics: dict, scenario: Scenario, runs: dict | None = None, learner_
     errors = [sum(metrics[n]["mean_abs_position_error_m"].values()) for n in constants]
     result["C1"] = {
         "holds": all(a > b for a, b in zip(errors, errors[1:])),
-        "evidence": "mean |x - x_d| summed over x, y, z: " + ", ".join(
-            f"{n} {e * 1000:.2f} mm" for n, e in zip(constants, errors)) + ".",
+        "evidence": "mean |x - x_d| summed over x, y, z: "
+        + ", ".join(f"{n} {e * 1000:.2f} mm" for n, e in zip(constants, errors))
+        + ".",
     }
     if hl is None:
         result["C1"]["paper_says"] = PAPER_SAYS["C1"]
         return result
     # C2: the Hl-CMP's contact force is smoother than every constant impedance's (z axis).
-    result["C2"] = smoother_force(metrics, name, constants, "sum |second difference of f_z|", PAPER_SAYS["C2"])
+    result["C2"] = smoother_force(
+        metrics, name, constants, "sum |second difference of f_z|", PAPER_SAYS["C2"]
+    )
     # C3, as the paper judges it: the Hl-CMP's measured x/y force almost zero (and its
     # learned x/y profiles small against z), while the constant impedances' is not.
     f, k, v = _mean_force(metrics, name), hl["max_stiffness_N_per_m"], hl["max_abs_feedforward_N"]
@@ -213,16 +235,29 @@ def claims(metrics: dict, scenario: Scenario, runs: dict | None = None, learner_
     def small(values):
         return all(abs(values[a]) <= SELECTIVE_FRACTION * abs(values["z"]) for a in ("x", "y"))
 
-    parts = {"hlcmp_xy_force_near_zero": small(f),
-             "hlcmp_xy_profiles_small": small(k) and small(v) and k["z"] > 0,
-             "constant_xy_force_not_near_zero": all(not small(_mean_force(metrics, n)) for n in constants)}
+    parts = {
+        "hlcmp_xy_force_near_zero": small(f),
+        "hlcmp_xy_profiles_small": small(k) and small(v) and k["z"] > 0,
+        "constant_xy_force_not_near_zero": all(
+            not small(_mean_force(metrics, n)) for n in constants
+        ),
+    }
     result["C3"] = {
-        "holds": all(parts.values()), "parts": parts,
-        "evidence": (f"mean |f| x/y/z: {name} " + "/".join(f"{f[a]:.2f}" for a in AXES) + " N; " + "; ".join(
-            f"{n} " + "/".join(f"{_mean_force(metrics, n)[a]:.2f}" for a in AXES) for n in constants)
+        "holds": all(parts.values()),
+        "parts": parts,
+        "evidence": (
+            f"mean |f| x/y/z: {name} "
+            + "/".join(f"{f[a]:.2f}" for a in AXES)
+            + " N; "
+            + "; ".join(
+                f"{n} " + "/".join(f"{_mean_force(metrics, n)[a]:.2f}" for a in AXES)
+                for n in constants
+            )
             + f" N. Learned peaks x/y/z: K_s {k['x']:.1f}/{k['y']:.1f}/{k['z']:.1f} N/m, |v| "
             f"{v['x']:.2f}/{v['y']:.2f}/{v['z']:.2f} N (near zero: within {SELECTIVE_FRACTION:.0%} of z). Parts: "
-            + ", ".join(f"{p} = {'yes' if ok else 'no'}" for p, ok in parts.items()) + "."),
+            + ", ".join(f"{p} = {'yes' if ok else 'no'}" for p, ok in parts.items())
+            + "."
+        ),
     }
     # C4: on the contact phase, smoothed, stiffness and feed-forward rise while pushing in
     # and fall after the pierce; v / (u + v) beside the lag that sets it.
@@ -235,16 +270,19 @@ def claims(metrics: dict, scenario: Scenario, runs: dict | None = None, learner_
         measured = "n/a" if share["measured"] is None else f"{share['measured']:.2f}"
         result["C4"] = {
             "holds": ks["rises"] and ks["falls"] and ff["rises"] and ff["falls"],
-            "evidence": (f"contact {phases['onset_s']:.2f}-{phases['contact_end_s']:.2f} s, pierce "
-                         f"{phases['pierce_s']:.2f} s; smoothed K_s,z {ks['at_onset']:.1f} -> peak {ks['peak']:.1f} "
-                         f"at {ks['peak_s']:.2f} s -> {ks['at_contact_end']:.1f} N/m (rises: "
-                         f"{'yes' if ks['rises'] else 'no'}, falls after the pierce: {'yes' if ks['falls'] else 'no'}); "
-                         f"v_z {ff['at_onset']:.2f} -> peak {ff['peak']:.2f} at {ff['peak_s']:.2f} s -> "
-                         f"{ff['at_contact_end']:.2f} N (rises: {'yes' if ff['rises'] else 'no'}, falls: "
-                         f"{'yes' if ff['falls'] else 'no'}). v/(u+v) in z over the contact: {measured} (paper: "
-                         f"about 0.5) with a mean lag |e_z| of {1000 * share['mean_lag_m']:.1f} mm, for which "
-                         f"Eq. 31 predicts {share['predicted']:.2f}."),
-            "phases": phases, "feedforward_share": share,
+            "evidence": (
+                f"contact {phases['onset_s']:.2f}-{phases['contact_end_s']:.2f} s, pierce "
+                f"{phases['pierce_s']:.2f} s; smoothed K_s,z {ks['at_onset']:.1f} -> peak {ks['peak']:.1f} "
+                f"at {ks['peak_s']:.2f} s -> {ks['at_contact_end']:.1f} N/m (rises: "
+                f"{'yes' if ks['rises'] else 'no'}, falls after the pierce: {'yes' if ks['falls'] else 'no'}); "
+                f"v_z {ff['at_onset']:.2f} -> peak {ff['peak']:.2f} at {ff['peak_s']:.2f} s -> "
+                f"{ff['at_contact_end']:.2f} N (rises: {'yes' if ff['rises'] else 'no'}, falls: "
+                f"{'yes' if ff['falls'] else 'no'}). v/(u+v) in z over the contact: {measured} (paper: "
+                f"about 0.5) with a mean lag |e_z| of {1000 * share['mean_lag_m']:.1f} mm, for which "
+                f"Eq. 31 predicts {share['predicted']:.2f}."
+            ),
+            "phases": phases,
+            "feedforward_share": share,
         }
     for claim_name, claim in result.items():
         claim["paper_says"] = PAPER_SAYS[claim_name]
@@ -259,12 +297,23 @@ def table(metrics: dict) -> Table:
     metrics : dict
         {controller label: controller metrics}.
     """
-    result = Table(["controller", "mean |e| x/y/z [mm]", "mean |f| x/y/z [N]", "smoothness x/y/z [N]",
-                    "max |f_z| [N]"])
+    result = Table(
+        [
+            "controller",
+            "mean |e| x/y/z [mm]",
+            "mean |f| x/y/z [N]",
+            "smoothness x/y/z [N]",
+            "max |f_z| [N]",
+        ]
+    )
     for name, m in metrics.items():
-        result.add(name, per_axis(m["mean_abs_position_error_m"], AXES, 1000),
-                   per_axis(m["mean_abs_force_N"], AXES), per_axis(m["force_smoothness_N"], AXES, digits=1),
-                   number(m["max_abs_force_N"]["z"]))
+        result.add(
+            name,
+            per_axis(m["mean_abs_position_error_m"], AXES, 1000),
+            per_axis(m["mean_abs_force_N"], AXES),
+            per_axis(m["force_smoothness_N"], AXES, digits=1),
+            number(m["max_abs_force_N"]["z"]),
+        )
     return result
 
 
@@ -279,7 +328,12 @@ def _profiles_figure(hl: RunResult, title: str):
     axes[2].set_ylabel("stiffness [N/m]")
     axes[3].plot(hl.t, hl.series["Kd"][:, 2], color="C4")
     axes[3].set_ylabel("damping [Ns/m]")
-    axes[4].plot(hl.t, hl.series["u"][:, 2] + hl.series["v"][:, 2], color="C1", label="CF $u_z + v_z$ (Eq. 3)")
+    axes[4].plot(
+        hl.t,
+        hl.series["u"][:, 2] + hl.series["v"][:, 2],
+        color="C1",
+        label="CF $u_z + v_z$ (Eq. 3)",
+    )
     axes[4].plot(hl.t, hl.series["v"][:, 2], color="C2", lw=1, label="FF $v_z$")
     axes[4].set_ylabel("force [N]")
     axes[4].set_xlabel("time [s]")
@@ -309,7 +363,8 @@ def figures(runs: dict, scenario: Scenario) -> dict:
     for k, name in enumerate(n for n in scenario.controllers_of(HlcmpConfig) if n in runs):
         # Fig. 4 for each learner (each reading of Q); the first keeps the paper's file name.
         out["fig4_profiles_z.png" if k == 0 else f"fig4_profiles_z_{name}.png"] = _profiles_figure(
-            runs[name], f"{name}: Hl-CMP profiles learned online in z (paper Fig. 4)")
+            runs[name], f"{name}: Hl-CMP profiles learned online in z (paper Fig. 4)"
+        )
 
     fig, axes = new_figure(2, 3, size=(13, 7), sharex=True)
     first = next(iter(runs.values()))
@@ -327,18 +382,38 @@ def figures(runs: dict, scenario: Scenario) -> dict:
     fig.suptitle("Endpoint position and wrist force during reproduction (paper Fig. 5)")
     out["fig5_position_force.png"] = fig
 
-    metrics = {name: controller_metrics(run, scenario.controllers[name], scenario)
-               for name, run in runs.items()}
+    metrics = {
+        name: controller_metrics(run, scenario.controllers[name], scenario)
+        for name, run in runs.items()
+    }
     for file_name, key, label, scale in [
-            ("fig6_position_error.png", "mean_abs_position_error_m", "mean |x - x_d| [mm] (paper Fig. 6)", 1000),
-            ("fig7_mean_force.png", "mean_abs_force_N", "mean |f| [N] (paper Fig. 7)", 1),
-            ("fig8_smoothness.png", "force_smoothness_N", "sum |second difference of f| [N] (paper Fig. 8)", 1)]:
+        (
+            "fig6_position_error.png",
+            "mean_abs_position_error_m",
+            "mean |x - x_d| [mm] (paper Fig. 6)",
+            1000,
+        ),
+        ("fig7_mean_force.png", "mean_abs_force_N", "mean |f| [N] (paper Fig. 7)", 1),
+        (
+            "fig8_smoothness.png",
+            "force_smoothness_N",
+            "sum |second difference of f| [N] (paper Fig. 8)",
+            1,
+        ),
+    ]:
         values = {name: [m[key][a] * scale for a in AXES] for name, m in metrics.items()}
         out[file_name] = bar_chart(values, AXES, label)
     return out
 
 
 EXPERIMENT = Experiment(
-    name="insertion", title="Insertion of a rod through a foam plank (iiwa14)",
-    paper_section="V-D", paper_figures="Figs. 4-8",
-    world=ArmTask, controller_metrics=controller_metrics, claims=claims, table=table, figures=figures)
+    name="insertion",
+    title="Insertion of a rod through a foam plank (iiwa14)",
+    paper_section="V-D",
+    paper_figures="Figs. 4-8",
+    world=ArmTask,
+    controller_metrics=controller_metrics,
+    claims=claims,
+    table=table,
+    figures=figures,
+)

@@ -1,19 +1,26 @@
 """The 1-DOF comparison (paper Sec. V-B, Fig. 13) and claim C5."""
 
-from hlcmp_drake.config.scenario import ControllerConfig, Scenario, SliderTask, VariableImpedanceConfig
+from hlcmp_drake.config.scenario import (
+    ControllerConfig,
+    Scenario,
+    SliderTask,
+    VariableImpedanceConfig,
+)
 from hlcmp_drake.core.metrics import settle_time, value_at
-from hlcmp_drake.experiments.plots import new_figure
 from hlcmp_drake.experiments.claims import learner
 from hlcmp_drake.experiments.experiment import Experiment
+from hlcmp_drake.experiments.plots import new_figure
 from hlcmp_drake.experiments.table import Table, number
 from hlcmp_drake.io.runs import RunResult
 
 DEPTH_TOLERANCE_M = 0.005
 # The paper's sentences the claim tests (Sec. V-B).
-PAPER_SAYS = {"C5": "\"the predefined desired force fd has a large influence on the control performance and an "
-                    "improper value may result in the failures of tracking of the desired position. Even with an "
-                    "proper fd that allows the desired cutting depth, it cannot achieve a fast response compared "
-                    "to our approach.\" (Fig. 13)"}
+PAPER_SAYS = {
+    "C5": '"the predefined desired force fd has a large influence on the control performance and an '
+    "improper value may result in the failures of tracking of the desired position. Even with an "
+    "proper fd that allows the desired cutting depth, it cannot achieve a fast response compared "
+    'to our approach." (Fig. 13)'
+}
 
 
 def _segments(scenario):
@@ -45,7 +52,7 @@ def controller_metrics(run: RunResult, config: ControllerConfig, scenario: Scena
     x = run.series["x"][:, 0]
     reach = settle_time(run.t, x, depth, DEPTH_TOLERANCE_M, t0, t_return)
     back = settle_time(run.t, x, home, DEPTH_TOLERANCE_M, t_return, scenario.duration_s + 1e-9)
-    ends_before_return = run.t[-1] < t_return - 1e-9   # e.g. --set duration_s=2: there is no x(10 s)
+    ends_before_return = run.t[-1] < t_return - 1e-9  # e.g. --set duration_s=2: there is no x(10 s)
     return {
         "position_at_10s_m": None if ends_before_return else value_at(run.t, x, t_return),
         "final_position_m": float(x[-1]),
@@ -63,8 +70,9 @@ def _faster(a, b):
     return a is not None and (b is None or a < b)
 
 
-def claims(metrics: dict, scenario: Scenario, runs: dict | None = None,
-           learner_name: str | None = None) -> dict:
+def claims(
+    metrics: dict, scenario: Scenario, runs: dict | None = None, learner_name: str | None = None
+) -> dict:
     """C5: Hl-CMPs reach the desired depth and return faster than [21]; [21] with an
     improper f_d fails to reach the depth (0.5 N too shallow, 5 N too deep).
 
@@ -90,7 +98,7 @@ def claims(metrics: dict, scenario: Scenario, runs: dict | None = None,
     depth = _segments(scenario)[0]
     hl = metrics[learner_name or learner(scenario)]
     if any(m["position_at_10s_m"] is None for m in metrics.values()):
-        return {}   # a run shorter than the return command at 10 s: C5 cannot be judged
+        return {}  # a run shorter than the return command at 10 s: C5 cannot be judged
     vic = {name: metrics[name] for name in scenario.controllers_of(VariableImpedanceConfig)}
     by_force = sorted(vic, key=lambda n: sum(scenario.controllers[n].desired_force_N))
     weakest, strongest = by_force[0], by_force[-1]
@@ -98,20 +106,37 @@ def claims(metrics: dict, scenario: Scenario, runs: dict | None = None,
     parts = {
         "hlcmp_reaches_depth": hl["reach_time_s"] is not None,
         "hlcmp_returns": hl["return_time_s"] is not None,
-        "hlcmp_reaches_faster_than_best_vic": _faster(hl["reach_time_s"], vic[proper]["reach_time_s"]),
-        "hlcmp_returns_faster_than_best_vic": _faster(hl["return_time_s"], vic[proper]["return_time_s"]),
+        "hlcmp_reaches_faster_than_best_vic": _faster(
+            hl["reach_time_s"], vic[proper]["reach_time_s"]
+        ),
+        "hlcmp_returns_faster_than_best_vic": _faster(
+            hl["return_time_s"], vic[proper]["return_time_s"]
+        ),
         f"{weakest}_too_shallow": vic[weakest]["position_at_10s_m"] > depth + DEPTH_TOLERANCE_M,
         f"{strongest}_too_deep": vic[strongest]["position_at_10s_m"] < depth - DEPTH_TOLERANCE_M,
     }
-    lines = [f"Hl-CMP: x(10 s) = {hl['position_at_10s_m']:.4f} m (target {depth} m), reach "
-             f"{_fmt(hl['reach_time_s'])}, return {_fmt(hl['return_time_s'])} after t = 10 s."]
+    lines = [
+        f"Hl-CMP: x(10 s) = {hl['position_at_10s_m']:.4f} m (target {depth} m), reach "
+        f"{_fmt(hl['reach_time_s'])}, return {_fmt(hl['return_time_s'])} after t = 10 s."
+    ]
     for name, m in vic.items():
-        lines.append(f"{name}: x(10 s) = {m['position_at_10s_m']:.4f} m, reach {_fmt(m['reach_time_s'])}, "
-                     f"return {_fmt(m['return_time_s'])}.")
-    lines.append(f"Best-placed [21] run: {proper}. Parts: "
-                 + ", ".join(f"{k} = {'yes' if v else 'no'}" for k, v in parts.items()) + ".")
-    return {"C5": {"holds": all(parts.values()), "paper_says": PAPER_SAYS["C5"], "parts": parts,
-                   "evidence": " ".join(lines)}}
+        lines.append(
+            f"{name}: x(10 s) = {m['position_at_10s_m']:.4f} m, reach {_fmt(m['reach_time_s'])}, "
+            f"return {_fmt(m['return_time_s'])}."
+        )
+    lines.append(
+        f"Best-placed [21] run: {proper}. Parts: "
+        + ", ".join(f"{k} = {'yes' if v else 'no'}" for k, v in parts.items())
+        + "."
+    )
+    return {
+        "C5": {
+            "holds": all(parts.values()),
+            "paper_says": PAPER_SAYS["C5"],
+            "parts": parts,
+            "evidence": " ".join(lines),
+        }
+    }
 
 
 def table(metrics: dict) -> Table:
@@ -122,12 +147,24 @@ def table(metrics: dict) -> Table:
     metrics : dict
         The 1-DOF metrics of each label (positions in m, shown in mm).
     """
-    result = Table(["controller", "x(10 s) [mm]", "final x [mm]", "reach −150 mm ±5 mm at [s]",
-                    "back to 0 ±5 mm after 10 s [s]"])
+    result = Table(
+        [
+            "controller",
+            "x(10 s) [mm]",
+            "final x [mm]",
+            "reach −150 mm ±5 mm at [s]",
+            "back to 0 ±5 mm after 10 s [s]",
+        ]
+    )
     for name, m in metrics.items():
         at_10s = m["position_at_10s_m"]
-        result.add(name, "n/a" if at_10s is None else number(1000 * at_10s, 1), number(1000 * m["final_position_m"], 1),
-                   number(m["reach_time_s"]), number(m["return_time_s"]))
+        result.add(
+            name,
+            "n/a" if at_10s is None else number(1000 * at_10s, 1),
+            number(1000 * m["final_position_m"], 1),
+            number(m["reach_time_s"]),
+            number(m["return_time_s"]),
+        )
     return result
 
 
@@ -168,6 +205,13 @@ def figures(runs: dict, scenario: Scenario) -> dict:
 
 
 EXPERIMENT = Experiment(
-    name="one_dof", title="1-DOF comparison with a variable-impedance controller",
-    paper_section="V-B", paper_figures="Fig. 13", world=SliderTask,
-    controller_metrics=controller_metrics, claims=claims, table=table, figures=figures)
+    name="one_dof",
+    title="1-DOF comparison with a variable-impedance controller",
+    paper_section="V-B",
+    paper_figures="Fig. 13",
+    world=SliderTask,
+    controller_metrics=controller_metrics,
+    claims=claims,
+    table=table,
+    figures=figures,
+)

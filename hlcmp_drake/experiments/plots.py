@@ -9,7 +9,9 @@ import numpy as np
 from matplotlib.figure import Figure
 
 
-def new_figure(rows: int, cols: int, size: tuple, sharex: bool = False) -> tuple[Figure, np.ndarray]:
+def new_figure(
+    rows: int, cols: int, size: tuple, sharex: bool = False
+) -> tuple[Figure, np.ndarray]:
     """A Figure with a rows x cols grid of axes.
 
     Parameters
@@ -45,7 +47,9 @@ def bar_chart(values: dict, groups: tuple, ylabel: str) -> Figure:
     figure, (axis,) = new_figure(1, 1, size=(8, 4.5))
     width = 0.8 / len(values)
     for k, (name, series) in enumerate(values.items()):
-        axis.bar(np.arange(len(groups)) + (k - (len(values) - 1) / 2) * width, series, width, label=name)
+        axis.bar(
+            np.arange(len(groups)) + (k - (len(values) - 1) / 2) * width, series, width, label=name
+        )
     axis.set_xticks(range(len(groups)), [f"{g} axis" for g in groups])
     axis.set_ylabel(ylabel)
     axis.grid(alpha=0.3, axis="y")

@@ -51,7 +51,7 @@ def read_demonstration(path: str | Path, with_lines: bool = False) -> tuple:
     if path.is_dir():
         raise InputError(f"{path}: is a directory, not a CSV file")
     try:
-        text = path.read_text(encoding="utf-8-sig")   # a BOM, invisible to the user, is dropped
+        text = path.read_text(encoding="utf-8-sig")  # a BOM, invisible to the user, is dropped
     except (OSError, UnicodeDecodeError) as error:
         raise InputError(f"{path}: cannot be read as text ({error.__class__.__name__})") from None
     lines = [(n, line) for n, line in enumerate(text.splitlines(), start=1) if line.strip()]
@@ -64,8 +64,11 @@ def read_demonstration(path: str | Path, with_lines: bool = False) -> tuple:
     for number, line in lines[1:]:
         fields = [f.strip() for f in next(csv.reader([line]))]
         if len(fields) != len(header):
-            raise located(path, number, f"expected {len(header)} values ({','.join(header)}), "
-                                        f"found {len(fields)}")
+            raise located(
+                path,
+                number,
+                f"expected {len(header)} values ({','.join(header)}), found {len(fields)}",
+            )
         values = []
         for name, field in zip(header, fields):
             try:
@@ -76,11 +79,17 @@ def read_demonstration(path: str | Path, with_lines: bool = False) -> tuple:
                 raise located(path, number, f"column '{name}' is not finite: '{field}'")
             values.append(value)
         if rows and values[0] <= rows[-1][1][0]:
-            raise located(path, number, f"time must increase strictly: t = {values[0]} after "
-                                        f"t = {rows[-1][1][0]} (line {rows[-1][0]})")
+            raise located(
+                path,
+                number,
+                f"time must increase strictly: t = {values[0]} after "
+                f"t = {rows[-1][1][0]} (line {rows[-1][0]})",
+            )
         rows.append((number, values))
     if len(rows) < MIN_SAMPLES:
-        raise InputError(f"{path}: {len(rows)} samples; a demonstration needs at least {MIN_SAMPLES}")
+        raise InputError(
+            f"{path}: {len(rows)} samples; a demonstration needs at least {MIN_SAMPLES}"
+        )
     data = np.array([values for _, values in rows])
     if with_lines:
         return data[:, 0], data[:, 1 : 1 + len(axes)], axes, [number for number, _ in rows]
@@ -89,10 +98,14 @@ def read_demonstration(path: str | Path, with_lines: bool = False) -> tuple:
 
 def _check_header(path, line, header):
     if not header or header[0] != "t":
-        raise located(path, line, f"the first column must be 't' (time in seconds), found "
-                                  f"'{header[0] if header else ''}'; expected a header like 't,x,y,z'")
+        raise located(
+            path,
+            line,
+            f"the first column must be 't' (time in seconds), found "
+            f"'{header[0] if header else ''}'; expected a header like 't,x,y,z'",
+        )
     positions = [name for name in header[1:] if not name.startswith("v")]
-    velocities = header[1 + len(positions):]
+    velocities = header[1 + len(positions) :]
     for name in header[1:]:
         if name not in AXES and name not in tuple("v" + a for a in AXES):
             raise located(path, line, f"unknown column '{name}' (allowed: t, x, y, z, vx, vy, vz)")
@@ -103,13 +116,21 @@ def _check_header(path, line, header):
     if positions != [a for a in AXES if a in positions]:
         raise located(path, line, "position columns must be in the order x, y, z")
     if velocities and velocities != ["v" + a for a in positions]:
-        raise located(path, line, f"velocity columns must be {','.join('v' + a for a in positions)} "
-                                  "after the positions")
+        raise located(
+            path,
+            line,
+            f"velocity columns must be {','.join('v' + a for a in positions)} after the positions",
+        )
     return tuple(positions)
 
 
-def write_trajectory(path: str | Path, t: np.ndarray, positions: np.ndarray, axes: Sequence[str],
-                     velocities: np.ndarray | None = None) -> Path:
+def write_trajectory(
+    path: str | Path,
+    t: np.ndarray,
+    positions: np.ndarray,
+    axes: Sequence[str],
+    velocities: np.ndarray | None = None,
+) -> Path:
     """Write a trajectory CSV (same format; velocity columns when given), atomically.
 
     Parameters

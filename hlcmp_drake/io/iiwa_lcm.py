@@ -29,7 +29,9 @@ def _decode(message_type: type, data: bytes, what: str):
     try:
         return message_type.decode(data)
     except ValueError as error:
-        raise ProtocolError(f"{what} that does not decode as {message_type.__name__} ({error})") from None
+        raise ProtocolError(
+            f"{what} that does not decode as {message_type.__name__} ({error})"
+        ) from None
 
 
 @dc.dataclass(frozen=True)
@@ -107,9 +109,14 @@ def decode_status(data: bytes, num_joints: int) -> IiwaStatus:
     message = _decode(lcmt_iiwa_status, data, "a status")
     if message.num_joints != num_joints:
         raise ProtocolError(f"a status for {message.num_joints} joints, the arm has {num_joints}")
-    return IiwaStatus(message.utime, np.array(message.joint_position_measured),
-                      np.array(message.joint_velocity_estimated), np.array(message.joint_torque_commanded),
-                      np.array(message.joint_torque_measured), np.array(message.joint_torque_external))
+    return IiwaStatus(
+        message.utime,
+        np.array(message.joint_position_measured),
+        np.array(message.joint_velocity_estimated),
+        np.array(message.joint_torque_commanded),
+        np.array(message.joint_torque_measured),
+        np.array(message.joint_torque_external),
+    )
 
 
 def encode_torque_command(utime: int, position: np.ndarray, torque: np.ndarray) -> bytes:
@@ -163,7 +170,9 @@ def decode_torque_command(data: bytes, num_joints: int) -> tuple[int, np.ndarray
     """
     message = _decode(lcmt_iiwa_command, data, "a command")
     if message.num_torques != num_joints:
-        raise ProtocolError(f"a command with {message.num_torques} torques; torque-only mode needs {num_joints}")
+        raise ProtocolError(
+            f"a command with {message.num_torques} torques; torque-only mode needs {num_joints}"
+        )
     torque = np.array(message.joint_torque)
     if not np.all(np.isfinite(torque)):
         raise ProtocolError(f"a command with a non-finite torque: {torque}")
@@ -235,7 +244,14 @@ def open_lcm(url: str) -> DrakeLcm:
     if url != "memq://":
         match = re.fullmatch(r"udpm://(\d+)\.(\d+)\.(\d+)\.(\d+):(\d+)(\?.*)?", url)
         octets = [int(g) for g in match.groups()[:4]] if match else []
-        if not (match and 224 <= octets[0] <= 239 and max(octets) <= 255 and 0 < int(match.group(5)) < 65536):
-            raise InputError(f"--lcm {url}: expected udpm://GROUP:PORT?ttl=0 with an IPv4 multicast GROUP "
-                             "(224.0.0.0 to 239.255.255.255), e.g. udpm://239.255.76.67:7667?ttl=0, or memq://")
+        if not (
+            match
+            and 224 <= octets[0] <= 239
+            and max(octets) <= 255
+            and 0 < int(match.group(5)) < 65536
+        ):
+            raise InputError(
+                f"--lcm {url}: expected udpm://GROUP:PORT?ttl=0 with an IPv4 multicast GROUP "
+                "(224.0.0.0 to 239.255.255.255), e.g. udpm://239.255.76.67:7667?ttl=0, or memq://"
+            )
     return DrakeLcm(url)

@@ -18,10 +18,9 @@ import numpy as np
 
 from hlcmp_drake.io.errors import InputError
 
-
 _UMASK = os.umask(0)
 os.umask(_UMASK)
-WRITTEN = []   # every path written in this process, in order (for the interrupt message)
+WRITTEN = []  # every path written in this process, in order (for the interrupt message)
 
 
 def _existing_ancestor(path: Path) -> Path:
@@ -157,10 +156,12 @@ def write_json(path: str | Path, data: object) -> Path:
     Path
         The path written.
     """
+
     def write(temp):
         with open(temp, "w") as stream:
             json.dump(data, stream, indent=2, sort_keys=False)
             stream.write("\n")
+
     return atomic_write(path, write)
 
 
@@ -179,9 +180,11 @@ def write_npz(path: str | Path, arrays: Mapping[str, np.ndarray]) -> Path:
     Path
         The path written.
     """
+
     def write(temp):
         with open(temp, "wb") as stream:
             np.savez_compressed(stream, **arrays)
+
     return atomic_write(path, write)
 
 
@@ -200,8 +203,10 @@ def save_figure(path: str | Path, figure: object) -> Path:
     Path
         The path written.
     """
+
     def write(temp):
         figure.savefig(temp, format=Path(path).suffix.lstrip(".") or "png", dpi=110)
+
     return atomic_write(path, write)
 
 
@@ -220,8 +225,10 @@ def write_text(path: str | Path, text: str) -> Path:
     Path
         The path written.
     """
+
     def write(temp):
         Path(temp).write_text(text)
+
     return atomic_write(path, write)
 
 
@@ -246,6 +253,8 @@ def write_diagram_graph(out_dir: str | Path, diagram: object) -> Path:
 
     dot = diagram.GetGraphvizString(max_depth=1)
     if shutil.which("dot"):
-        svg = subprocess.run(["dot", "-Tsvg"], input=dot, capture_output=True, text=True, check=True)
+        svg = subprocess.run(
+            ["dot", "-Tsvg"], input=dot, capture_output=True, text=True, check=True
+        )
         return write_text(Path(out_dir) / "diagram.svg", svg.stdout)
     return write_text(Path(out_dir) / "diagram.dot", dot)

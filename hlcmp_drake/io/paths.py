@@ -14,10 +14,10 @@ _PACKAGE_DIR = Path(__file__).resolve().parents[1]
 
 
 def _data_root() -> Path:
-    shipped = _PACKAGE_DIR / "data"            # a wheel: site-packages/hlcmp_drake/data
+    shipped = _PACKAGE_DIR / "data"  # a wheel: site-packages/hlcmp_drake/data
     if (shipped / "package.xml").is_file():
         return shipped
-    return _PACKAGE_DIR.parent                 # a checkout: the repository root
+    return _PACKAGE_DIR.parent  # a checkout: the repository root
 
 
 DATA_ROOT = _data_root()

@@ -82,5 +82,8 @@ def instability_record(runs: Iterable[RunResult]) -> dict:
         Per controller label of an unstable run: "reason" (str) and "time_s", the stop
         time [s] (float or None).
     """
-    return {run.controller: {"reason": run.reason, "time_s": run.stop_time}
-            for run in runs if run.status != "ok"}
+    return {
+        run.controller: {"reason": run.reason, "time_s": run.stop_time}
+        for run in runs
+        if run.status != "ok"
+    }

@@ -19,7 +19,7 @@ from hlcmp_drake.io.errors import InputError
 
 FORMAT_VERSION = 1
 NOT_A_SKILL = "not a skill file (a .npz written by hlcmp fit/learn)"
-_ZIP_MAGIC = (b"PK\x03\x04", b"PK\x05\x06")   # a .npz is a zip archive
+_ZIP_MAGIC = (b"PK\x03\x04", b"PK\x05\x06")  # a .npz is a zip archive
 
 
 @dc.dataclass(frozen=True)
@@ -81,17 +81,26 @@ def save_skill(path: str | Path, skill: Skill) -> Path:
     arrays = dict(
         format_version=np.array(FORMAT_VERSION),
         axis_names=np.array(d.axis_names),
-        n_basis=np.array(d.settings.n_basis), alpha=np.array(d.settings.alpha),
-        beta=np.array(d.settings.beta_value), alpha_s=np.array(d.settings.alpha_s),
+        n_basis=np.array(d.settings.n_basis),
+        alpha=np.array(d.settings.alpha),
+        beta=np.array(d.settings.beta_value),
+        alpha_s=np.array(d.settings.alpha_s),
         smoothing_s=np.array(d.settings.smoothing_s),
-        tau=np.array(d.tau), start=d.start, goal=d.goal, amplitude=d.amplitude,
-        goal_scaled=d.goal_scaled, theta_p=d.theta_p,
-        theta_k=skill.theta_k, theta_d=skill.theta_d, theta_v=skill.theta_v,
+        tau=np.array(d.tau),
+        start=d.start,
+        goal=d.goal,
+        amplitude=d.amplitude,
+        goal_scaled=d.goal_scaled,
+        theta_p=d.theta_p,
+        theta_k=skill.theta_k,
+        theta_d=skill.theta_d,
+        theta_v=skill.theta_v,
     )
 
     def write(temp):
         with open(temp, "wb") as stream:
             np.savez(stream, **arrays)
+
     return atomic_write(path, write)
 
 
@@ -109,6 +118,7 @@ def load_skill(path: str | Path) -> Skill:
         The skill, arrays as float (goal_scaled as bool); a stored beta equal to
         alpha / 4 becomes the settings' default None.
     """
+
     def fail(problem):
         return InputError(f"{path}: {problem}")
 
@@ -119,16 +129,35 @@ def load_skill(path: str | Path) -> Skill:
     except FileNotFoundError:
         raise fail("no such file") from None
     except (OSError, ValueError, zipfile.BadZipFile, EOFError) as error:
-        if "pickle" in str(error):   # numpy's advice (allow_pickle) is not for a skill file
-            raise fail("not a skill file: it holds Python objects, which no skill file does") from None
+        if "pickle" in str(error):  # numpy's advice (allow_pickle) is not for a skill file
+            raise fail(
+                "not a skill file: it holds Python objects, which no skill file does"
+            ) from None
         raise fail(f"not a readable skill file ({' '.join(str(error).split())[:120]})") from None
     if "format_version" not in arrays:
         raise fail("not a skill file: no 'format_version'")
     version = int(arrays["format_version"])
     if version != FORMAT_VERSION:
-        raise fail(f"format_version {version} is not supported (this version reads {FORMAT_VERSION})")
-    required = ("axis_names", "n_basis", "alpha", "beta", "alpha_s", "smoothing_s", "tau", "start",
-                "goal", "amplitude", "goal_scaled", "theta_p", "theta_k", "theta_d", "theta_v")
+        raise fail(
+            f"format_version {version} is not supported (this version reads {FORMAT_VERSION})"
+        )
+    required = (
+        "axis_names",
+        "n_basis",
+        "alpha",
+        "beta",
+        "alpha_s",
+        "smoothing_s",
+        "tau",
+        "start",
+        "goal",
+        "amplitude",
+        "goal_scaled",
+        "theta_p",
+        "theta_k",
+        "theta_d",
+        "theta_v",
+    )
     missing = [key for key in required if key not in arrays]
     if missing:
         raise fail(f"missing field(s): {', '.join(missing)}")
@@ -136,7 +165,9 @@ def load_skill(path: str | Path) -> Skill:
     m, n = len(axes), int(arrays["n_basis"])
     for key in ("start", "goal", "amplitude", "goal_scaled"):
         if arrays[key].shape != (m,):
-            raise fail(f"field '{key}' has shape {arrays[key].shape}, expected ({m},) for axes {axes}")
+            raise fail(
+                f"field '{key}' has shape {arrays[key].shape}, expected ({m},) for axes {axes}"
+            )
     for key in ("theta_p", "theta_k", "theta_d", "theta_v"):
         if arrays[key].shape != (m, n):
             raise fail(f"field '{key}' has shape {arrays[key].shape}, expected ({m}, {n})")
@@ -145,18 +176,33 @@ def load_skill(path: str | Path) -> Skill:
     try:
         alpha, beta = float(arrays["alpha"]), float(arrays["beta"])
         # The file holds beta's value; alpha / 4 is the settings' default (None), kept as such.
-        settings = DmpSettings(n_basis=n, alpha=alpha, beta=None if beta == alpha / 4.0 else beta,
-                               alpha_s=float(arrays["alpha_s"]),
-                               smoothing_s=float(arrays["smoothing_s"]))
+        settings = DmpSettings(
+            n_basis=n,
+            alpha=alpha,
+            beta=None if beta == alpha / 4.0 else beta,
+            alpha_s=float(arrays["alpha_s"]),
+            smoothing_s=float(arrays["smoothing_s"]),
+        )
     except ValueError as error:
         raise fail(f"invalid DMP settings: {error}") from None
     if not float(arrays["tau"]) > 0:
         raise fail(f"field 'tau' must be positive, got {float(arrays['tau'])}")
-    dmp = Dmp(settings, float(arrays["tau"]), arrays["start"].astype(float),
-              arrays["goal"].astype(float), arrays["theta_p"].astype(float),
-              arrays["amplitude"].astype(float), arrays["goal_scaled"].astype(bool), axes)
-    return Skill(dmp, arrays["theta_k"].astype(float), arrays["theta_d"].astype(float),
-                 arrays["theta_v"].astype(float))
+    dmp = Dmp(
+        settings,
+        float(arrays["tau"]),
+        arrays["start"].astype(float),
+        arrays["goal"].astype(float),
+        arrays["theta_p"].astype(float),
+        arrays["amplitude"].astype(float),
+        arrays["goal_scaled"].astype(bool),
+        axes,
+    )
+    return Skill(
+        dmp,
+        arrays["theta_k"].astype(float),
+        arrays["theta_d"].astype(float),
+        arrays["theta_v"].astype(float),
+    )
 
 
 def _check_is_zip(path, fail):
@@ -176,7 +222,9 @@ def _check_is_zip(path, fail):
     hint = ""
     if head and b"\0" not in head:
         try:
-            codecs.getincrementaldecoder("utf-8")().decode(head, final=False)   # may end mid-character
+            codecs.getincrementaldecoder("utf-8")().decode(
+                head, final=False
+            )  # may end mid-character
             hint = "; this is a text file (a demonstration CSV becomes a skill with hlcmp fit)"
         except UnicodeDecodeError:
             pass

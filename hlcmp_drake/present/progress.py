@@ -25,7 +25,7 @@ class Progress:
         self._stream = stream or sys.stderr
         try:
             terminal = self._stream.isatty()
-        except (ValueError, AttributeError):   # a closed or file-less stream is no terminal
+        except (ValueError, AttributeError):  # a closed or file-less stream is no terminal
             terminal = False
         self.enabled = not quiet and terminal
 
@@ -43,8 +43,9 @@ class Progress:
         """
         if self.enabled:
             rate = t / wall_s if wall_s > 0 else 0.0
-            self._stream.write(f"\r{controller}: {t:5.1f} / {duration:.1f} s simulated "
-                               f"({rate:.2f}x real time)   ")
+            self._stream.write(
+                f"\r{controller}: {t:5.1f} / {duration:.1f} s simulated ({rate:.2f}x real time)   "
+            )
             self._stream.flush()
 
     def say(self, message: str) -> None:

@@ -27,8 +27,14 @@ import time
 
 import numpy as np
 from pydrake.common import MemoryFile
-from pydrake.geometry import (InMemoryMesh, Mesh, Meshcat, MeshcatVisualizer, MeshcatVisualizerParams,
-                              Role)
+from pydrake.geometry import (
+    InMemoryMesh,
+    Mesh,
+    Meshcat,
+    MeshcatVisualizer,
+    MeshcatVisualizerParams,
+    Role,
+)
 from pydrake.math import RigidTransform, RollPitchYaw
 from pydrake.multibody.plant import MultibodyPlantConfig
 from pydrake.systems.framework import DiagramBuilder
@@ -36,11 +42,11 @@ from pydrake.systems.framework import DiagramBuilder
 from hlcmp_drake.config.scenario import RecordingConfig, Scenario
 from hlcmp_drake.worlds.models import add_plant
 
-FIELD_OF_VIEW_DEG = 75.0   # Meshcat's default perspective camera (vertical)
-MIN_ASPECT = 4.0 / 3.0     # the narrowest browser window the framing allows for
-MARGIN = 1.1               # room around the copies, as a factor on the camera distance
-SIGN_HEIGHT = 0.04         # a sign's height per metre of camera distance (about 2.5 % of the view)
-BOX_SAMPLES = 12           # plant states per run from which a copy's extent is measured
+FIELD_OF_VIEW_DEG = 75.0  # Meshcat's default perspective camera (vertical)
+MIN_ASPECT = 4.0 / 3.0  # the narrowest browser window the framing allows for
+MARGIN = 1.1  # room around the copies, as a factor on the camera distance
+SIGN_HEIGHT = 0.04  # a sign's height per metre of camera distance (about 2.5 % of the view)
+BOX_SAMPLES = 12  # plant states per run from which a copy's extent is measured
 
 
 @dc.dataclass
@@ -58,8 +64,9 @@ class _Copy:
         # The replay only poses geometry: a continuous plant without contact is enough.
         replay = dc.replace(scenario, plant_config=MultibodyPlantConfig(time_step=0.0))
         plant, scene_graph = add_plant(builder, replay)
-        params = MeshcatVisualizerParams(prefix=f"runs/{label}", role=Role.kIllustration,
-                                         delete_on_initialization_event=False)
+        params = MeshcatVisualizerParams(
+            prefix=f"runs/{label}", role=Role.kIllustration, delete_on_initialization_event=False
+        )
         MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat, params)
         diagram = builder.Build()
         return cls(diagram, plant, scene_graph, diagram.CreateDefaultContext())
@@ -75,14 +82,16 @@ class _Copy:
         plant_context = self.plant.GetMyContextFromRoot(self.context)
         scene_context = self.scene_graph.GetMyContextFromRoot(self.context)
         ids = self.scene_graph.model_inspector().GetAllGeometryIds(Role.kIllustration)
-        signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], float)
+        signs = np.array(
+            [[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], float
+        )
         points = []
         for positions in samples:
             self.plant.SetPositions(plant_context, positions)
             query = self.scene_graph.get_query_output_port().Eval(scene_context)
             for geometry in ids:
                 obb = query.ComputeObbInWorld(geometry)
-                if obb is not None:   # None: a half space, which has no extent
+                if obb is not None:  # None: a half space, which has no extent
                     points.append(obb.pose().multiply((signs * obb.half_width()).T).T)
         if not points:
             return None
@@ -105,11 +114,17 @@ def _samples(positions, count=BOX_SAMPLES):
 
 
 def _camera_axes(config):
-    toward_camera = np.asarray(config.camera_position_m, float) - np.asarray(config.camera_target_m, float)
+    toward_camera = np.asarray(config.camera_position_m, float) - np.asarray(
+        config.camera_target_m, float
+    )
     norm = np.linalg.norm(toward_camera)
-    u = toward_camera / norm if norm > 1e-9 else np.array([1.0, -1.0, 0.6]) / np.linalg.norm([1.0, -1.0, 0.6])
+    u = (
+        toward_camera / norm
+        if norm > 1e-9
+        else np.array([1.0, -1.0, 0.6]) / np.linalg.norm([1.0, -1.0, 0.6])
+    )
     right = np.cross(-u, [0.0, 0.0, 1.0])
-    if np.linalg.norm(right) < 1e-6:   # looking straight down or up
+    if np.linalg.norm(right) < 1e-6:  # looking straight down or up
         right = np.array([0.0, 1.0, 0.0])
     right /= np.linalg.norm(right)
     return u, right, np.cross(right, -u)
@@ -127,7 +142,9 @@ def _camera_distance(corners, center, axes):
 
 
 def _corners(lo, hi):
-    return np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    return np.array(
+        [[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
+    )
 
 
 def _sign_image(text, color):
@@ -137,8 +154,17 @@ def _sign_image(text, color):
     height_in = 0.4
     figure = Figure(figsize=(0.16 * len(text) + 0.3, height_in), dpi=100)
     figure.patch.set_facecolor(color)
-    figure.text(0.5, 0.5, text, ha="center", va="center", color="white", fontsize=16, weight="bold",
-                family="DejaVu Sans")
+    figure.text(
+        0.5,
+        0.5,
+        text,
+        ha="center",
+        va="center",
+        color="white",
+        fontsize=16,
+        weight="bold",
+        family="DejaVu Sans",
+    )
     stream = io.BytesIO()
     figure.savefig(stream, format="png", facecolor=color)
     width_in, height_in = figure.get_size_inches()
@@ -150,30 +176,63 @@ def _sign_mesh(text, color, width, height):
     textured with the sign's image, every byte embedded, as a Drake Mesh."""
     image, _ = _sign_image(text, color)
     # glTF is y-up; Drake turns it z-up, so the quad in glTF's x-y plane stands upright.
-    positions = np.array([[-width / 2, 0, 0], [width / 2, 0, 0], [width / 2, height, 0], [-width / 2, height, 0]],
-                         np.float32)
+    positions = np.array(
+        [[-width / 2, 0, 0], [width / 2, 0, 0], [width / 2, height, 0], [-width / 2, height, 0]],
+        np.float32,
+    )
     uv = np.array([[0, 1], [1, 1], [1, 0], [0, 0]], np.float32)
     indices = np.array([0, 1, 2, 0, 2, 3], np.uint16)
     blob = positions.tobytes() + uv.tobytes() + indices.tobytes()
     gltf = {
         "asset": {"version": "2.0", "generator": "hlcmp_drake"},
-        "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
-        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2,
-                                    "material": 0}]}],
-        "materials": [{"doubleSided": True, "emissiveTexture": {"index": 0}, "emissiveFactor": [0.4, 0.4, 0.4],
-                       "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}, "metallicFactor": 0.0,
-                                                "roughnessFactor": 1.0}}],
-        "textures": [{"source": 0, "sampler": 0}], "samplers": [{}],
+        "scene": 0,
+        "scenes": [{"nodes": [0]}],
+        "nodes": [{"mesh": 0}],
+        "meshes": [
+            {
+                "primitives": [
+                    {"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2, "material": 0}
+                ]
+            }
+        ],
+        "materials": [
+            {
+                "doubleSided": True,
+                "emissiveTexture": {"index": 0},
+                "emissiveFactor": [0.4, 0.4, 0.4],
+                "pbrMetallicRoughness": {
+                    "baseColorTexture": {"index": 0},
+                    "metallicFactor": 0.0,
+                    "roughnessFactor": 1.0,
+                },
+            }
+        ],
+        "textures": [{"source": 0, "sampler": 0}],
+        "samplers": [{}],
         "images": [{"uri": "data:image/png;base64," + base64.b64encode(image).decode()}],
-        "buffers": [{"byteLength": len(blob),
-                     "uri": "data:application/octet-stream;base64," + base64.b64encode(blob).decode()}],
-        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 48},
-                        {"buffer": 0, "byteOffset": 48, "byteLength": 32},
-                        {"buffer": 0, "byteOffset": 80, "byteLength": 12}],
-        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
-                       "min": positions.min(axis=0).tolist(), "max": positions.max(axis=0).tolist()},
-                      {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"},
-                      {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}],
+        "buffers": [
+            {
+                "byteLength": len(blob),
+                "uri": "data:application/octet-stream;base64," + base64.b64encode(blob).decode(),
+            }
+        ],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 48},
+            {"buffer": 0, "byteOffset": 48, "byteLength": 32},
+            {"buffer": 0, "byteOffset": 80, "byteLength": 12},
+        ],
+        "accessors": [
+            {
+                "bufferView": 0,
+                "componentType": 5126,
+                "count": 4,
+                "type": "VEC3",
+                "min": positions.min(axis=0).tolist(),
+                "max": positions.max(axis=0).tolist(),
+            },
+            {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"},
+            {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"},
+        ],
     }
     return Mesh(InMemoryMesh(mesh_file=MemoryFile(json.dumps(gltf), ".gltf", f"sign {text}")))
 
@@ -184,8 +243,12 @@ def _color(k):
     return matplotlib.colors.to_hex(f"C{k % 10}")
 
 
-def frame_copies(meshcat: Meshcat, config: RecordingConfig, labels: list[str],
-                 extent: tuple[np.ndarray, np.ndarray]) -> None:
+def frame_copies(
+    meshcat: Meshcat,
+    config: RecordingConfig,
+    labels: list[str],
+    extent: tuple[np.ndarray, np.ndarray],
+) -> None:
     """Place the runs' copies along +y, put a sign above each, and aim the camera at them all.
 
     Parameters
@@ -208,7 +271,7 @@ def frame_copies(meshcat: Meshcat, config: RecordingConfig, labels: list[str],
     center = 0.5 * (lo + hi + span)
     distance = _camera_distance(_corners(lo, hi + span), center, axes)
     aspects = [_sign_image(label, _color(k))[1] for k, label in enumerate(labels)]
-    for _ in range(2):   # the signs stand above the copies: frame them too
+    for _ in range(2):  # the signs stand above the copies: frame them too
         height = SIGN_HEIGHT * distance
         if config.spacing_m > 0 and aspects:
             height = min(height, 0.9 * config.spacing_m / max(aspects))
@@ -220,9 +283,15 @@ def frame_copies(meshcat: Meshcat, config: RecordingConfig, labels: list[str],
     facing = RollPitchYaw(0.0, 0.0, float(np.arctan2(u[0], -u[1])))
     middle = 0.5 * (lo[:2] + hi[:2])
     for k, (label, aspect) in enumerate(zip(labels, aspects)):
-        meshcat.SetTransform(f"/drake/runs/{label}", RigidTransform([0.0, k * config.spacing_m, 0.0]))
-        meshcat.SetObject(f"/drake/runs/{label}/label", _sign_mesh(label, _color(k), aspect * height, height))
-        meshcat.SetTransform(f"/drake/runs/{label}/label", RigidTransform(facing, [middle[0], middle[1], bottom]))
+        meshcat.SetTransform(
+            f"/drake/runs/{label}", RigidTransform([0.0, k * config.spacing_m, 0.0])
+        )
+        meshcat.SetObject(
+            f"/drake/runs/{label}/label", _sign_mesh(label, _color(k), aspect * height, height)
+        )
+        meshcat.SetTransform(
+            f"/drake/runs/{label}/label", RigidTransform(facing, [middle[0], middle[1], bottom])
+        )
     meshcat.SetCameraPose(center + distance * u, center)
 
 
@@ -249,12 +318,16 @@ def record_runs(scenario: Scenario, runs: dict, meshcat: Meshcat | None = None) 
     meshcat = meshcat or Meshcat()
     copies = {name: _Copy.build(scenario, meshcat, name) for name in runs}
     nq = next(iter(copies.values())).plant.num_positions() if copies else 0
-    extent = _union(copy.extent(_samples(run.series["plant_state"][:, :nq]))
-                    for copy, run in zip(copies.values(), runs.values()))
+    extent = _union(
+        copy.extent(_samples(run.series["plant_state"][:, :nq]))
+        for copy, run in zip(copies.values(), runs.values())
+    )
     frame_copies(meshcat, config, list(runs), extent)
     meshcat.StartRecording(frames_per_second, set_visualizations_while_recording=False)
     for name, run in runs.items():
-        for t, state in zip(_frame_times(run.t, frames_per_second), _states_at(run, frames_per_second)):
+        for t, state in zip(
+            _frame_times(run.t, frames_per_second), _states_at(run, frames_per_second)
+        ):
             if not np.all(np.isfinite(state)):
                 break
             copies[name].draw(t, state[:nq])
@@ -312,13 +385,15 @@ class LiveView:
         copy = self._copies.get(label)
         if copy is None:
             copy = self._copies[label] = _Copy.build(self._scenario, self._meshcat, label)
-            if len(self._copies) == 1:   # everything placed once, from the first run's start
+            if len(self._copies) == 1:  # everything placed once, from the first run's start
                 extent = _union([copy.extent([np.asarray(positions, float)])])
                 frame_copies(self._meshcat, self._scenario.recording, self._labels, extent)
             if label not in self._labels:
                 self._labels.append(label)
                 offset = (len(self._labels) - 1) * self._scenario.recording.spacing_m
-                self._meshcat.SetTransform(f"/drake/runs/{label}", RigidTransform([0.0, offset, 0.0]))
+                self._meshcat.SetTransform(
+                    f"/drake/runs/{label}", RigidTransform([0.0, offset, 0.0])
+                )
         copy.draw(t, positions)
         self._last_drawn[label] = time.perf_counter()
 

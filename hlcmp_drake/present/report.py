@@ -27,9 +27,13 @@ def results_markdown(metrics: dict, experiment: Experiment) -> str:
         The experiment the scenario names.
     """
     learners = metrics.get("learners", {})
-    return (to_markdown(experiment.table(metrics["controllers"])) + "\n"
-            + to_markdown(verdicts_table(metrics["claims"], learners), code_first_column=False) + "\n"
-            + to_markdown(evidence_table(metrics["claims"], learners), code_first_column=False))
+    return (
+        to_markdown(experiment.table(metrics["controllers"]))
+        + "\n"
+        + to_markdown(verdicts_table(metrics["claims"], learners), code_first_column=False)
+        + "\n"
+        + to_markdown(evidence_table(metrics["claims"], learners), code_first_column=False)
+    )
 
 
 def claims_summary_table(all_metrics: dict) -> Table:
@@ -40,7 +44,7 @@ def claims_summary_table(all_metrics: dict) -> Table:
     all_metrics : dict
         {scenario name: its metrics.json content}, in the order of the rows.
     """
-    readings = {}   # column header -> (learner label) in first-seen order
+    readings = {}  # column header -> (learner label) in first-seen order
     for metrics in all_metrics.values():
         for name in metrics["claims"]:
             readings.setdefault(reading_label(name, metrics.get("learners", {})), None)
@@ -51,10 +55,16 @@ def claims_summary_table(all_metrics: dict) -> Table:
         for name, by_claim in metrics["claims"].items():
             column = reading_label(name, metrics.get("learners", {}))
             for claim_name, claim in by_claim.items():
-                rows.setdefault(claim_name, {"paper_says": claim["paper_says"]})[column] = claim["holds"]
+                rows.setdefault(claim_name, {"paper_says": claim["paper_says"]})[column] = claim[
+                    "holds"
+                ]
         for claim_name, row in rows.items():
-            table.add(claim_name, scenario, row["paper_says"],
-                      *("–" if h not in row else ("**yes**" if row[h] else "**no**") for h in headers))
+            table.add(
+                claim_name,
+                scenario,
+                row["paper_says"],
+                *("–" if h not in row else ("**yes**" if row[h] else "**no**") for h in headers),
+            )
     return table
 
 
@@ -88,15 +98,20 @@ def update_readme(readme_path: Path, run_dirs: dict) -> None:
         experiment.
     """
     text = Path(readme_path).read_text()
-    all_metrics = {name: json.loads((Path(run_dir) / "metrics.json").read_text())
-                   for name, run_dir in run_dirs.items()}
+    all_metrics = {
+        name: json.loads((Path(run_dir) / "metrics.json").read_text())
+        for name, run_dir in run_dirs.items()
+    }
     for name, metrics in all_metrics.items():
         experiment = experiment_of(load_scenario(name)[0])
         text = replace_block(text, f"{name} results", results_markdown(metrics, experiment))
     if set(all_metrics) == set(EXPERIMENTS):
         ordered = {name: all_metrics[name] for name in EXPERIMENTS}
-        text = replace_block(text, "claims summary", to_markdown(claims_summary_table(ordered),
-                                                                code_first_column=False))
+        text = replace_block(
+            text,
+            "claims summary",
+            to_markdown(claims_summary_table(ordered), code_first_column=False),
+        )
     Path(readme_path).write_text(text)
 
 
@@ -144,13 +159,15 @@ def _probe_html(out_dir: Path, probe_dir: Path) -> str:
     """The world probe's numbers and figure (see `hlcmp probe`, docs/worlds.md)."""
     readings = json.loads((probe_dir / "probe.json").read_text())
     rel = probe_dir.resolve().relative_to(out_dir.resolve()).as_posix()
-    return (f"<h3>The world alone (hlcmp probe)</h3><p>The tool on a stiff carriage, no controller, at "
-            f"{readings['speed_m_per_s']:.3f} m/s: peak resisting force <b>{readings['peak_force_N']:.2f} N</b> "
-            f"{1000 * readings['depth_at_peak_m']:.1f} mm after first contact, residual "
-            f"<b>{readings['residual_force_N']:.2f} N</b>, max lateral force "
-            f"<b>{readings['max_lateral_force_N']:.3f} N</b>; {html.escape(readings['status'])}. "
-            f"<a href='{rel}/probe.json'>probe.json</a></p>"
-            f"<img src='{rel}/probe.png' alt='probe' onerror=\"this.classList.add('missing')\">")
+    return (
+        f"<h3>The world alone (hlcmp probe)</h3><p>The tool on a stiff carriage, no controller, at "
+        f"{readings['speed_m_per_s']:.3f} m/s: peak resisting force <b>{readings['peak_force_N']:.2f} N</b> "
+        f"{1000 * readings['depth_at_peak_m']:.1f} mm after first contact, residual "
+        f"<b>{readings['residual_force_N']:.2f} N</b>, max lateral force "
+        f"<b>{readings['max_lateral_force_N']:.3f} N</b>; {html.escape(readings['status'])}. "
+        f"<a href='{rel}/probe.json'>probe.json</a></p>"
+        f"<img src='{rel}/probe.png' alt='probe' onerror=\"this.classList.add('missing')\">"
+    )
 
 
 def report_page(out_dir: Path, sections: list) -> str:
@@ -165,36 +182,53 @@ def report_page(out_dir: Path, sections: list) -> str:
         One per scenario run, in page order.
     """
     out_dir = Path(out_dir)
-    parts = ["<!DOCTYPE html><html><head><meta charset='utf-8'><title>hlcmp-drake: the paper's "
-             f"experiments</title><style>{PAGE_STYLE}</style></head><body>",
-             "<h1>Hl-CMPs on Drake: the paper's experiments, reproduced in simulation</h1>",
-             "<p>Zeng et al., <i>An Approach for Robotic Learning Inspired by Biomimetic Adaptive "
-             "Control</i>, IEEE TII 18(3), 2022. Every number below comes from the runs linked "
-             "with it; each claim of the paper is marked reproduced or not.</p>",
-             "<h2>Contents</h2><ul>"]
-    parts += [f"<li><a href='#{s.name}'>{html.escape(s.experiment.title)}</a></li>" for s in sections]
+    parts = [
+        "<!DOCTYPE html><html><head><meta charset='utf-8'><title>hlcmp-drake: the paper's "
+        f"experiments</title><style>{PAGE_STYLE}</style></head><body>",
+        "<h1>Hl-CMPs on Drake: the paper's experiments, reproduced in simulation</h1>",
+        "<p>Zeng et al., <i>An Approach for Robotic Learning Inspired by Biomimetic Adaptive "
+        "Control</i>, IEEE TII 18(3), 2022. Every number below comes from the runs linked "
+        "with it; each claim of the paper is marked reproduced or not.</p>",
+        "<h2>Contents</h2><ul>",
+    ]
+    parts += [
+        f"<li><a href='#{s.name}'>{html.escape(s.experiment.title)}</a></li>" for s in sections
+    ]
     parts.append("</ul>")
     for section in sections:
         name, run_dir, experiment = section.name, section.run_dir, section.experiment
         metrics = json.loads((Path(run_dir) / "metrics.json").read_text())
         rel = Path(run_dir).resolve().relative_to(out_dir.resolve()).as_posix()
-        parts.append(f"<h2 id='{name}'>{html.escape(experiment.title)} (paper {experiment.paper_figures})</h2>")
-        parts.append(f"<p>Status: <b>{metrics['status']}</b>; ran in {section.wall_s:.0f} s. "
-                     f"<a href='{rel}/recording.html'>3-D recording (offline)</a> · "
-                     f"<a href='{rel}/metrics.json'>metrics.json</a> · "
-                     f"<a href='{rel}/timeseries.npz'>timeseries.npz</a></p>")
+        parts.append(
+            f"<h2 id='{name}'>{html.escape(experiment.title)} (paper {experiment.paper_figures})</h2>"
+        )
+        parts.append(
+            f"<p>Status: <b>{metrics['status']}</b>; ran in {section.wall_s:.0f} s. "
+            f"<a href='{rel}/recording.html'>3-D recording (offline)</a> · "
+            f"<a href='{rel}/metrics.json'>metrics.json</a> · "
+            f"<a href='{rel}/timeseries.npz'>timeseries.npz</a></p>"
+        )
         claims, learners = metrics.get("claims", {}), metrics.get("learners", {})
         verdicts = verdicts_table(claims, learners)
-        parts.append("<h3>Claims</h3>" + to_html(verdicts, code_first_column=False,
-                                                  verdict_columns=tuple(verdicts.headers[2:]))
-                     + to_html(evidence_table(claims, learners), code_first_column=False,
-                               verdict_columns=("reproduced",)))
+        parts.append(
+            "<h3>Claims</h3>"
+            + to_html(
+                verdicts, code_first_column=False, verdict_columns=tuple(verdicts.headers[2:])
+            )
+            + to_html(
+                evidence_table(claims, learners),
+                code_first_column=False,
+                verdict_columns=("reproduced",),
+            )
+        )
         parts.append("<h3>Metrics</h3>" + to_html(experiment.table(metrics["controllers"])))
         if section.probe_dir is not None:
             parts.append(_probe_html(out_dir, Path(section.probe_dir)))
         parts.append("<h3>Figures</h3>")
         for figure in sorted((Path(run_dir) / "figures").glob("*.png")):
-            parts.append(f"<img src='{rel}/figures/{figure.name}' alt='{figure.stem}' "
-                         "onerror=\"this.classList.add('missing')\">")
+            parts.append(
+                f"<img src='{rel}/figures/{figure.name}' alt='{figure.stem}' "
+                "onerror=\"this.classList.add('missing')\">"
+            )
     parts.append("</body></html>")
     return "\n".join(parts) + "\n"

@@ -96,7 +96,11 @@ def sweep_table(summary: dict) -> Table:
     finished = [task for task in summary["tasks"] if task["status"] in FINISHED]
     repeats = summary.get("repetitions", 1) > 1
     flagged = any(task["status"] != "ok" for task in finished)
-    headers = [p["label"] for p in parameters] + (["rep"] if repeats else []) + [m["label"] for m in metrics]
+    headers = (
+        [p["label"] for p in parameters]
+        + (["rep"] if repeats else [])
+        + [m["label"] for m in metrics]
+    )
     if not parameters and not repeats:
         headers = ["task"] + headers
     headers += ["status"] if flagged else []
@@ -124,12 +128,20 @@ def _plotted(summary: dict, finished: list) -> list:
         if metric.get("yes_no"):
             continue
         values = {t["id"]: t["values"].get(metric["label"]) for t in finished}
-        numbers = {k: float(v) for k, v in values.items()
-                   if isinstance(v, (int, float)) and not isinstance(v, bool)}
+        numbers = {
+            k: float(v)
+            for k, v in values.items()
+            if isinstance(v, (int, float)) and not isinstance(v, bool)
+        }
         if numbers:
             out.append((metric["label"], numbers))
     if not out:
-        out.append(("wall time [s]", {t["id"]: t["wall_s"] for t in finished if t.get("wall_s") is not None}))
+        out.append(
+            (
+                "wall time [s]",
+                {t["id"]: t["wall_s"] for t in finished if t.get("wall_s") is not None},
+            )
+        )
     return out
 
 
@@ -164,22 +176,34 @@ def sweep_figures(summary: dict) -> dict[str, Figure]:
         numeric = all(n is not None for n in numbers) and len(set(numbers)) == len(numbers)
         position = dict(zip(texts, numbers if numeric else range(len(texts))))
         others = [k for k in keys if k != key]
-        figure, axes = new_figure(len(plotted), 1, size=(7.5, 0.8 + 2.6 * len(plotted)), sharex=True)
+        figure, axes = new_figure(
+            len(plotted), 1, size=(7.5, 0.8 + 2.6 * len(plotted)), sharex=True
+        )
         for axis, (label, values) in zip(axes, plotted):
             groups = {}
             for task in finished:
                 if task["id"] in values:
                     group = tuple(task["parameters"][k] for k in others)
-                    groups.setdefault(group, {}).setdefault(task["parameters"][key], []).append(values[task["id"]])
+                    groups.setdefault(group, {}).setdefault(task["parameters"][key], []).append(
+                        values[task["id"]]
+                    )
             for group, by_value in groups.items():
                 xs = [position[text] for text in texts if text in by_value]
                 means = [float(np.mean(by_value[text])) for text in texts if text in by_value]
-                name = ", ".join(f"{names[k]}={parameter_text(v)}" for k, v in zip(others, group)) or None
-                line, = axis.plot(xs, means, marker="o", label=name)
+                name = (
+                    ", ".join(f"{names[k]}={parameter_text(v)}" for k, v in zip(others, group))
+                    or None
+                )
+                (line,) = axis.plot(xs, means, marker="o", label=name)
                 for text in texts:
                     if text in by_value and len(by_value[text]) > 1:
-                        axis.plot([position[text]] * len(by_value[text]), by_value[text], ".",
-                                  color=line.get_color(), alpha=0.5)
+                        axis.plot(
+                            [position[text]] * len(by_value[text]),
+                            by_value[text],
+                            ".",
+                            color=line.get_color(),
+                            alpha=0.5,
+                        )
             axis.set_ylabel(label)
             axis.grid(alpha=0.3)
             if 1 < len(groups) <= 12:

@@ -15,17 +15,23 @@ def to_text(table: Table) -> str:
     ----------
     table : Table
     """
-    widths = [max(len(row[k]) for row in [table.headers, *table.rows]) for k in range(len(table.headers))]
+    widths = [
+        max(len(row[k]) for row in [table.headers, *table.rows]) for k in range(len(table.headers))
+    ]
 
     def line(cells):
-        return "  ".join(cell.ljust(w) if k == 0 else cell.rjust(w)
-                         for k, (cell, w) in enumerate(zip(cells, widths))).rstrip()
+        return "  ".join(
+            cell.ljust(w) if k == 0 else cell.rjust(w)
+            for k, (cell, w) in enumerate(zip(cells, widths))
+        ).rstrip()
 
-    return "\n".join([line(table.headers), "  ".join("-" * w for w in widths)] + [line(r) for r in table.rows])
+    return "\n".join(
+        [line(table.headers), "  ".join("-" * w for w in widths)] + [line(r) for r in table.rows]
+    )
 
 
 def _markdown_cell(text: str) -> str:
-    return text.replace("|", "\\|")   # a literal bar inside a table cell
+    return text.replace("|", "\\|")  # a literal bar inside a table cell
 
 
 def to_markdown(table: Table, code_first_column: bool = True) -> str:
@@ -37,13 +43,18 @@ def to_markdown(table: Table, code_first_column: bool = True) -> str:
     code_first_column : bool
         Show the first column's cells as `code` (controller labels).
     """
+
     def first(cell):
         return f"`{cell}`" if code_first_column else _markdown_cell(cell)
 
-    lines = ["| " + " | ".join(_markdown_cell(h) for h in table.headers) + " |",
-             "|" + "---|" * len(table.headers)]
-    lines += ["| " + " | ".join([first(row[0])] + [_markdown_cell(c) for c in row[1:]]) + " |"
-              for row in table.rows]
+    lines = [
+        "| " + " | ".join(_markdown_cell(h) for h in table.headers) + " |",
+        "|" + "---|" * len(table.headers),
+    ]
+    lines += [
+        "| " + " | ".join([first(row[0])] + [_markdown_cell(c) for c in row[1:]]) + " |"
+        for row in table.rows
+    ]
     return "\n".join(lines) + "\n"
 
 

@@ -77,15 +77,19 @@ def count_python_calls(built: BuiltDiagram, scenario: Scenario) -> float:
     """
     simulator = prepared_simulator(built, scenario)
     simulator.Initialize()
-    in_c_call, calls = {}, [0]   # per Python frame: a stack of its calls into C, True for Drake's
+    in_c_call, calls = {}, [0]  # per Python frame: a stack of its calls into C, True for Drake's
 
     def hook(frame, event, arg):
         if event == "c_call":
             in_c_call.setdefault(frame, []).append(_is_drake(arg))
         elif event in ("c_return", "c_exception"):
             in_c_call[frame].pop()
-        elif event == "call" and in_c_call.get(frame.f_back) and in_c_call[frame.f_back][-1] \
-                and not frame.f_code.co_flags & inspect.CO_GENERATOR:   # a generator resumed by C is not a call
+        elif (
+            event == "call"
+            and in_c_call.get(frame.f_back)
+            and in_c_call[frame.f_back][-1]
+            and not frame.f_code.co_flags & inspect.CO_GENERATOR
+        ):  # a generator resumed by C is not a call
             calls[0] += 1
 
     sys.setprofile(hook)
@@ -98,7 +102,10 @@ def count_python_calls(built: BuiltDiagram, scenario: Scenario) -> float:
 
 def _is_drake(function):
     """Whether a builtin is pydrake's (numpy's C code calls Python helpers too)."""
-    module = getattr(function, "__module__", None) or type(getattr(function, "__self__", None)).__module__
+    module = (
+        getattr(function, "__module__", None)
+        or type(getattr(function, "__self__", None)).__module__
+    )
     return str(module).startswith("pydrake")
 
 
@@ -125,12 +132,12 @@ def insertion_runs(duration: float, repetitions: int) -> dict:
     scenario, _ = load_scenario("insertion", [f"duration_s={duration}", "task.control_path=fast"])
     modular, _ = load_scenario("insertion", [f"duration_s={duration}", "task.control_path=modular"])
     setup = arm.prepare(scenario)
-    run = simulate(arm.build(scenario, "hlcmp", setup), scenario, "hlcmp")   # the motion to replay
+    run = simulate(arm.build(scenario, "hlcmp", setup), scenario, "hlcmp")  # the motion to replay
     walls = {key: [] for key in ("fast", "cpp", "fast_bare", "cpp_bare", "modular")}
     ticks = []
     for _ in range(repetitions):
         built = arm.build(scenario, "hlcmp", setup)
-        ticks.append(built.controller.system.record_tick_times())   # filled as the run goes
+        ticks.append(built.controller.system.record_tick_times())  # filled as the run goes
         walls["fast"].append(_wall(lambda: advance(built, scenario))[0])
         replay = _joint_space_replay(scenario, setup, run, harness=True)
         walls["cpp"].append(_wall(lambda: advance(replay, scenario))[0])
@@ -150,9 +157,14 @@ def insertion_runs(duration: float, repetitions: int) -> dict:
         "controller_overhead_ratio": ratio("fast", "cpp"),
         "controller_overhead_ratio_bare": ratio("fast_bare", "cpp_bare"),
         "modular_over_fast": ratio("modular", "fast"),
-        "controller_tick_us": {"p50": float(np.percentile(tick_us, 50)), "p99": float(np.percentile(tick_us, 99))},
+        "controller_tick_us": {
+            "p50": float(np.percentile(tick_us, 50)),
+            "p99": float(np.percentile(tick_us, 99)),
+        },
         "python_calls_per_step": count_python_calls(arm.build(scenario, "hlcmp", setup), scenario),
-        "python_calls_per_step_modular": count_python_calls(arm.build(modular, "hlcmp", setup), modular),
+        "python_calls_per_step_modular": count_python_calls(
+            arm.build(modular, "hlcmp", setup), modular
+        ),
         "insertion_wall_s": walls,
         "insertion_simulated_s": duration,
     }
@@ -167,22 +179,44 @@ def _joint_space_replay(scenario, setup, run, harness):
     plant = world.plant
     nq = plant.num_positions()
     states = run.series["plant_state"]
-    source = builder.AddSystem(TrajectorySource(PiecewisePolynomial.FirstOrderHold(run.t, states.T)))
-    controller = builder.AddSystem(InverseDynamicsController(
-        _control_plant(scenario), kp=np.full(nq, 400.0), ki=np.zeros(nq), kd=np.full(nq, 40.0),
-        has_reference_acceleration=False))
+    source = builder.AddSystem(
+        TrajectorySource(PiecewisePolynomial.FirstOrderHold(run.t, states.T))
+    )
+    controller = builder.AddSystem(
+        InverseDynamicsController(
+            _control_plant(scenario),
+            kp=np.full(nq, 400.0),
+            ki=np.zeros(nq),
+            kd=np.full(nq, 40.0),
+            has_reference_acceleration=False,
+        )
+    )
     builder.Connect(plant.get_state_output_port(), controller.get_input_port_estimated_state())
     builder.Connect(source.get_output_port(), controller.get_input_port_desired_state())
     builder.Connect(controller.get_output_port_control(), plant.get_actuation_input_port())
     loggers = {}
     if harness:
         never_saturated = builder.AddSystem(ConstantVectorSource([0.0]))
-        loggers = arm.add_harness(builder, scenario, world, {
-            "plant_state": plant.get_state_output_port(), "f_ext": world.sensor.GetOutputPort("task_force"),
-            "xd": source.get_output_port(), "tau": controller.get_output_port_control()},
-            never_saturated.get_output_port())
-    return BuiltDiagram(builder.Build(), plant, None, loggers, states[0, :nq],
-                        world.puncture.apply_tear if world.puncture is not None else None)
+        loggers = arm.add_harness(
+            builder,
+            scenario,
+            world,
+            {
+                "plant_state": plant.get_state_output_port(),
+                "f_ext": world.sensor.GetOutputPort("task_force"),
+                "xd": source.get_output_port(),
+                "tau": controller.get_output_port_control(),
+            },
+            never_saturated.get_output_port(),
+        )
+    return BuiltDiagram(
+        builder.Build(),
+        plant,
+        None,
+        loggers,
+        states[0, :nq],
+        world.puncture.apply_tear if world.puncture is not None else None,
+    )
 
 
 def _control_plant(scenario):
@@ -223,16 +257,21 @@ def dmp_timings(repetitions: int) -> dict:
         ours_fit.append(fit_s)
         ours_rollout.append(rollout_s)
         if DMP is not None:
+
             def reference():
                 other = DMP(n_dims=3, execution_time=float(t[-1]), dt=0.001, n_weights_per_dim=50)
                 other.imitate(t, positions)
                 other.open_loop()
+
             theirs.append(_wall(reference)[0])
-    out = {"dmp_fit_ms": 1e3 * statistics.median(ours_fit),
-           "dmp_rollout_ms": 1e3 * statistics.median(ours_rollout)}
+    out = {
+        "dmp_fit_ms": 1e3 * statistics.median(ours_fit),
+        "dmp_rollout_ms": 1e3 * statistics.median(ours_rollout),
+    }
     if theirs:
         out["dmp_vs_movement_primitives"] = statistics.median(
-            [(f + r) / m for f, r, m in zip(ours_fit, ours_rollout, theirs)])
+            [(f + r) / m for f, r, m in zip(ours_fit, ours_rollout, theirs)]
+        )
         out["movement_primitives_fit_and_rollout_ms"] = 1e3 * statistics.median(theirs)
     else:
         out["dmp_vs_movement_primitives"] = None
@@ -268,9 +307,16 @@ def run_benchmark(quick: bool = False, reporter: Progress = SILENT) -> dict:
     reporter : Progress, optional
         Told what is being measured.
     """
-    results = {"machine": {"python": platform.python_version(), "processor": platform.processor(),
-                           "mode": "quick" if quick else "full"}}
-    reporter.say("insertion: fast path, modular path and C++ inverse dynamics along the same motion ...")
+    results = {
+        "machine": {
+            "python": platform.python_version(),
+            "processor": platform.processor(),
+            "mode": "quick" if quick else "full",
+        }
+    }
+    reporter.say(
+        "insertion: fast path, modular path and C++ inverse dynamics along the same motion ..."
+    )
     results.update(insertion_runs(duration=1.0 if quick else 9.5, repetitions=1 if quick else 3))
     reporter.say("DMP fit and rollout ...")
     results.update(dmp_timings(repetitions=2 if quick else 15))
@@ -284,28 +330,74 @@ def _rows(results):
     tick = results["controller_tick_us"]
     ratio = results.get("dmp_vs_movement_primitives")
     rows = [
-        ("insertion_rtf: simulated s per wall s, Hl-CMP insertion on the fast path (9.5 s, harnessed, "
-         "no recording)", number(results["insertion_rtf"]), "≥ 4", results["insertion_rtf"] >= 4),
-        ("controller_overhead_ratio: that run / the same world and harness driven by Drake's C++ "
-         "InverseDynamicsController along the same joint motion",
-         number(results["controller_overhead_ratio"]), "≤ 2.5", results["controller_overhead_ratio"] <= 2.5),
-        ("controller_overhead_ratio_bare: the same, neither side with monitor, sensor or loggers",
-         number(results["controller_overhead_ratio_bare"]), "", None),
-        ("modular_over_fast: the modular path's run / the fast path's, same scenario",
-         number(results["modular_over_fast"]), "", None),
-        ("python_calls_per_step: calls from Drake into Python per 1 ms plant step, fast path (counted)",
-         number(results["python_calls_per_step"]), "≤ 4", results["python_calls_per_step"] <= 4),
-        ("python_calls_per_step_modular: the same for the modular path",
-         number(results["python_calls_per_step_modular"]), "", None),
-        ("controller_tick_us: one tick, plant state to joint torques and Eq. 31 rates, in the running "
-         "insertion, p50 / p99", f"{tick['p50']:.0f} / {tick['p99']:.0f} µs", "p99 ≤ 250", tick["p99"] <= 250),
+        (
+            "insertion_rtf: simulated s per wall s, Hl-CMP insertion on the fast path (9.5 s, harnessed, "
+            "no recording)",
+            number(results["insertion_rtf"]),
+            "≥ 4",
+            results["insertion_rtf"] >= 4,
+        ),
+        (
+            "controller_overhead_ratio: that run / the same world and harness driven by Drake's C++ "
+            "InverseDynamicsController along the same joint motion",
+            number(results["controller_overhead_ratio"]),
+            "≤ 2.5",
+            results["controller_overhead_ratio"] <= 2.5,
+        ),
+        (
+            "controller_overhead_ratio_bare: the same, neither side with monitor, sensor or loggers",
+            number(results["controller_overhead_ratio_bare"]),
+            "",
+            None,
+        ),
+        (
+            "modular_over_fast: the modular path's run / the fast path's, same scenario",
+            number(results["modular_over_fast"]),
+            "",
+            None,
+        ),
+        (
+            "python_calls_per_step: calls from Drake into Python per 1 ms plant step, fast path (counted)",
+            number(results["python_calls_per_step"]),
+            "≤ 4",
+            results["python_calls_per_step"] <= 4,
+        ),
+        (
+            "python_calls_per_step_modular: the same for the modular path",
+            number(results["python_calls_per_step_modular"]),
+            "",
+            None,
+        ),
+        (
+            "controller_tick_us: one tick, plant state to joint torques and Eq. 31 rates, in the running "
+            "insertion, p50 / p99",
+            f"{tick['p50']:.0f} / {tick['p99']:.0f} µs",
+            "p99 ≤ 250",
+            tick["p99"] <= 250,
+        ),
         ("dmp_fit_ms: 3 axes, 2000 samples, N = 50", f"{results['dmp_fit_ms']:.1f} ms", "", None),
-        ("dmp_rollout_ms: the same DMP at 1 ms steps", f"{results['dmp_rollout_ms']:.1f} ms", "", None),
-        ("dmp_vs_movement_primitives: our fit + rollout / movement_primitives 0.9.1's",
-         "n/a" if ratio is None else number(ratio), "≤ 1.0", None if ratio is None else ratio <= 1.0),
+        (
+            "dmp_rollout_ms: the same DMP at 1 ms steps",
+            f"{results['dmp_rollout_ms']:.1f} ms",
+            "",
+            None,
+        ),
+        (
+            "dmp_vs_movement_primitives: our fit + rollout / movement_primitives 0.9.1's",
+            "n/a" if ratio is None else number(ratio),
+            "≤ 1.0",
+            None if ratio is None else ratio <= 1.0,
+        ),
     ]
-    rows += [(f"wall time of `hlcmp run {name}` (all its controllers, figures, recording)", f"{wall:.1f} s", "", None)
-             for name, wall in results["scenario_wall_s"].items()]
+    rows += [
+        (
+            f"wall time of `hlcmp run {name}` (all its controllers, figures, recording)",
+            f"{wall:.1f} s",
+            "",
+            None,
+        )
+        for name, wall in results["scenario_wall_s"].items()
+    ]
     return rows
 
 

@@ -19,8 +19,8 @@ from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.scenario import DemonstrationConfig, Scenario
 from hlcmp_drake.core.dmp import Dmp
 from hlcmp_drake.experiments import experiment_of
-from hlcmp_drake.experiments.plots import new_figure
 from hlcmp_drake.experiments.claims import learner
+from hlcmp_drake.experiments.plots import new_figure
 from hlcmp_drake.experiments.table import Table, number
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.io.runs import RunResult, instability_record
@@ -31,8 +31,12 @@ from hlcmp_drake.worlds.arm import fit_demonstration
 from hlcmp_drake.worlds.build import diagram_factory
 
 
-def learning_scenario(scenario: Scenario, demo_path: str | Path | None = None, skill: Skill | None = None,
-                      freeze: bool = False) -> Scenario:
+def learning_scenario(
+    scenario: Scenario,
+    demo_path: str | Path | None = None,
+    skill: Skill | None = None,
+    freeze: bool = False,
+) -> Scenario:
     """The scenario reduced to learning: only its Hl-CMP (learning rates 0 with `freeze`),
     reading `demo_path` as its demonstration, with a skill's DMP settings.
 
@@ -53,11 +57,15 @@ def learning_scenario(scenario: Scenario, demo_path: str | Path | None = None, s
         Without a demonstration or an Hl-CMP, or when the skill's axes do not fit.
     """
     if not isinstance(scenario.reference, DemonstrationConfig):
-        raise InputError(f"scenario '{scenario.name}' does not follow a demonstration; learning and "
-                         "reproducing skills needs one that does, such as insertion or cutting")
+        raise InputError(
+            f"scenario '{scenario.name}' does not follow a demonstration; learning and "
+            "reproducing skills needs one that does, such as insertion or cutting"
+        )
     name = learner(scenario)
     if name is None:
-        raise InputError(f"scenario '{scenario.name}' has no Hl-CMP controller (!HlcmpConfig) to learn with")
+        raise InputError(
+            f"scenario '{scenario.name}' has no Hl-CMP controller (!HlcmpConfig) to learn with"
+        )
     config = scenario.controllers[name]
     if freeze:
         zeros = [0.0] * scenario.n_axes
@@ -83,8 +91,10 @@ def check_skill_fits(skill: Skill, scenario: Scenario) -> None:
     """
     axes = ("x", "y", "z")[: scenario.n_axes]
     if skill.dmp.axis_names != axes:
-        raise InputError(f"the skill's axes ({','.join(skill.dmp.axis_names)}) do not match the "
-                         f"scenario '{scenario.name}', which controls {','.join(axes)}")
+        raise InputError(
+            f"the skill's axes ({','.join(skill.dmp.axis_names)}) do not match the "
+            f"scenario '{scenario.name}', which controls {','.join(axes)}"
+        )
 
 
 def effort(run: RunResult) -> float:
@@ -99,8 +109,13 @@ def effort(run: RunResult) -> float:
     return float(np.sum(np.mean(np.abs(run.series["u"] + run.series["v"]), axis=0)))
 
 
-def run_trials(scenario: Scenario, dmp: Dmp, trials: int, theta0: tuple | None = None,
-               reporter: Progress = SILENT) -> list[RunResult]:
+def run_trials(
+    scenario: Scenario,
+    dmp: Dmp,
+    trials: int,
+    theta0: tuple | None = None,
+    reporter: Progress = SILENT,
+) -> list[RunResult]:
     """Reproductions of `dmp`, each starting from the theta the previous one ended with;
     stops after an unstable trial.
 
@@ -147,10 +162,16 @@ def trial_metrics(runs: list[RunResult], scenario: Scenario) -> list[dict]:
     rows = []
     for k, run in enumerate(runs, start=1):
         m = experiment.controller_metrics(run, config, scenario)
-        rows.append({"trial": k, "status": run.status,
-                     "mean_abs_position_error_m": m["mean_abs_position_error_m"],
-                     "mean_abs_force_N": m["mean_abs_force_N"],
-                     "force_smoothness_N": m["force_smoothness_N"], "effort_N": effort(run)})
+        rows.append(
+            {
+                "trial": k,
+                "status": run.status,
+                "mean_abs_position_error_m": m["mean_abs_position_error_m"],
+                "mean_abs_force_N": m["mean_abs_force_N"],
+                "force_smoothness_N": m["force_smoothness_N"],
+                "effort_N": effort(run),
+            }
+        )
     return rows
 
 
@@ -179,7 +200,8 @@ def improvement(rows: list[dict]) -> dict | None:
         return sum(row[key].values())
 
     return {
-        "position_error": total(last, "mean_abs_position_error_m") < total(first, "mean_abs_position_error_m"),
+        "position_error": total(last, "mean_abs_position_error_m")
+        < total(first, "mean_abs_position_error_m"),
         "mean_force": total(last, "mean_abs_force_N") < total(first, "mean_abs_force_N"),
         "smoothness_z": last["force_smoothness_N"]["z"] < first["force_smoothness_N"]["z"],
         "effort": last["effort_N"] < first["effort_N"],
@@ -236,9 +258,17 @@ class LearningResult:
     skill_path: Path | None
 
 
-def learn(scenario_name: str | Path, out_dir: str | Path, demo: str | Path | None = None,
-          skill: Skill | None = None, skill_path: str | Path | None = None, trials: int = 1,
-          freeze: bool = False, reporter: Progress = SILENT, overrides: Sequence[str] = ()) -> LearningResult:
+def learn(
+    scenario_name: str | Path,
+    out_dir: str | Path,
+    demo: str | Path | None = None,
+    skill: Skill | None = None,
+    skill_path: str | Path | None = None,
+    trials: int = 1,
+    freeze: bool = False,
+    reporter: Progress = SILENT,
+    overrides: Sequence[str] = (),
+) -> LearningResult:
     """Learn (or, with a skill and `freeze`, replay) over `trials` reproductions.
 
     Parameters
@@ -270,11 +300,15 @@ def learn(scenario_name: str | Path, out_dir: str | Path, demo: str | Path | Non
     runs = run_trials(scenario, dmp, trials, theta0, reporter)
     rows = trial_metrics(runs, scenario)
     unstable = instability_record(runs)
-    metrics = {"scenario": scenario.name, "status": "unstable" if unstable else "ok",
-               "demonstration": None if demo is None else str(demo),
-               "started_from_skill": None if skill_path is None else str(skill_path),
-               "adaptation": "frozen" if freeze else "on",
-               "trials": rows, "improves_over_trials": improvement(rows)}
+    metrics = {
+        "scenario": scenario.name,
+        "status": "unstable" if unstable else "ok",
+        "demonstration": None if demo is None else str(demo),
+        "started_from_skill": None if skill_path is None else str(skill_path),
+        "adaptation": "frozen" if freeze else "on",
+        "trials": rows,
+        "improves_over_trials": improvement(rows),
+    }
     if unstable:
         metrics["instability"] = unstable
     figures = {}

@@ -8,8 +8,8 @@ from pathlib import Path
 from typing import Sequence
 
 import numpy as np
-from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 from matplotlib.figure import Figure
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 from pydrake.systems.framework import EventStatus
 
 from hlcmp_drake.config.loading import load_scenario
@@ -28,7 +28,9 @@ class ProbeResult:
     out_dir: Path
 
 
-def simulate_probe(world: ProbeWorld, scenario: Scenario) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
+def simulate_probe(
+    world: ProbeWorld, scenario: Scenario
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
     """Drive the carriage along its path; returns (t, tool point (T, 3) [m], force on the
     tool (T, 3) [N], status), the status "ok" or why the simulation stopped.
 
@@ -42,8 +44,9 @@ def simulate_probe(world: ProbeWorld, scenario: Scenario) -> tuple[np.ndarray, n
     ApplySimulatorConfig(scenario.simulator_config, simulator)
     context = simulator.get_mutable_context()
     plant_context = world.plant.GetMyMutableContextFromRoot(context)
-    world.plant.SetPositions(plant_context, world.plant.GetModelInstanceByName("probe_carriage"),
-                             world.waypoints[0])
+    world.plant.SetPositions(
+        plant_context, world.plant.GetModelInstanceByName("probe_carriage"), world.waypoints[0]
+    )
 
     def monitor(root_context):
         if world.puncture is not None:
@@ -54,15 +57,16 @@ def simulate_probe(world: ProbeWorld, scenario: Scenario) -> tuple[np.ndarray, n
     status = "ok"
     try:
         simulator.AdvanceTo(world.times[-1])
-    except RuntimeError as error:   # e.g. the contact solver failing
+    except RuntimeError as error:  # e.g. the contact solver failing
         status = "failed: " + " ".join(str(error).split())[:200]
     state = world.state_log.FindLog(context)
     force = world.force_log.FindLog(context)
     return state.sample_times(), state.data()[:3].T, force.data().T, status
 
 
-def readings_of(world: ProbeWorld, scenario: Scenario, t: np.ndarray, position: np.ndarray,
-                force: np.ndarray) -> tuple:
+def readings_of(
+    world: ProbeWorld, scenario: Scenario, t: np.ndarray, position: np.ndarray, force: np.ndarray
+) -> tuple:
     """probe.json's numbers from the logs (see `core.metrics.probe_readings`), and the
     travel [m], resisting and lateral forces [N] they come from.
 
@@ -86,11 +90,22 @@ def readings_of(world: ProbeWorld, scenario: Scenario, t: np.ndarray, position: 
         lateral = force @ (axis / np.linalg.norm(axis))
     else:
         lateral = np.linalg.norm(force - np.outer(force @ direction, direction), axis=1)
-    return probe_readings(distance, resisting, lateral, (t >= t0) & (t <= t1)), distance, resisting, lateral
+    return (
+        probe_readings(distance, resisting, lateral, (t >= t0) & (t <= t1)),
+        distance,
+        resisting,
+        lateral,
+    )
 
 
-def probe_figure(name: str, distance: np.ndarray, resisting: np.ndarray, lateral: np.ndarray,
-                 in_push: np.ndarray, readings: dict) -> Figure:
+def probe_figure(
+    name: str,
+    distance: np.ndarray,
+    resisting: np.ndarray,
+    lateral: np.ndarray,
+    in_push: np.ndarray,
+    readings: dict,
+) -> Figure:
     """Force along and across the path against the travel along the push.
 
     Parameters
@@ -107,21 +122,33 @@ def probe_figure(name: str, distance: np.ndarray, resisting: np.ndarray, lateral
     fig, (axis,) = new_figure(1, 1, size=(8, 4.5))
     way_back = ~in_push & (np.cumsum(in_push) > 0)
     axis.plot(1000 * distance[in_push], resisting[in_push], color="C0", label="resisting the push")
-    axis.plot(1000 * distance[way_back], resisting[way_back], color="C0", lw=0.8, ls="--",
-              label="along the push, on the way back")
+    axis.plot(
+        1000 * distance[way_back],
+        resisting[way_back],
+        color="C0",
+        lw=0.8,
+        ls="--",
+        label="along the push, on the way back",
+    )
     axis.plot(1000 * distance, lateral, color="C3", label="lateral")
     axis.axhline(0.0, color="k", lw=0.5)
     axis.set_xlabel("travel along the push [mm]")
     axis.set_ylabel("force on the tool [N]")
-    axis.set_title(f"hlcmp probe {name}: peak {readings['peak_force_N']:.1f} N, residual "
-                   f"{readings['residual_force_N']:.1f} N, max lateral {readings['max_lateral_force_N']:.2f} N")
+    axis.set_title(
+        f"hlcmp probe {name}: peak {readings['peak_force_N']:.1f} N, residual "
+        f"{readings['residual_force_N']:.1f} N, max lateral {readings['max_lateral_force_N']:.2f} N"
+    )
     axis.grid(alpha=0.3)
     axis.legend(fontsize=8)
     return fig
 
 
-def run_probe(name_or_path: str | Path, out_dir: str | Path | None = None, speed: float | None = None,
-              overrides: Sequence[str] = ()) -> ProbeResult:
+def run_probe(
+    name_or_path: str | Path,
+    out_dir: str | Path | None = None,
+    speed: float | None = None,
+    overrides: Sequence[str] = (),
+) -> ProbeResult:
     """Probe a scenario's world and write probe.json, probe.png and probe.npz.
 
     Parameters
@@ -141,12 +168,19 @@ def run_probe(name_or_path: str | Path, out_dir: str | Path | None = None, speed
     readings, distance, resisting, lateral = readings_of(world, scenario, t, position, force)
     in_push = (t >= world.push[0]) & (t <= world.push[1])
     out_dir = Path(out_dir or Path("out") / f"probe_{scenario.name}")
-    result = {"scenario": scenario.name,
-              "speed_m_per_s": float(np.linalg.norm(np.diff(world.waypoints[:2], axis=0)) /
-                                     np.diff(world.times[:2])[0]),
-              **readings, "tilt_rad": scenario.probe.tilt_rad, "status": status}
+    result = {
+        "scenario": scenario.name,
+        "speed_m_per_s": float(
+            np.linalg.norm(np.diff(world.waypoints[:2], axis=0)) / np.diff(world.times[:2])[0]
+        ),
+        **readings,
+        "tilt_rad": scenario.probe.tilt_rad,
+        "status": status,
+    }
     outputs.write_npz(out_dir / "probe.npz", {"t": t, "tool_position": position, "force": force})
-    outputs.save_figure(out_dir / "probe.png", probe_figure(scenario.name, distance, resisting, lateral,
-                                                            in_push, readings))
+    outputs.save_figure(
+        out_dir / "probe.png",
+        probe_figure(scenario.name, distance, resisting, lateral, in_push, readings),
+    )
     outputs.write_json(out_dir / "probe.json", result)
     return ProbeResult(result, out_dir)

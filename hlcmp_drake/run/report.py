@@ -31,7 +31,9 @@ class ReportResult:
         return all(status == "ok" for status in self.statuses)
 
 
-def run_report(out_dir: str | Path, scenarios: list[str] | None = None, reporter: Progress = SILENT) -> ReportResult:
+def run_report(
+    out_dir: str | Path, scenarios: list[str] | None = None, reporter: Progress = SILENT
+) -> ReportResult:
     """Run each bundled scenario into out_dir/<name> and write out_dir/index.html, a page
     that works offline.
 
@@ -45,17 +47,22 @@ def run_report(out_dir: str | Path, scenarios: list[str] | None = None, reporter
     """
     out_dir = Path(out_dir)
     if scenarios is None:
-        scenarios = sorted(bundled_scenarios(), key=lambda n: experiment_of(load_scenario(n)[0]).paper_section)
+        scenarios = sorted(
+            bundled_scenarios(), key=lambda n: experiment_of(load_scenario(n)[0]).paper_section
+        )
     sections, statuses, start = [], [], time.perf_counter()
     for name in scenarios:
         reporter.say(f"running {name} ...")
         began = time.perf_counter()
         result = run_scenario(name, out_dir / name, reporter)
         probe_dir = None
-        if result.scenario.probe.push_m:   # the world alone, no controller (hlcmp probe)
+        if result.scenario.probe.push_m:  # the world alone, no controller (hlcmp probe)
             probe_dir = run_probe(name, out_dir / name / "probe").out_dir
-        sections.append(ReportSection(name, result.out_dir, time.perf_counter() - began, result.experiment,
-                                      probe_dir))
+        sections.append(
+            ReportSection(
+                name, result.out_dir, time.perf_counter() - began, result.experiment, probe_dir
+            )
+        )
         statuses.append(result.metrics["status"])
     page = write_text(out_dir / "index.html", report_page(out_dir, sections))
     return ReportResult(page, sections, statuses, time.perf_counter() - start)

@@ -24,11 +24,18 @@ from hlcmp_drake.present.recording import record_runs
 from hlcmp_drake.run.simulate import simulate
 from hlcmp_drake.worlds.build import diagram_factory
 
-NO_LEARNER = "without a learner"   # the claims' key when a scenario has no Hl-CMP
+NO_LEARNER = "without a learner"  # the claims' key when a scenario has no Hl-CMP
 
 
-def run_one(build: Callable, scenario: Scenario, controller: str, label: str | None = None,
-            theta0: tuple | None = None, reporter: Progress = SILENT, live: LiveView | None = None) -> RunResult:
+def run_one(
+    build: Callable,
+    scenario: Scenario,
+    controller: str,
+    label: str | None = None,
+    theta0: tuple | None = None,
+    reporter: Progress = SILENT,
+    live: LiveView | None = None,
+) -> RunResult:
     """Build the diagram of `controller`, simulate it, and report its real-time factor and
     status.
 
@@ -49,14 +56,20 @@ def run_one(build: Callable, scenario: Scenario, controller: str, label: str | N
     start = time.perf_counter()
     run = simulate(build(controller, theta0), scenario, label, reporter.step, live)
     wall_s = time.perf_counter() - start
-    reporter.say(f"{run.controller}: {run.t[-1]:.2f} s simulated in {wall_s:.1f} s "
-                 f"({run.t[-1] / wall_s:.2f}x real time), {run.status}"
-                 + (f": {run.reason} at t = {run.stop_time:.3f} s" if run.status != "ok" else ""))
+    reporter.say(
+        f"{run.controller}: {run.t[-1]:.2f} s simulated in {wall_s:.1f} s "
+        f"({run.t[-1] / wall_s:.2f}x real time), {run.status}"
+        + (f": {run.reason} at t = {run.stop_time:.3f} s" if run.status != "ok" else "")
+    )
     return run
 
 
-def run_controllers(scenario: Scenario, reporter: Progress = SILENT, build: Callable | None = None,
-                    live: LiveView | None = None) -> dict[str, RunResult]:
+def run_controllers(
+    scenario: Scenario,
+    reporter: Progress = SILENT,
+    build: Callable | None = None,
+    live: LiveView | None = None,
+) -> dict[str, RunResult]:
     """Build and simulate one diagram per controller.
 
     Parameters
@@ -74,7 +87,10 @@ def run_controllers(scenario: Scenario, reporter: Progress = SILENT, build: Call
         By controller label, in the scenario's order.
     """
     build = build or diagram_factory(scenario)
-    return {name: run_one(build, scenario, name, reporter=reporter, live=live) for name in scenario.controllers}
+    return {
+        name: run_one(build, scenario, name, reporter=reporter, live=live)
+        for name in scenario.controllers
+    }
 
 
 def evaluate(runs: dict[str, RunResult], scenario: Scenario, experiment: Experiment) -> dict:
@@ -93,22 +109,34 @@ def evaluate(runs: dict[str, RunResult], scenario: Scenario, experiment: Experim
     metrics = {
         "scenario": scenario.name,
         "status": "unstable" if unstable else "ok",
-        "controllers": {n: experiment.controller_metrics(r, scenario.controllers[n], scenario)
-                        for n, r in runs.items()},
+        "controllers": {
+            n: experiment.controller_metrics(r, scenario.controllers[n], scenario)
+            for n, r in runs.items()
+        },
     }
     learners = scenario.controllers_of(HlcmpConfig)
-    metrics["learners"] = {name: {"q_units": scenario.controllers[name].q_units} for name in learners}
+    metrics["learners"] = {
+        name: {"q_units": scenario.controllers[name].q_units} for name in learners
+    }
     if unstable:
         metrics["instability"] = unstable
         metrics["claims"] = {}
     else:
-        metrics["claims"] = {name or NO_LEARNER: experiment.claims(metrics["controllers"], scenario, runs, name)
-                             for name in learners or [None]}
+        metrics["claims"] = {
+            name or NO_LEARNER: experiment.claims(metrics["controllers"], scenario, runs, name)
+            for name in learners or [None]
+        }
     return metrics
 
 
-def write_results(out_dir: Path, scenario: Scenario, runs: dict, metrics: dict, figures: dict,
-                  diagram: object | None = None) -> None:
+def write_results(
+    out_dir: Path,
+    scenario: Scenario,
+    runs: dict,
+    metrics: dict,
+    figures: dict,
+    diagram: object | None = None,
+) -> None:
     """Everything a run leaves in out_dir, each file written atomically; metrics.json comes
     last, so a metrics.json next to older files never describes them.
 
@@ -147,9 +175,14 @@ class ScenarioResult:
     scenario: Scenario
 
 
-def run_scenario(name_or_path: str | Path, out_dir: str | Path | None = None, reporter: Progress = SILENT,
-                 drake_models_iiwa: bool = False, overrides: Sequence[str] = (),
-                 meshcat: Meshcat | None = None) -> ScenarioResult:
+def run_scenario(
+    name_or_path: str | Path,
+    out_dir: str | Path | None = None,
+    reporter: Progress = SILENT,
+    drake_models_iiwa: bool = False,
+    overrides: Sequence[str] = (),
+    meshcat: Meshcat | None = None,
+) -> ScenarioResult:
     """Load, run, evaluate and write one scenario.
 
     Parameters
@@ -162,7 +195,9 @@ def run_scenario(name_or_path: str | Path, out_dir: str | Path | None = None, re
         ``dotted.key=value`` overrides layered over the file (see `load_scenario`).
     """
     scenario, path = load_scenario(name_or_path, overrides)
-    return run_loaded_scenario(scenario, path, out_dir, reporter, drake_models_iiwa, meshcat=meshcat)
+    return run_loaded_scenario(
+        scenario, path, out_dir, reporter, drake_models_iiwa, meshcat=meshcat
+    )
 
 
 def without_claims(experiment: Experiment) -> Experiment:
@@ -181,9 +216,15 @@ def without_claims(experiment: Experiment) -> Experiment:
     return dc.replace(experiment, claims=lambda metrics, scenario, runs=None, learner_name=None: {})
 
 
-def run_loaded_scenario(scenario: Scenario, path: str | Path | None = None, out_dir: str | Path | None = None,
-                        reporter: Progress = SILENT, drake_models_iiwa: bool = False,
-                        claims: bool = True, meshcat: Meshcat | None = None) -> ScenarioResult:
+def run_loaded_scenario(
+    scenario: Scenario,
+    path: str | Path | None = None,
+    out_dir: str | Path | None = None,
+    reporter: Progress = SILENT,
+    drake_models_iiwa: bool = False,
+    claims: bool = True,
+    meshcat: Meshcat | None = None,
+) -> ScenarioResult:
     """Run, evaluate and write a scenario that is already loaded (`run_scenario` after
     `load_scenario`; a sweep's worker after `load_scenario_text`).
 
@@ -215,8 +256,14 @@ def run_loaded_scenario(scenario: Scenario, path: str | Path | None = None, out_
         scenario = use_drake_models_iiwa(scenario)
     out_dir = Path(out_dir or Path("out") / scenario.name)
     build = diagram_factory(scenario)
-    runs = run_controllers(scenario, reporter, build, LiveView(scenario, meshcat) if meshcat is not None else None)
+    runs = run_controllers(
+        scenario, reporter, build, LiveView(scenario, meshcat) if meshcat is not None else None
+    )
     metrics = evaluate(runs, scenario, experiment if claims else without_claims(experiment))
     figures = experiment.figures(runs, scenario) if metrics["status"] == "ok" else {}
-    write_results(out_dir, scenario, runs, metrics, figures, build(next(iter(scenario.controllers))).diagram)
-    return ScenarioResult(metrics, out_dir, experiment.table(metrics["controllers"]), experiment, scenario)
+    write_results(
+        out_dir, scenario, runs, metrics, figures, build(next(iter(scenario.controllers))).diagram
+    )
+    return ScenarioResult(
+        metrics, out_dir, experiment.table(metrics["controllers"]), experiment, scenario
+    )

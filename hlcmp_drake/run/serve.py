@@ -34,8 +34,14 @@ from hlcmp_drake.config.scenario import ArmTask, HlcmpConfig, Scenario
 from hlcmp_drake.experiments import experiment_of
 from hlcmp_drake.io import outputs
 from hlcmp_drake.io.errors import InputError
-from hlcmp_drake.io.iiwa_lcm import (IiwaStatus, ProtocolError, decode_status, decode_wrench,
-                                     encode_torque_command, open_lcm)
+from hlcmp_drake.io.iiwa_lcm import (
+    IiwaStatus,
+    ProtocolError,
+    decode_status,
+    decode_wrench,
+    encode_torque_command,
+    open_lcm,
+)
 from hlcmp_drake.io.runs import RunResult
 from hlcmp_drake.io.skill import Skill
 from hlcmp_drake.present.progress import SILENT, Progress
@@ -53,8 +59,12 @@ from hlcmp_drake.worlds.models import load_models, scoped_frame
 FINISHED, UNSAFE, STOPPED = "ok", "unstable", "stopped"
 
 
-def served_scenario(scenario: Scenario, controller: str | None = None, skill: Skill | None = None,
-                    freeze: bool = False) -> tuple[Scenario, str, tuple | None]:
+def served_scenario(
+    scenario: Scenario,
+    controller: str | None = None,
+    skill: Skill | None = None,
+    freeze: bool = False,
+) -> tuple[Scenario, str, tuple | None]:
     """The scenario and the controller to serve, and a skill's weights to start from.
 
     Parameters
@@ -84,22 +94,30 @@ def served_scenario(scenario: Scenario, controller: str | None = None, skill: Sk
         one-tick law (a variable impedance), or a skill that does not fit.
     """
     if not isinstance(scenario.task, ArmTask):
-        raise InputError(f"scenario '{scenario.name}' has no arm: hlcmp serve drives an iiwa, "
-                         "use an arm scenario such as insertion or cutting")
+        raise InputError(
+            f"scenario '{scenario.name}' has no arm: hlcmp serve drives an iiwa, "
+            "use an arm scenario such as insertion or cutting"
+        )
     if skill is not None:
         scenario = learning_scenario(scenario, skill=skill, freeze=freeze)
         controller = next(iter(scenario.controllers))
         return scenario, controller, (skill.theta_k, skill.theta_d, skill.theta_v)
     if freeze:
-        raise InputError("--freeze needs --skill: a frozen skill is served with the profiles it learned")
+        raise InputError(
+            "--freeze needs --skill: a frozen skill is served with the profiles it learned"
+        )
     learners = scenario.controllers_of(HlcmpConfig)
     controller = controller or (learners[0] if learners else next(iter(scenario.controllers)))
     if controller not in scenario.controllers:
-        raise InputError(f"--controller: scenario '{scenario.name}' has no controller '{controller}' "
-                         f"(it has {', '.join(scenario.controllers)})")
+        raise InputError(
+            f"--controller: scenario '{scenario.name}' has no controller '{controller}' "
+            f"(it has {', '.join(scenario.controllers)})"
+        )
     if controller_kind(scenario, controller).law is None:
-        raise InputError(f"--controller: '{controller}' ({type(scenario.controllers[controller]).__name__}) "
-                         "has no one-tick law to serve; serve an Hl-CMP or a constant impedance")
+        raise InputError(
+            f"--controller: '{controller}' ({type(scenario.controllers[controller]).__name__}) "
+            "has no one-tick law to serve; serve an Hl-CMP or a constant impedance"
+        )
     return scenario, controller, None
 
 
@@ -130,11 +148,17 @@ class TorqueClient:
         The DMP and start posture (default: `prepare(scenario)`, as a run would).
     """
 
-    def __init__(self, scenario: Scenario, controller: str, lcm: DrakeLcm, theta0: tuple | None = None,
-                 setup: ArmSetup | None = None):
+    def __init__(
+        self,
+        scenario: Scenario,
+        controller: str,
+        lcm: DrakeLcm,
+        theta0: tuple | None = None,
+        setup: ArmSetup | None = None,
+    ):
         self.scenario, self.controller = scenario, controller
         self.config = scenario.iiwa_driver
-        self.duration = scenario.duration_s   # served from the first command, as a run simulates it
+        self.duration = scenario.duration_s  # served from the first command, as a run simulates it
         self._lcm = lcm
         setup = setup or prepare(scenario)
         self.q0 = setup.q0
@@ -144,8 +168,11 @@ class TorqueClient:
         self.plant = plant
         self.tick = arm_tick(scenario, controller, plant, setup)
         self.law = self.tick.law
-        self.theta = (initial_theta(scenario.controllers[controller], scenario, theta0)
-                      if self.law.learns else None)
+        self.theta = (
+            initial_theta(scenario.controllers[controller], scenario, theta0)
+            if self.law.learns
+            else None
+        )
         self._rate = None
         self._tool = scoped_frame(plant, scenario.task.tool_frame)
         self._axes = list(scenario.task.axes)
@@ -154,11 +181,11 @@ class TorqueClient:
         self._log_every = max(1, int(round(scenario.log_period_s / self.config.period_s)))
         self._state_check = plant_state_check(self.nq, scenario.max_abs_position_m)
         self._safety = arm_check(plant, scenario.task)
-        self._lower = plant.GetPositionLowerLimits() - 1e-3   # as arm_check tolerates
+        self._lower = plant.GetPositionLowerLimits() - 1e-3  # as arm_check tolerates
         self._upper = plant.GetPositionUpperLimits() + 1e-3
         self._wrist = None
         self._force_world = np.zeros(3)
-        self._latest = None          # (received at, status bytes) not yet answered
+        self._latest = None  # (received at, status bytes) not yet answered
         self.first_status_wall = None
         self.last_status_wall = None
         self._utime0 = self._last_utime = None
@@ -166,9 +193,10 @@ class TorqueClient:
         self.ticks = self.missed_ticks = 0
         self.tick_seconds: list[float] = []
         self.log_t: list[float] = []
-        self.log_rows: dict[str, list] = {name: [] for name in ("x", "xd", "f_ext", "fc", "plant_state",
-                                                                 "saturated_joints")}
-        self._law_series = controller_kind(scenario, controller).logs   # (series, log column) pairs
+        self.log_rows: dict[str, list] = {
+            name: [] for name in ("x", "xd", "f_ext", "fc", "plant_state", "saturated_joints")
+        }
+        self._law_series = controller_kind(scenario, controller).logs  # (series, log column) pairs
         self.log_rows.update({series: [] for series, _ in self._law_series})
         self.stopped_because: str | None = None
         self.status = FINISHED
@@ -209,10 +237,15 @@ class TorqueClient:
         if self.done:
             return
         if self._latest is None:
-            if self.last_status_wall is not None and time.perf_counter() - self.last_status_wall > \
-                    self.config.stale_status_s:
-                self.stop(STOPPED, f"no status for {self.config.stale_status_s * 1000:.0f} ms (stale) "
-                                   f"at t = {self._served_time():.3f} s")
+            if (
+                self.last_status_wall is not None
+                and time.perf_counter() - self.last_status_wall > self.config.stale_status_s
+            ):
+                self.stop(
+                    STOPPED,
+                    f"no status for {self.config.stale_status_s * 1000:.0f} ms (stale) "
+                    f"at t = {self._served_time():.3f} s",
+                )
             return
         received, data = self._latest
         self._latest = None
@@ -235,14 +268,16 @@ class TorqueClient:
             if not self._ready_to_start(status, received):
                 return
         elif status.utime == self._last_utime and self._last_command is not None:
-            self._lcm.Publish(self.config.command_channel, self._last_command)   # its answer was lost
+            self._lcm.Publish(
+                self.config.command_channel, self._last_command
+            )  # its answer was lost
             return
         elif status.utime < self._last_utime:
-            return   # older than one already answered
+            return  # older than one already answered
         state = np.concatenate([status.position, status.velocity])
         t = (status.utime - self._utime0) / 1e6
         k = int(round(t / self.config.period_s))
-        last = len(self._reference[0]) - 1   # the tick at the duration
+        last = len(self._reference[0]) - 1  # the tick at the duration
         if self._last_utime is not None:
             # Statuses between the last answered one and this one (up to the duration) went unanswered.
             previous = int(round((self._last_utime - self._utime0) / 1e6 / self.config.period_s))
@@ -253,11 +288,16 @@ class TorqueClient:
         if self._last_utime is not None and self._rate is not None:
             # θ' held since the last tick: the explicit-Euler step of the fast path
             self.theta = self.theta + (status.utime - self._last_utime) / 1e6 * self._rate
-        result = self.tick.evaluate(state, tuple(values[k] for values in self._reference), self.theta)
-        command = result.torque - result.terms.joint_gravity   # the driver adds G(q) itself
+        result = self.tick.evaluate(
+            state, tuple(values[k] for values in self._reference), self.theta
+        )
+        command = result.torque - result.terms.joint_gravity  # the driver adds G(q) itself
         # A non-finite command or a joint past its limit withholds this tick's command.
-        if (not np.all(np.isfinite(command)) or np.any(status.position < self._lower)
-                or np.any(status.position > self._upper)):
+        if (
+            not np.all(np.isfinite(command))
+            or np.any(status.position < self._lower)
+            or np.any(status.position > self._upper)
+        ):
             self._check(t, status, state, command, result)
             return
         self._last_command = encode_torque_command(status.utime, status.position, command)
@@ -279,9 +319,12 @@ class TorqueClient:
         off = np.abs(status.position - self.q0)
         if off.max() > self.config.start_tolerance_rad:
             joint = int(np.argmax(off))
-            self.stop(STOPPED, f"the arm is not at the scenario's start posture: joint {joint + 1} is "
-                               f"{off[joint]:.3f} rad away (iiwa_driver.start_tolerance_rad = "
-                               f"{self.config.start_tolerance_rad}); move it to q0 = {np.round(self.q0, 3).tolist()}")
+            self.stop(
+                STOPPED,
+                f"the arm is not at the scenario's start posture: joint {joint + 1} is "
+                f"{off[joint]:.3f} rad away (iiwa_driver.start_tolerance_rad = "
+                f"{self.config.start_tolerance_rad}); move it to q0 = {np.round(self.q0, 3).tolist()}",
+            )
             return False
         if received - self.first_status_wall < self.config.start_guard_s:
             return False
@@ -294,8 +337,9 @@ class TorqueClient:
         context = self.tick.model.context
         if self.config.force_source == "external_torque":
             world = self.plant.world_frame()
-            jacobian = self.plant.CalcJacobianTranslationalVelocity(context, JacobianWrtVariable.kV, self._tool,
-                                                                    np.zeros(3), world, world)
+            jacobian = self.plant.CalcJacobianTranslationalVelocity(
+                context, JacobianWrtVariable.kV, self._tool, np.zeros(3), world, world
+            )
             return np.linalg.lstsq(jacobian.T, status.torque_external, rcond=None)[0]
         if self._wrist is None:
             return np.zeros(3)
@@ -309,8 +353,14 @@ class TorqueClient:
         problem = self._state_check(state)
         if problem is None and not np.all(np.isfinite(command)):
             problem = "a non-finite torque command"
-        problem = problem or self._safety(t, {"plant_state": state, "contact_force": self._force_world,
-                                              "saturated": [result.saturated]})
+        problem = problem or self._safety(
+            t,
+            {
+                "plant_state": state,
+                "contact_force": self._force_world,
+                "saturated": [result.saturated],
+            },
+        )
         if problem is not None:
             self.stop(UNSAFE, f"{problem} at t = {t:.3f} s")
         return problem is None
@@ -337,11 +387,20 @@ class TorqueClient:
         RunResult
             Status "ok", "unstable" (a safety watchdog) or "stopped" (the driver).
         """
-        series = {name: np.array(rows).reshape(len(rows), -1) for name, rows in self.log_rows.items()}
+        series = {
+            name: np.array(rows).reshape(len(rows), -1) for name, rows in self.log_rows.items()
+        }
         theta = self.law.unflatten(self.theta) if self.theta is not None else None
         stop_time = None if self.status == FINISHED else self._served_time()
-        return RunResult(self.controller, np.array(self.log_t), series, self.status,
-                         "" if self.status == FINISHED else self.stopped_because, stop_time, theta)
+        return RunResult(
+            self.controller,
+            np.array(self.log_t),
+            series,
+            self.status,
+            "" if self.status == FINISHED else self.stopped_because,
+            stop_time,
+            theta,
+        )
 
     def record(self, lcm_url: str) -> dict:
         """The serve.json content.
@@ -358,12 +417,28 @@ class TorqueClient:
             command's publication), stopped_because, and what was served where.
         """
         micros = np.array(self.tick_seconds) * 1e6
-        percentiles = ({"p50": float(np.percentile(micros, 50)), "p99": float(np.percentile(micros, 99)),
-                        "max": float(micros.max())} if micros.size else {"p50": None, "p99": None, "max": None})
-        return {"scenario": self.scenario.name, "controller": self.controller, "lcm_url": lcm_url,
-                "force_source": self.config.force_source, "period_s": self.config.period_s,
-                "ticks": self.ticks, "missed_ticks": self.missed_ticks, "tick_us": percentiles,
-                "served_s": self._served_time(), "status": self.status, "stopped_because": self.stopped_because}
+        percentiles = (
+            {
+                "p50": float(np.percentile(micros, 50)),
+                "p99": float(np.percentile(micros, 99)),
+                "max": float(micros.max()),
+            }
+            if micros.size
+            else {"p50": None, "p99": None, "max": None}
+        )
+        return {
+            "scenario": self.scenario.name,
+            "controller": self.controller,
+            "lcm_url": lcm_url,
+            "force_source": self.config.force_source,
+            "period_s": self.config.period_s,
+            "ticks": self.ticks,
+            "missed_ticks": self.missed_ticks,
+            "tick_us": percentiles,
+            "served_s": self._served_time(),
+            "status": self.status,
+            "stopped_because": self.stopped_because,
+        }
 
 
 def serve(client: TorqueClient, lcm: DrakeLcm, lcm_url: str, reporter: Progress = SILENT) -> None:
@@ -387,9 +462,15 @@ def serve(client: TorqueClient, lcm: DrakeLcm, lcm_url: str, reporter: Progress 
             # its tick from cold caches, measured 2-3x slower on a 2-core VM (docs/iiwa.md).
             lcm.HandleSubscriptions(0 if client.first_status_wall is not None else 10)
             client.poll()
-            if client.first_status_wall is None and time.perf_counter() - start > config.first_status_timeout_s:
-                client.stop(STOPPED, f"no status on {config.status_channel} at {lcm_url} within "
-                                     f"{config.first_status_timeout_s:g} s: is the driver running?")
+            if (
+                client.first_status_wall is None
+                and time.perf_counter() - start > config.first_status_timeout_s
+            ):
+                client.stop(
+                    STOPPED,
+                    f"no status on {config.status_channel} at {lcm_url} within "
+                    f"{config.first_status_timeout_s:g} s: is the driver running?",
+                )
 
 
 @contextlib.contextmanager
@@ -427,12 +508,15 @@ def write_served(client: TorqueClient, out_dir: str | Path, lcm_url: str) -> Ser
     record = client.record(lcm_url)
     out_dir = Path(out_dir)
     experiment = experiment_of(client.scenario)
-    scenario = dc.replace(client.scenario, controllers={client.controller: client.scenario.controllers[client.controller]})
+    scenario = dc.replace(
+        client.scenario,
+        controllers={client.controller: client.scenario.controllers[client.controller]},
+    )
     metrics = evaluate({run.controller: run}, scenario, without_claims(experiment))
     metrics["status"] = run.status
     if len(run.t):
         write_results(out_dir, scenario, {run.controller: run}, metrics, {})
-    else:   # nothing was served: no series to write
+    else:  # nothing was served: no series to write
         outputs.write_json(out_dir / "metrics.json", metrics)
     outputs.write_json(out_dir / "serve.json", record)
     return ServeResult(run, record, metrics, out_dir)
@@ -459,20 +543,29 @@ def lockstep(driver: SimulatedIiwaDriver, client: TorqueClient, lcm: DrakeLcm) -
     with without_garbage_collection():
         while not client.done:
             driver.publish_status()
-            lcm.HandleSubscriptions(0)     # the status reaches the client
+            lcm.HandleSubscriptions(0)  # the status reaches the client
             client.poll()
-            lcm.HandleSubscriptions(0)     # its command reaches the driver
+            lcm.HandleSubscriptions(0)  # its command reaches the driver
             if driver.command is not None and driver.command[0] == driver.status_utime:
                 driver.step(driver.command[1])
                 steps += 1
             elif not client.done:
-                time.sleep(driver.period)   # the start guards count wall time
-    return DriverSummary(steps, steps, 0, 0, driver.time, time.perf_counter() - start, client.stopped_because)
+                time.sleep(driver.period)  # the start guards count wall time
+    return DriverSummary(
+        steps, steps, 0, 0, driver.time, time.perf_counter() - start, client.stopped_because
+    )
 
 
-def serve_scenario(name_or_path: str | Path, lcm_url: str, out_dir: str | Path, controller: str | None = None,
-                   skill: Skill | None = None, freeze: bool = False, overrides: Sequence[str] = (),
-                   reporter: Progress = SILENT) -> ServeResult:
+def serve_scenario(
+    name_or_path: str | Path,
+    lcm_url: str,
+    out_dir: str | Path,
+    controller: str | None = None,
+    skill: Skill | None = None,
+    freeze: bool = False,
+    overrides: Sequence[str] = (),
+    reporter: Progress = SILENT,
+) -> ServeResult:
     """Load a scenario, serve its controller over LCM, and write the results.
 
     With a memq:// URL (which reaches only this process) the scenario's simulated driver

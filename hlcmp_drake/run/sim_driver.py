@@ -31,8 +31,14 @@ from pydrake.systems.analysis import SimulatorStatus
 
 from hlcmp_drake.config.scenario import ArmTask, Scenario
 from hlcmp_drake.io.errors import InputError
-from hlcmp_drake.io.iiwa_lcm import (IiwaStatus, ProtocolError, decode_torque_command, encode_status,
-                                     encode_wrench, open_lcm)
+from hlcmp_drake.io.iiwa_lcm import (
+    IiwaStatus,
+    ProtocolError,
+    decode_torque_command,
+    encode_status,
+    encode_wrench,
+    open_lcm,
+)
 from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.run.simulate import prepared_simulator
 from hlcmp_drake.worlds.arm import ArmSetup, build_driven, prepare
@@ -90,14 +96,18 @@ class SimulatedIiwaDriver:
 
     def __init__(self, scenario: Scenario, lcm: DrakeLcm, setup: ArmSetup | None = None):
         if not isinstance(scenario.task, ArmTask):
-            raise InputError(f"scenario '{scenario.name}' has no arm: the simulated iiwa driver needs an "
-                             "arm scenario such as insertion or cutting")
+            raise InputError(
+                f"scenario '{scenario.name}' has no arm: the simulated iiwa driver needs an "
+                "arm scenario such as insertion or cutting"
+            )
         self.config = scenario.iiwa_driver
         step = scenario.plant_config.time_step
         self.period = self.config.period_s
         if step <= 0 or abs(self.period / step - round(self.period / step)) > 1e-9:
-            raise InputError(f"{scenario.name}: iiwa_driver.period_s = {self.period} s must be a whole number "
-                             f"of plant steps (plant_config.time_step = {step} s)")
+            raise InputError(
+                f"{scenario.name}: iiwa_driver.period_s = {self.period} s must be a whole number "
+                f"of plant steps (plant_config.time_step = {step} s)"
+            )
         self._lcm = lcm
         setup = setup or prepare(scenario)
         built = build_driven(scenario, setup)
@@ -113,14 +123,20 @@ class SimulatedIiwaDriver:
         self._sensor_context = sensor.GetMyContextFromRoot(root)
         self._tool = scoped_frame(self.plant, scenario.task.tool_frame)
         self._actuation = self.plant.get_actuation_input_port()
-        self._limits = np.array([self.plant.get_joint_actuator(i).effort_limit()
-                                 for i in self.plant.GetJointActuatorIndices()])
+        self._limits = np.array(
+            [
+                self.plant.get_joint_actuator(i).effort_limit()
+                for i in self.plant.GetJointActuatorIndices()
+            ]
+        )
         self.nv = self.plant.num_velocities()
-        self._applied = np.zeros(self.nv)      # the last command's torque (or the hold's)
-        self._total = np.zeros(self.nv)        # with gravity compensation: what the joints feel
+        self._applied = np.zeros(self.nv)  # the last command's torque (or the hold's)
+        self._total = np.zeros(self.nv)  # with gravity compensation: what the joints feel
         self._hold = None
         self._steps = 0
-        self.command: tuple[int, np.ndarray, float] | None = None   # utime, torque, wall time received
+        self.command: tuple[int, np.ndarray, float] | None = (
+            None  # utime, torque, wall time received
+        )
         self._first_status_wall = None
         self.status_utime = 0
         lcm.Subscribe(self.config.command_channel, self._on_command)
@@ -136,13 +152,23 @@ class SimulatedIiwaDriver:
         q, v = plant.GetPositions(context), plant.GetVelocities(context)
         force_world = self._force.Eval(self._sensor_context)
         rotation = self._tool.CalcRotationMatrixInWorld(context)
-        jacobian = plant.CalcJacobianTranslationalVelocity(context, JacobianWrtVariable.kV, self._tool,
-                                                           np.zeros(3), plant.world_frame(), plant.world_frame())
+        jacobian = plant.CalcJacobianTranslationalVelocity(
+            context,
+            JacobianWrtVariable.kV,
+            self._tool,
+            np.zeros(3),
+            plant.world_frame(),
+            plant.world_frame(),
+        )
         self.status_utime = int(round(self.time * 1e6))
         # The wrist force, taken to act at the tool point, is the arm's external torque.
-        status = IiwaStatus(self.status_utime, q, v, self._applied, self._total, jacobian.T @ force_world)
-        self._lcm.Publish(self.config.wrist_channel,
-                          encode_wrench(self.status_utime, rotation.inverse() @ force_world))
+        status = IiwaStatus(
+            self.status_utime, q, v, self._applied, self._total, jacobian.T @ force_world
+        )
+        self._lcm.Publish(
+            self.config.wrist_channel,
+            encode_wrench(self.status_utime, rotation.inverse() @ force_world),
+        )
         self._lcm.Publish(self.config.status_channel, encode_status(status))
         if self._first_status_wall is None:
             self._first_status_wall = time.perf_counter()
@@ -154,8 +180,10 @@ class SimulatedIiwaDriver:
         except ProtocolError as error:
             raise DriverAbort(f"the driver received {error}") from None
         if self._first_status_wall is None or now - self._first_status_wall < START_COMMAND_GUARD_S:
-            raise DriverAbort(f"a command came within {START_COMMAND_GUARD_S} s of the driver's first status "
-                              "(a controller left running from before?); the real driver aborts too")
+            raise DriverAbort(
+                f"a command came within {START_COMMAND_GUARD_S} s of the driver's first status "
+                "(a controller left running from before?); the real driver aborts too"
+            )
         self.command = (utime, torque, now)
 
     def step(self, torque: np.ndarray | None) -> None:
@@ -189,7 +217,9 @@ class SimulatedIiwaDriver:
         try:
             status = self.simulator.AdvanceTo(self._steps * self.period)
         except RuntimeError as error:
-            raise DriverAbort(f"the simulation failed at t = {self.time:.3f} s: {' '.join(str(error).split())[:200]}")
+            raise DriverAbort(
+                f"the simulation failed at t = {self.time:.3f} s: {' '.join(str(error).split())[:200]}"
+            )
         if status.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition:
             raise DriverAbort(f"the world stopped at t = {self.time:.3f} s: {status.message()}")
         if not np.all(np.isfinite(plant.GetPositionsAndVelocities(context))):
@@ -217,12 +247,20 @@ def wait_for_first_command(driver: SimulatedIiwaDriver, lcm: DrakeLcm, timeout_s
         driver.publish_status()
         _handle_until(lcm, time.perf_counter() + driver.period)
         if time.perf_counter() - start > timeout_s:
-            raise DriverAbort(f"no command on {driver.config.command_channel} within {timeout_s:.0f} s")
+            raise DriverAbort(
+                f"no command on {driver.config.command_channel} within {timeout_s:.0f} s"
+            )
 
 
-def drive(driver: SimulatedIiwaDriver, lcm: DrakeLcm, realtime: bool = False, duration: float | None = None,
-          idle_timeout_s: float = 1.0, first_command_timeout_s: float = 60.0,
-          reporter: Progress = SILENT) -> DriverSummary:
+def drive(
+    driver: SimulatedIiwaDriver,
+    lcm: DrakeLcm,
+    realtime: bool = False,
+    duration: float | None = None,
+    idle_timeout_s: float = 1.0,
+    first_command_timeout_s: float = 60.0,
+    reporter: Progress = SILENT,
+) -> DriverSummary:
     """Run the simulated driver until its client stops commanding (or `duration`).
 
     Parameters
@@ -250,8 +288,10 @@ def drive(driver: SimulatedIiwaDriver, lcm: DrakeLcm, realtime: bool = False, du
     DriverAbort
         When the driver aborts (see `SimulatedIiwaDriver`).
     """
-    reporter.say(f"sim-driver: publishing {driver.config.status_channel} every {driver.period * 1000:.0f} ms "
-                 f"({'real time' if realtime else 'as fast as the client answers'}); waiting for a command")
+    reporter.say(
+        f"sim-driver: publishing {driver.config.status_channel} every {driver.period * 1000:.0f} ms "
+        f"({'real time' if realtime else 'as fast as the client answers'}); waiting for a command"
+    )
     wait_for_first_command(driver, lcm, first_command_timeout_s)
     start = time.perf_counter()
     steps = held = late = 0
@@ -263,7 +303,9 @@ def drive(driver: SimulatedIiwaDriver, lcm: DrakeLcm, realtime: bool = False, du
             break
         if realtime:
             deadline += driver.period
-            if time.perf_counter() > deadline + driver.period:   # a step overran: keep pace, don't burst
+            if (
+                time.perf_counter() > deadline + driver.period
+            ):  # a step overran: keep pace, don't burst
                 late += 1
                 deadline = time.perf_counter()
             _handle_until(lcm, deadline)
@@ -280,7 +322,9 @@ def drive(driver: SimulatedIiwaDriver, lcm: DrakeLcm, realtime: bool = False, du
         if stopped is None:
             steps += 1
             driver.publish_status()
-    return DriverSummary(steps, steps - held, held, late, driver.time, time.perf_counter() - start, stopped)
+    return DriverSummary(
+        steps, steps - held, held, late, driver.time, time.perf_counter() - start, stopped
+    )
 
 
 def _await_answer(driver: SimulatedIiwaDriver, lcm: DrakeLcm, idle_timeout_s: float) -> str | None:
@@ -311,9 +355,15 @@ def _handle_until(lcm: DrakeLcm, deadline: float) -> None:
         lcm.HandleSubscriptions(int(remaining * 1000) - 1 if remaining > 0.002 else 0)
 
 
-def run_sim_driver(name_or_path: str, lcm_url: str, realtime: bool = False, duration: float | None = None,
-                   idle_timeout_s: float = 1.0, overrides: Sequence[str] = (),
-                   reporter: Progress = SILENT) -> DriverSummary:
+def run_sim_driver(
+    name_or_path: str,
+    lcm_url: str,
+    realtime: bool = False,
+    duration: float | None = None,
+    idle_timeout_s: float = 1.0,
+    overrides: Sequence[str] = (),
+    reporter: Progress = SILENT,
+) -> DriverSummary:
     """Load a scenario and run its simulated iiwa driver on `lcm_url` until the client stops.
 
     Parameters
@@ -334,8 +384,10 @@ def run_sim_driver(name_or_path: str, lcm_url: str, realtime: bool = False, dura
     from hlcmp_drake.config.loading import load_scenario
 
     if lcm_url.startswith("memq://"):
-        raise InputError("--lcm memq:// reaches only this process: hlcmp serve SCENARIO --lcm memq:// "
-                         "runs the simulated driver and the client together")
+        raise InputError(
+            "--lcm memq:// reaches only this process: hlcmp serve SCENARIO --lcm memq:// "
+            "runs the simulated driver and the client together"
+        )
     scenario, _ = load_scenario(name_or_path, overrides)
     lcm = open_lcm(lcm_url)
     driver = SimulatedIiwaDriver(scenario, lcm)

@@ -14,7 +14,6 @@ from hlcmp_drake.io.runs import RunResult
 from hlcmp_drake.present.recording import LiveView
 from hlcmp_drake.worlds.common import BuiltDiagram
 
-
 # The run advances in chunks of this many simulated seconds, between which it reports
 # progress and draws the live view: nothing of the run's own runs in Python per step.
 CHUNK_S = 0.02
@@ -38,15 +37,22 @@ def prepared_simulator(built: BuiltDiagram, scenario: Scenario) -> Simulator:
     simulator = Simulator(built.diagram)
     ApplySimulatorConfig(scenario.simulator_config, simulator)
     if built.initial_positions is not None:
-        built.plant.SetPositions(built.plant.GetMyMutableContextFromRoot(simulator.get_mutable_context()),
-                                 built.initial_positions)
+        built.plant.SetPositions(
+            built.plant.GetMyMutableContextFromRoot(simulator.get_mutable_context()),
+            built.initial_positions,
+        )
     if built.after_step is not None:
         simulator.set_monitor(lambda root: built.after_step(root) or EventStatus.DidNothing())
     return simulator
 
 
-def simulate(built: BuiltDiagram, scenario: Scenario, controller_name: str,
-             progress: Callable | None = None, live: LiveView | None = None) -> RunResult:
+def simulate(
+    built: BuiltDiagram,
+    scenario: Scenario,
+    controller_name: str,
+    progress: Callable | None = None,
+    live: LiveView | None = None,
+) -> RunResult:
     """Simulate `built` for scenario.duration_s and read its loggers back.
 
     The diagram's SafetyMonitor checks (at 100 Hz) that the plant state is finite, its
@@ -77,7 +83,7 @@ def simulate(built: BuiltDiagram, scenario: Scenario, controller_name: str,
     plant_context = built.plant.GetMyContextFromRoot(context)
     trouble = {}
     wall_start = last_report = time.perf_counter()
-    status = simulator.Initialize()   # the safety checks look at t = 0 too
+    status = simulator.Initialize()  # the safety checks look at t = 0 too
     if status.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition:
         trouble.update(reason=status.message(), time=status.return_time())
     chunks = 0 if trouble else max(1, int(np.ceil(scenario.duration_s / CHUNK_S - 1e-9)))
@@ -90,13 +96,17 @@ def simulate(built: BuiltDiagram, scenario: Scenario, controller_name: str,
         if status.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition:
             trouble.update(reason=status.message(), time=status.return_time())
             break
-        if live is not None:   # throttled to the view's frame rate by the wall clock
+        if live is not None:  # throttled to the view's frame rate by the wall clock
             live.show(controller_name, context.get_time(), built.plant.GetPositions(plant_context))
         if progress is not None and time.perf_counter() - last_report > 1.0:
             last_report = time.perf_counter()
-            progress(controller_name, context.get_time(), scenario.duration_s, last_report - wall_start)
-    if live is not None:   # the run's last state, whatever the view's frame rate skipped
-        live.show(controller_name, context.get_time(), built.plant.GetPositions(plant_context), final=True)
+            progress(
+                controller_name, context.get_time(), scenario.duration_s, last_report - wall_start
+            )
+    if live is not None:  # the run's last state, whatever the view's frame rate skipped
+        live.show(
+            controller_name, context.get_time(), built.plant.GetPositions(plant_context), final=True
+        )
     series, t = {}, None
     for name, (logger, columns) in built.loggers.items():
         log = logger.FindLog(context)
@@ -104,5 +114,7 @@ def simulate(built: BuiltDiagram, scenario: Scenario, controller_name: str,
         series[name] = log.data()[columns].T.copy()
     theta = built.controller.read_theta(context) if built.controller.read_theta else None
     if trouble:
-        return RunResult(controller_name, t, series, "unstable", trouble["reason"], trouble["time"], theta)
+        return RunResult(
+            controller_name, t, series, "unstable", trouble["reason"], trouble["time"], theta
+        )
     return RunResult(controller_name, t, series, theta=theta)

@@ -124,7 +124,7 @@ def default_out_dir(sweep: Sweep) -> Path:
 
 
 def task_state(task: SweepTask) -> str:
-    """"done", "stale" or "pending" (see `SweepPlan`).
+    """ "done", "stale" or "pending" (see `SweepPlan`).
 
     Parameters
     ----------
@@ -167,6 +167,7 @@ def plan_sweep(name_or_path: str | Path, out_dir: str | Path | None = None) -> S
 
 # --- one task, in whatever process runs it -------------------------------------------
 
+
 def run_task(task: SweepTask) -> dict:
     """Run one task in this process: its scenario.yaml first, then the runner's files
     (metrics.json last), then sweep_task.json (id, values, status, wall time).
@@ -181,15 +182,22 @@ def run_task(task: SweepTask) -> dict:
         The sweep_task.json content.
     """
     run_dir = Path(task.run_dir)
-    (run_dir / "metrics.json").unlink(missing_ok=True)   # an old result never passes for this scenario's
+    (run_dir / "metrics.json").unlink(
+        missing_ok=True
+    )  # an old result never passes for this scenario's
     outputs.write_text(run_dir / "scenario.yaml", task.scenario_yaml)
     start = time.perf_counter()
     scenario = load_scenario_text(task.scenario_yaml, task.scenario_path)
     scenario.controllers = {label: scenario.controllers[label] for label in task.controllers}
     result = run_loaded_scenario(scenario, task.scenario_path, run_dir, claims=task.claims)
-    info = {"id": task.id, "parameters": task.parameters, "repetition": task.repetition,
-            "overrides": task.overrides, "status": result.metrics["status"],
-            "wall_s": round(time.perf_counter() - start, 3)}
+    info = {
+        "id": task.id,
+        "parameters": task.parameters,
+        "repetition": task.repetition,
+        "overrides": task.overrides,
+        "status": result.metrics["status"],
+        "wall_s": round(time.perf_counter() - start, 3),
+    }
     outputs.write_json(run_dir / "sweep_task.json", info)
     return info
 
@@ -210,7 +218,11 @@ def run_task_returning_files(task: SweepTask) -> tuple[dict, dict]:
     _quiet_drake()
     with tempfile.TemporaryDirectory(prefix="hlcmp-sweep-") as temp:
         info = run_task(dc.replace(task, run_dir=temp))
-        files = {str(p.relative_to(temp)): p.read_bytes() for p in sorted(Path(temp).rglob("*")) if p.is_file()}
+        files = {
+            str(p.relative_to(temp)): p.read_bytes()
+            for p in sorted(Path(temp).rglob("*"))
+            if p.is_file()
+        }
     return info, files
 
 
@@ -257,7 +269,7 @@ def _end_with_parent(parent: int) -> None:
         return
     try:
         libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(1, signal.SIGTERM)   # 1: PR_SET_PDEATHSIG
+        libc.prctl(1, signal.SIGTERM)  # 1: PR_SET_PDEATHSIG
     except (OSError, AttributeError):
         return
     if os.getppid() != parent:
@@ -273,16 +285,22 @@ def _run_local(tasks: list, workers: int, on_done: Done) -> None:
     """A spawn-started process pool; each result is handed to `on_done` as it finishes.
     An interrupt cancels the queue and terminates the workers (their tasks are not
     finished, so a re-run does them)."""
-    executor = ProcessPoolExecutor(max_workers=workers, mp_context=multiprocessing.get_context("spawn"),
-                                   initializer=_local_worker_init, initargs=(os.getpid(),))
+    executor = ProcessPoolExecutor(
+        max_workers=workers,
+        mp_context=multiprocessing.get_context("spawn"),
+        initializer=_local_worker_init,
+        initargs=(os.getpid(),),
+    )
     try:
         futures = {executor.submit(run_task, task): task for task in tasks}
         for future in as_completed(futures):
             try:
                 info, error = future.result(), None
-            except BrokenProcessPool as failure:   # a worker died (killed, out of memory): so did the pool
+            except (
+                BrokenProcessPool
+            ) as failure:  # a worker died (killed, out of memory): so did the pool
                 info, error = None, f"a worker process died ({failure})"
-            except Exception as failure:   # the task's own error: record it, go on
+            except Exception as failure:  # the task's own error: record it, go on
                 info, error = None, f"{type(failure).__name__}: {failure}"
             on_done(futures[future], info, error)
     except BaseException:
@@ -304,7 +322,9 @@ def _import_ray():
     try:
         import ray
     except ImportError:
-        raise InputError("--engine ray needs Ray, which is not installed: pip install -e '.[ray]'") from None
+        raise InputError(
+            "--engine ray needs Ray, which is not installed: pip install -e '.[ray]'"
+        ) from None
     return ray
 
 
@@ -313,12 +333,17 @@ def _run_ray(tasks: list, workers: int | None, address: str | None, on_done: Don
     ray = _import_ray()
     started = not ray.is_initialized()
     if started:
-        options = {"address": address} if address else {"num_cpus": workers or os.cpu_count() or 1,
-                                                         "include_dashboard": False}
+        options = (
+            {"address": address}
+            if address
+            else {"num_cpus": workers or os.cpu_count() or 1, "include_dashboard": False}
+        )
         try:
             ray.init(logging_level=logging.WARNING, **options)
         except ConnectionError as error:
-            raise InputError(f"--address {address}: cannot join a Ray cluster there ({error})") from None
+            raise InputError(
+                f"--address {address}: cannot join a Ray cluster there ({error})"
+            ) from None
     remote = ray.remote(num_cpus=1)(run_task_returning_files)
     queue, in_flight = list(tasks), {}
     limit = workers or len(tasks)
@@ -331,7 +356,7 @@ def _run_ray(tasks: list, workers: int | None, address: str | None, on_done: Don
             task = in_flight.pop(ref)
             try:
                 info, files = ray.get(ref)
-            except Exception as failure:   # RayTaskError wraps the task's own error
+            except Exception as failure:  # RayTaskError wraps the task's own error
                 on_done(task, None, " ".join(str(failure).split())[-400:])
                 continue
             store_files(task.run_dir, files)
@@ -365,6 +390,7 @@ def _terminate_is_interrupt():
 
 # --- results -------------------------------------------------------------------------
 
+
 def _lookup(data: object, dotted: str) -> tuple[bool, object]:
     """(found, value) of a dotted path into nested dicts; a key may hold dots."""
     parts, node, i = dotted.split("."), data, 0
@@ -394,8 +420,13 @@ def _reduce(arrays: object, metric: SweepMetric) -> tuple[bool, object]:
     if not keep.any():
         return True, None
     x = x[keep]
-    reduce = {"max": np.max, "min": np.min, "max_abs": lambda v: np.max(np.abs(v)), "mean": np.mean,
-              "final": lambda v: v[-1]}[metric.reduce]
+    reduce = {
+        "max": np.max,
+        "min": np.min,
+        "max_abs": lambda v: np.max(np.abs(v)),
+        "mean": np.mean,
+        "final": lambda v: v[-1],
+    }[metric.reduce]
     return True, float(reduce(x))
 
 
@@ -447,8 +478,10 @@ def _wall_s(run_dir: Path) -> float | None:
 def _summary(plan: SweepPlan, rows: dict) -> dict:
     sweep, config = plan.sweep, plan.sweep.config
     labels = {CASE: "case", **config.labels}
-    counts = {state: sum(1 for t in plan.tasks if rows[t.id]["status"] == state)
-              for state in ("ok", "unstable", "error", "pending")}
+    counts = {
+        state: sum(1 for t in plan.tasks if rows[t.id]["status"] == state)
+        for state in ("ok", "unstable", "error", "pending")
+    }
     return {
         "name": sweep.path.stem,
         "sweep": str(sweep.path),
@@ -456,10 +489,27 @@ def _summary(plan: SweepPlan, rows: dict) -> dict:
         "repetitions": config.repetitions,
         "controllers": plan.tasks[0].controllers if plan.tasks else [],
         "parameters": [{"key": key, "label": labels.get(key, key)} for key in sweep.parameters],
-        "metrics": [{"label": m.label, "path": m.path, "series": m.series, "digits": m.digits,
-                     "missing": m.missing, "yes_no": m.below is not None} for m in config.metrics],
-        "tasks": [{"id": t.id, "parameters": t.parameters, "repetition": t.repetition, **rows[t.id],
-                   "run_dir": str(Path("tasks") / t.id)} for t in plan.tasks],
+        "metrics": [
+            {
+                "label": m.label,
+                "path": m.path,
+                "series": m.series,
+                "digits": m.digits,
+                "missing": m.missing,
+                "yes_no": m.below is not None,
+            }
+            for m in config.metrics
+        ],
+        "tasks": [
+            {
+                "id": t.id,
+                "parameters": t.parameters,
+                "repetition": t.repetition,
+                **rows[t.id],
+                "run_dir": str(Path("tasks") / t.id),
+            }
+            for t in plan.tasks
+        ],
         "counts": {"tasks": len(plan.tasks), **counts},
     }
 
@@ -477,18 +527,34 @@ def _csv(summary: dict) -> str:
         return str(value).lower() if isinstance(value, bool) else value
 
     for task in summary["tasks"]:
-        writer.writerow([task["id"], *(task["parameters"][k] for k in keys), task["repetition"], task["status"],
-                         *(text(task["values"].get(label)) for label in labels), text(task["wall_s"])])
+        writer.writerow(
+            [
+                task["id"],
+                *(task["parameters"][k] for k in keys),
+                task["repetition"],
+                task["status"],
+                *(text(task["values"].get(label)) for label in labels),
+                text(task["wall_s"]),
+            ]
+        )
     return stream.getvalue()
 
 
 def _write_tables(out_dir: Path, summary: dict) -> list:
-    return [outputs.write_text(out_dir / "sweep.csv", _csv(summary)),
-            outputs.write_json(out_dir / "sweep.json", summary)]
+    return [
+        outputs.write_text(out_dir / "sweep.csv", _csv(summary)),
+        outputs.write_json(out_dir / "sweep.json", summary),
+    ]
 
 
-def run_sweep(name_or_path: str | Path, out_dir: str | Path | None = None, engine: str = "local",
-              workers: int | None = None, address: str | None = None, reporter: Progress = SILENT) -> SweepResult:
+def run_sweep(
+    name_or_path: str | Path,
+    out_dir: str | Path | None = None,
+    engine: str = "local",
+    workers: int | None = None,
+    address: str | None = None,
+    reporter: Progress = SILENT,
+) -> SweepResult:
     """Run every unfinished task of a sweep and write sweep.csv, sweep.json and plots/.
 
     Parameters
@@ -528,7 +594,7 @@ def run_sweep(name_or_path: str | Path, out_dir: str | Path | None = None, engin
     if workers is not None and workers < 1:
         raise InputError(f"--workers: must be at least 1, got {workers}")
     if engine == "ray":
-        _import_ray()   # before anything is written
+        _import_ray()  # before anything is written
     start = time.perf_counter()
     plan = plan_sweep(name_or_path, out_dir)
     metrics = plan.sweep.config.metrics
@@ -538,8 +604,11 @@ def run_sweep(name_or_path: str | Path, out_dir: str | Path | None = None, engin
         values, absent = task_values(task.run_dir, metrics)
         status = json.loads((Path(task.run_dir) / "metrics.json").read_text())["status"]
         if status == "ok":
-            missing.extend(f"{label} ({next(m.path or m.series for m in metrics if m.label == label)}): "
-                           f"task {task.id}" for label in absent)
+            missing.extend(
+                f"{label} ({next(m.path or m.series for m in metrics if m.label == label)}): "
+                f"task {task.id}"
+                for label in absent
+            )
         wall = info["wall_s"] if info else _wall_s(Path(task.run_dir))
         return {"status": status, "values": values, "wall_s": wall}
 
@@ -563,16 +632,20 @@ def run_sweep(name_or_path: str | Path, out_dir: str | Path | None = None, engin
             rows[task.id] = {"status": "error", "values": {}, "wall_s": None, "error": error}
         _write_tables(plan.out_dir, _summary(plan, rows))
         row = rows[task.id]
-        reporter.say(f"[{already_done + len(ran)}/{len(plan.tasks)}] {task.id}: {row['status']}"
-                     + (f" ({error})" if error else f", {row['wall_s']:.1f} s"))
+        reporter.say(
+            f"[{already_done + len(ran)}/{len(plan.tasks)}] {task.id}: {row['status']}"
+            + (f" ({error})" if error else f", {row['wall_s']:.1f} s")
+        )
 
     if pending:
         # Local default: one worker per CPU. Each task is one single-threaded simulation, so
         # that is the throughput a sweep is for; on a shared machine pass --workers.
         count = workers or os.cpu_count() or 1
-        reporter.say(f"sweep {plan.sweep.path.stem}: {len(pending)} of {len(plan.tasks)} tasks to run "
-                     f"({already_done} already done) on the {engine} engine"
-                     + (f", {min(count, len(pending))} at a time" if engine == "local" or workers else ""))
+        reporter.say(
+            f"sweep {plan.sweep.path.stem}: {len(pending)} of {len(plan.tasks)} tasks to run "
+            f"({already_done} already done) on the {engine} engine"
+            + (f", {min(count, len(pending))} at a time" if engine == "local" or workers else "")
+        )
         with _terminate_is_interrupt():
             if engine == "local":
                 _run_local(pending, min(count, len(pending)), on_done)
@@ -584,5 +657,16 @@ def run_sweep(name_or_path: str | Path, out_dir: str | Path | None = None, engin
         files.append(outputs.save_figure(plan.out_dir / "plots" / file_name, figure))
     unstable = [task.id for task in plan.tasks if rows[task.id]["status"] == "unstable"]
     stale = sum(1 for state in plan.states.values() if state == "stale")
-    return SweepResult(summary, plan.out_dir, sweep_table(summary), already_done, stale, ran, failed, unstable,
-                       missing, time.perf_counter() - start, files)
+    return SweepResult(
+        summary,
+        plan.out_dir,
+        sweep_table(summary),
+        already_done,
+        stale,
+        ran,
+        failed,
+        unstable,
+        missing,
+        time.perf_counter() - start,
+        files,
+    )

@@ -35,9 +35,17 @@ class BelowTaskImpedance:
         K_p [N m/rad] and D_p [N m s/rad].
     """
 
-    def __init__(self, plant, tool_frame, desired_orientation: RotationMatrix, nominal_positions,
-                 orientation_stiffness: float, orientation_damping: float, posture_stiffness: float,
-                 posture_damping: float):
+    def __init__(
+        self,
+        plant,
+        tool_frame,
+        desired_orientation: RotationMatrix,
+        nominal_positions,
+        orientation_stiffness: float,
+        orientation_damping: float,
+        posture_stiffness: float,
+        posture_damping: float,
+    ):
         self._plant, self._frame = plant, tool_frame
         self._context = plant.CreateDefaultContext()
         self._R_desired_inverse = desired_orientation.inverse()
@@ -47,8 +55,13 @@ class BelowTaskImpedance:
         self.nq, self.nv = plant.num_positions(), plant.num_velocities()
         self._world = plant.world_frame()
 
-    def torque(self, state: np.ndarray, projector: np.ndarray, joint_gravity: np.ndarray,
-               context: Context | None = None) -> np.ndarray:
+    def torque(
+        self,
+        state: np.ndarray,
+        projector: np.ndarray,
+        joint_gravity: np.ndarray,
+        context: Context | None = None,
+    ) -> np.ndarray:
         """tau_0 at the plant state `state`.
 
         Parameters
@@ -74,11 +87,17 @@ class BelowTaskImpedance:
             context = self._context
             plant.SetPositionsAndVelocities(context, state)
         q, v = state[: self.nq], state[self.nq :]
-        error = (self._frame.CalcRotationMatrixInWorld(context) @ self._R_desired_inverse).ToAngleAxis()
+        error = (
+            self._frame.CalcRotationMatrixInWorld(context) @ self._R_desired_inverse
+        ).ToAngleAxis()
         e_R = error.axis() * error.angle()
-        j_w = plant.CalcJacobianAngularVelocity(context, JacobianWrtVariable.kV, self._frame, world, world)
+        j_w = plant.CalcJacobianAngularVelocity(
+            context, JacobianWrtVariable.kV, self._frame, world, world
+        )
         moment = -self._k_o * e_R - self._d_o * (j_w @ v)
-        return projector @ (joint_gravity + j_w.T @ moment - self._k_p * (q - self._q0) - self._d_p * v)
+        return projector @ (
+            joint_gravity + j_w.T @ moment - self._k_p * (q - self._q0) - self._d_p * v
+        )
 
 
 class NullSpaceImpedance(LeafSystem):
@@ -87,23 +106,45 @@ class NullSpaceImpedance(LeafSystem):
     `joint_torque` (nv).
     """
 
-    def __init__(self, plant, tool_frame, desired_orientation: RotationMatrix, nominal_positions,
-                 orientation_stiffness, orientation_damping, posture_stiffness, posture_damping):
+    def __init__(
+        self,
+        plant,
+        tool_frame,
+        desired_orientation: RotationMatrix,
+        nominal_positions,
+        orientation_stiffness,
+        orientation_damping,
+        posture_stiffness,
+        posture_damping,
+    ):
         super().__init__()
-        self._impedance = BelowTaskImpedance(plant, tool_frame, desired_orientation, nominal_positions,
-                                             orientation_stiffness, orientation_damping, posture_stiffness,
-                                             posture_damping)
+        self._impedance = BelowTaskImpedance(
+            plant,
+            tool_frame,
+            desired_orientation,
+            nominal_positions,
+            orientation_stiffness,
+            orientation_damping,
+            posture_stiffness,
+            posture_damping,
+        )
         nq, nv = self._impedance.nq, self._impedance.nv
         self._nv = nv
         self.plant_state = self.DeclareVectorInputPort("plant_state", BasicVector(nq + nv))
         self.projector = self.DeclareVectorInputPort("null_space_projector", BasicVector(nv * nv))
         self.gravity = self.DeclareVectorInputPort("joint_gravity", BasicVector(nv))
-        self.DeclareVectorOutputPort("joint_torque", nv, self._calc, {self.all_input_ports_ticket()})
+        self.DeclareVectorOutputPort(
+            "joint_torque", nv, self._calc, {self.all_input_ports_ticket()}
+        )
 
     def _calc(self, context, output):
-        output.SetFromVector(self._impedance.torque(
-            self.plant_state.Eval(context), self.projector.Eval(context).reshape(self._nv, self._nv),
-            self.gravity.Eval(context)))
+        output.SetFromVector(
+            self._impedance.torque(
+                self.plant_state.Eval(context),
+                self.projector.Eval(context).reshape(self._nv, self._nv),
+                self.gravity.Eval(context),
+            )
+        )
 
 
 class ToolContactForce(LeafSystem):
@@ -122,8 +163,11 @@ class ToolContactForce(LeafSystem):
         self._geometries = set(plant.GetCollisionGeometriesForBody(tool_body))
         self._axes = list(axes)
         self.contact_results = self.DeclareAbstractInputPort(
-            "contact_results", AbstractValue.Make(ContactResults()))
-        self.applied_force = self.DeclareVectorInputPort("applied_force", BasicVector(3)) if applied_force else None
+            "contact_results", AbstractValue.Make(ContactResults())
+        )
+        self.applied_force = (
+            self.DeclareVectorInputPort("applied_force", BasicVector(3)) if applied_force else None
+        )
         prereq = {self.all_input_ports_ticket()}
         self.DeclareVectorOutputPort("force", 3, self._calc_force, prereq)
         self.DeclareVectorOutputPort("task_force", len(self._axes), self._calc_task_force, prereq)
@@ -155,7 +199,7 @@ class ToolContactForce(LeafSystem):
         for i in range(results.num_point_pair_contacts()):
             info = results.point_pair_contact_info(i)
             if info.bodyA_index() == self._body_index:
-                total -= info.contact_force()   # contact_force() acts on body B
+                total -= info.contact_force()  # contact_force() acts on body B
             elif info.bodyB_index() == self._body_index:
                 total += info.contact_force()
         if self.applied_force is not None:

@@ -37,7 +37,6 @@ from hlcmp_drake.systems.ports import REFERENCE_PORTS
 from hlcmp_drake.systems.task_space import TaskSpaceModel, saturate
 
 
-
 @dc.dataclass
 class TickResult:
     """One tick: the task-space terms it read, the law's output, and the joint torque.
@@ -85,7 +84,11 @@ class ArmTick:
         self.model, self.below_task, self.law = model, below_task, law
         self.effort_limits = np.asarray(effort_limits, dtype=float)
         m = model.n_axes
-        self.log_columns = {"position": slice(0, m), "force": slice(m, 2 * m), "saturated": slice(2 * m, 2 * m + 1)}
+        self.log_columns = {
+            "position": slice(0, m),
+            "force": slice(m, 2 * m),
+            "saturated": slice(2 * m, 2 * m + 1),
+        }
         for k, name in enumerate(law.log_fields):
             self.log_columns[name] = slice(2 * m + 1 + k * m, 2 * m + 1 + (k + 1) * m)
         self.log_size = 2 * m + 1 + m * len(law.log_fields)
@@ -108,11 +111,21 @@ class ArmTick:
         """
         terms = self.model.terms(state, coriolis_matrix=False)
         xd, xd_dot, xd_ddot, phase = reference
-        now = TaskSpaceInstant(terms.position, terms.velocity, xd, xd_dot, xd_ddot, phase[0],
-                               terms.inertia, terms.coriolis, terms.gravity)
+        now = TaskSpaceInstant(
+            terms.position,
+            terms.velocity,
+            xd,
+            xd_dot,
+            xd_ddot,
+            phase[0],
+            terms.inertia,
+            terms.coriolis,
+            terms.gravity,
+        )
         out = self.law.command(now, theta)
         torque = terms.jacobian.T @ out.force + self.below_task.torque(
-            state, terms.null_space, terms.joint_gravity, self.model.context)
+            state, terms.null_space, terms.joint_gravity, self.model.context
+        )
         torque, saturated = saturate(torque, self.effort_limits)
         return TickResult(terms, out, torque, saturated)
 
@@ -129,8 +142,14 @@ class ArmTick:
         -------
         (log_size,) array
         """
-        return np.concatenate([result.terms.position, result.law.force, [result.saturated],
-                               *(result.law.logs[name] for name in self.law.log_fields)])
+        return np.concatenate(
+            [
+                result.terms.position,
+                result.law.force,
+                [result.saturated],
+                *(result.law.logs[name] for name in self.law.log_fields),
+            ]
+        )
 
 
 class ArmControlLoop(LeafSystem):
@@ -156,9 +175,15 @@ class ArmControlLoop(LeafSystem):
         law, model = tick.law, tick.model
         nq, nv, m = model.nq, model.nv, model.n_axes
         self.plant_state = self.DeclareVectorInputPort("plant_state", BasicVector(nq + nv))
-        self._reference = [self.DeclareVectorInputPort(name, BasicVector(1 if name == "phase" else m))
-                           for name in REFERENCE_PORTS]
-        self.theta = self.DeclareVectorInputPort("theta", BasicVector(law.theta_size)) if law.learns else None
+        self._reference = [
+            self.DeclareVectorInputPort(name, BasicVector(1 if name == "phase" else m))
+            for name in REFERENCE_PORTS
+        ]
+        self.theta = (
+            self.DeclareVectorInputPort("theta", BasicVector(law.theta_size))
+            if law.learns
+            else None
+        )
         self._torque_index = self.DeclareDiscreteState(nv)
         self.DeclareStateOutputPort("joint_torque", self._torque_index)
         if law.learns:
@@ -167,11 +192,16 @@ class ArmControlLoop(LeafSystem):
         self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._tick)
         self.log_columns = tick.log_columns
         self._log_values = self.DeclareCacheEntry(
-            "log_values", ValueProducer(allocate=lambda: AbstractValue.Make(None), calc=self._calc_logs),
-            {self.all_input_ports_ticket()})
-        self.DeclareVectorOutputPort("logs", tick.log_size,
-                                     lambda c, o: o.SetFromVector(self._log_values.Eval(c)),
-                                     {self._log_values.ticket()})
+            "log_values",
+            ValueProducer(allocate=lambda: AbstractValue.Make(None), calc=self._calc_logs),
+            {self.all_input_ports_ticket()},
+        )
+        self.DeclareVectorOutputPort(
+            "logs",
+            tick.log_size,
+            lambda c, o: o.SetFromVector(self._log_values.Eval(c)),
+            {self._log_values.ticket()},
+        )
         self.tick_seconds: list[float] | None = None
 
     def record_tick_times(self) -> list[float]:
@@ -186,9 +216,11 @@ class ArmControlLoop(LeafSystem):
         return self.tick_seconds
 
     def _evaluate(self, context) -> TickResult:
-        return self._tick_of.evaluate(self.plant_state.Eval(context),
-                                      tuple(port.Eval(context) for port in self._reference),
-                                      self.theta.Eval(context) if self.theta is not None else None)
+        return self._tick_of.evaluate(
+            self.plant_state.Eval(context),
+            tuple(port.Eval(context) for port in self._reference),
+            self.theta.Eval(context) if self.theta is not None else None,
+        )
 
     def _tick(self, context: Context, state: State):
         start = time.perf_counter()

@@ -6,8 +6,12 @@ import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
 from hlcmp_drake.core.control_law import tracking_errors
-from hlcmp_drake.core.duan2018 import (duan_adaptation_step, duan_admittance_acceleration,
-                                       duan_force_error, inner_position_loop)
+from hlcmp_drake.core.duan2018 import (
+    duan_adaptation_step,
+    duan_admittance_acceleration,
+    duan_force_error,
+    inner_position_loop,
+)
 from hlcmp_drake.core.laws import ConstantImpedanceLaw
 from hlcmp_drake.systems.ports import declare_task_space_inputs
 
@@ -21,7 +25,9 @@ class ConstantImpedanceController(LeafSystem):
         self._law = ConstantImpedanceLaw(stiffness, damping, pi, gain_l)
         self._m = self._law.n_axes
         self.inputs = declare_task_space_inputs(self, self._m)
-        self.DeclareVectorOutputPort("force", self._m, self._calc_force, {self.all_input_ports_ticket()})
+        self.DeclareVectorOutputPort(
+            "force", self._m, self._calc_force, {self.all_input_ports_ticket()}
+        )
 
     def _calc_force(self, context, output):
         output.SetFromVector(self._law.command(self.inputs.instant(context, self._m)).force)
@@ -38,8 +44,18 @@ class VariableImpedanceController(LeafSystem):
     use the plain impedance with `free_stiffness` and Phi held at zero.
     """
 
-    def __init__(self, mass, damping, free_stiffness, sigma, sample_period, kp, kv,
-                 desired_force, initial_position):
+    def __init__(
+        self,
+        mass,
+        damping,
+        free_stiffness,
+        sigma,
+        sample_period,
+        kp,
+        kv,
+        desired_force,
+        initial_position,
+    ):
         super().__init__()
         self._mass, self._damping = np.asarray(mass, float), np.asarray(damping, float)
         self._free_stiffness, self._sigma = np.asarray(free_stiffness, float), float(sigma)
@@ -50,12 +66,16 @@ class VariableImpedanceController(LeafSystem):
         self.inputs = declare_task_space_inputs(self, m)
         self.external_force = self.DeclareVectorInputPort("external_force", BasicVector(m))
         self.DeclareContinuousState(
-            BasicVector(np.concatenate([initial_position, np.zeros(m)])), 0, 0, 2 * m)
+            BasicVector(np.concatenate([initial_position, np.zeros(m)])), 0, 0, 2 * m
+        )
         self._phi = self.DeclareDiscreteState(m)
         self.DeclarePeriodicDiscreteUpdateEvent(sample_period, 0.0, self._update_phi)
-        self.DeclareVectorOutputPort("force", m, self._calc_force,
-                                     {self.all_input_ports_ticket(), self.all_state_ticket(),
-                                      self.time_ticket()})
+        self.DeclareVectorOutputPort(
+            "force",
+            m,
+            self._calc_force,
+            {self.all_input_ports_ticket(), self.all_state_ticket(), self.time_ticket()},
+        )
 
     def _admittance(self, context):
         """(x_c, x_c', x_c'', Delta_f, f_d) at this context."""
@@ -69,14 +89,17 @@ class VariableImpedanceController(LeafSystem):
         stiffness = np.where(tracking_force, 0.0, self._free_stiffness)
         delta_f = np.where(tracking_force, delta_f, 0.0)
         e_c, e_c_dot = tracking_errors(xc, xc_dot, xr, xr_dot)
-        ec_ddot = duan_admittance_acceleration(e_c, e_c_dot, phi, delta_f, self._mass,
-                                               self._damping, stiffness)
+        ec_ddot = duan_admittance_acceleration(
+            e_c, e_c_dot, phi, delta_f, self._mass, self._damping, stiffness
+        )
         return xc, xc_dot, xr_ddot + ec_ddot, delta_f, f_d
 
     def _update_phi(self, context, discrete_state):
         _, _, _, delta_f, f_d = self._admittance(context)
         phi = context.get_discrete_state(self._phi).get_value()
-        new_phi = np.where(f_d != 0, duan_adaptation_step(phi, delta_f, self._sigma, self._damping), 0.0)
+        new_phi = np.where(
+            f_d != 0, duan_adaptation_step(phi, delta_f, self._sigma, self._damping), 0.0
+        )
         discrete_state.get_mutable_vector(self._phi).SetFromVector(new_phi)
 
     def DoCalcTimeDerivatives(self, context, derivatives):
@@ -87,6 +110,18 @@ class VariableImpedanceController(LeafSystem):
         xc, xc_dot, xc_ddot, _, _ = self._admittance(context)
         x, xdot = self.inputs.position.Eval(context), self.inputs.velocity.Eval(context)
         inertia, coriolis, gravity = self.inputs.dynamics(context, self._m)
-        output.SetFromVector(inner_position_loop(
-            inertia, coriolis, gravity, xc_ddot, xc_dot, xc, x, xdot, self._kp, self._kv,
-            self.external_force.Eval(context)))
+        output.SetFromVector(
+            inner_position_loop(
+                inertia,
+                coriolis,
+                gravity,
+                xc_ddot,
+                xc_dot,
+                xc,
+                x,
+                xdot,
+                self._kp,
+                self._kv,
+                self.external_force.Eval(context),
+            )
+        )

@@ -30,10 +30,16 @@ class HlcmpController(LeafSystem):
         self.DeclareContinuousState(BasicVector(theta0), 0, 0, size)
         # Every output depends on the measured and desired motion, the phase and theta.
         self._terms = self.DeclareCacheEntry(
-            "control_terms", ValueProducer(allocate=lambda: AbstractValue.Make(None), calc=self._calc_terms),
-            {self.all_input_ports_ticket(), self.all_state_ticket()})
-        self.DeclareVectorOutputPort("force", m, lambda c, o: o.SetFromVector(self._terms.Eval(c).force),
-                                     {self._terms.ticket()})
+            "control_terms",
+            ValueProducer(allocate=lambda: AbstractValue.Make(None), calc=self._calc_terms),
+            {self.all_input_ports_ticket(), self.all_state_ticket()},
+        )
+        self.DeclareVectorOutputPort(
+            "force",
+            m,
+            lambda c, o: o.SetFromVector(self._terms.Eval(c).force),
+            {self._terms.ticket()},
+        )
         for name in self._law.log_fields:
             self.DeclareVectorOutputPort(name, m, self._log_output(name), {self._terms.ticket()})
 
@@ -60,6 +66,7 @@ class HlcmpController(LeafSystem):
     def _log_output(self, name):
         def calc(context, output):
             output.SetFromVector(self._terms.Eval(context).logs[name])
+
         return calc
 
     def DoCalcTimeDerivatives(self, context, derivatives):

@@ -28,9 +28,17 @@ class SafetyMonitor(LeafSystem):
         How often to check [s].
     """
 
-    def __init__(self, inputs: dict, check: Callable[[float, dict], str | None], period: float = CHECK_PERIOD_S):
+    def __init__(
+        self,
+        inputs: dict,
+        check: Callable[[float, dict], str | None],
+        period: float = CHECK_PERIOD_S,
+    ):
         super().__init__()
-        self._ports = {name: self.DeclareVectorInputPort(name, BasicVector(size)) for name, size in inputs.items()}
+        self._ports = {
+            name: self.DeclareVectorInputPort(name, BasicVector(size))
+            for name, size in inputs.items()
+        }
         self._check = check
         self.DeclarePeriodicPublishEvent(period, 0.0, self._look)
 
@@ -47,14 +55,20 @@ class SafetyMonitor(LeafSystem):
         str or None
             The problem's description, or None when all is well.
         """
-        return self._check(context.get_time(), {name: port.Eval(context) for name, port in self._ports.items()})
+        return self._check(
+            context.get_time(), {name: port.Eval(context) for name, port in self._ports.items()}
+        )
 
     def _look(self, context):
         problem = self.problem_at(context)
-        return EventStatus.ReachedTermination(self, problem) if problem else EventStatus.DidNothing()
+        return (
+            EventStatus.ReachedTermination(self, problem) if problem else EventStatus.DidNothing()
+        )
 
 
-def plant_state_check(n_positions: int, max_abs_position: float) -> Callable[[np.ndarray], str | None]:
+def plant_state_check(
+    n_positions: int, max_abs_position: float
+) -> Callable[[np.ndarray], str | None]:
     """The checks every world shares: a finite plant state and positions within a bound.
 
     Parameters
@@ -69,6 +83,7 @@ def plant_state_check(n_positions: int, max_abs_position: float) -> Callable[[np
     callable(state) -> str or None
         A problem's description, or None.
     """
+
     def check(state):
         if not np.all(np.isfinite(state)):
             return "plant state is not finite"

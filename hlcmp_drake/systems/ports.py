@@ -26,7 +26,8 @@ class TaskSpaceInputs:
     gravity: InputPort
 
     def errors_and_reference(
-            self, context: Context) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        self, context: Context
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Evaluate the measured and desired motion: (x, x', x_d, x_d', x_d'').
 
         Parameters
@@ -41,9 +42,13 @@ class TaskSpaceInputs:
         xd, xd_dot, xd_ddot : (M,) arrays
             Desired position [m], velocity [m/s] and acceleration [m/s^2].
         """
-        return (self.position.Eval(context), self.velocity.Eval(context),
-                self.desired_position.Eval(context), self.desired_velocity.Eval(context),
-                self.desired_acceleration.Eval(context))
+        return (
+            self.position.Eval(context),
+            self.velocity.Eval(context),
+            self.desired_position.Eval(context),
+            self.desired_velocity.Eval(context),
+            self.desired_acceleration.Eval(context),
+        )
 
     def dynamics(self, context: Context, n_axes: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Evaluate the task-space M (M x M), C (M x M) and G (M,) supplied by Drake.
@@ -64,9 +69,11 @@ class TaskSpaceInputs:
         gravity : (M,) array
             Task-space gravity force [N].
         """
-        return (self.inertia.Eval(context).reshape(n_axes, n_axes),
-                self.coriolis.Eval(context).reshape(n_axes, n_axes),
-                self.gravity.Eval(context))
+        return (
+            self.inertia.Eval(context).reshape(n_axes, n_axes),
+            self.coriolis.Eval(context).reshape(n_axes, n_axes),
+            self.gravity.Eval(context),
+        )
 
     def instant(self, context: Context, n_axes: int) -> TaskSpaceInstant:
         """Everything a law reads, evaluated from these ports.
@@ -82,8 +89,13 @@ class TaskSpaceInputs:
             x, x', x_d, x_d', x_d'', the phase s and the task-space M, C, G.
         """
         inertia, coriolis, gravity = self.dynamics(context, n_axes)
-        return TaskSpaceInstant(*self.errors_and_reference(context), self.phase.Eval(context)[0],
-                                inertia, coriolis, gravity)
+        return TaskSpaceInstant(
+            *self.errors_and_reference(context),
+            self.phase.Eval(context)[0],
+            inertia,
+            coriolis,
+            gravity,
+        )
 
 
 def declare_task_space_inputs(system: LeafSystem, n_axes: int) -> TaskSpaceInputs:
@@ -108,6 +120,7 @@ def declare_task_space_inputs(system: LeafSystem, n_axes: int) -> TaskSpaceInput
         [kg] and Coriolis matrix [kg/s]. Each port is named as its field, except
         task_inertia, task_coriolis and task_gravity.
     """
+
     def vec(name, size):
         return system.DeclareVectorInputPort(name, BasicVector(size))
 

@@ -48,21 +48,38 @@ class HoleFriction(LeafSystem):
         How often the tear is checked and the force updated [s] (the plant's time step).
     """
 
-    def __init__(self, plant, tool_frame, tool_axis, top_point, top_normal, thickness: float,
-                 tear_depth: float, friction_per_m: float, sliding_speed: float, period: float):
+    def __init__(
+        self,
+        plant,
+        tool_frame,
+        tool_axis,
+        top_point,
+        top_normal,
+        thickness: float,
+        tear_depth: float,
+        friction_per_m: float,
+        sliding_speed: float,
+        period: float,
+    ):
         super().__init__()
         self._plant, self._frame = plant, tool_frame
         self._plant_context = plant.CreateDefaultContext()
         axis = np.asarray(tool_axis, dtype=float)
         self._axis = axis / np.linalg.norm(axis)
-        self._top_point, self._top_normal = np.asarray(top_point, float), np.asarray(top_normal, float)
+        self._top_point, self._top_normal = (
+            np.asarray(top_point, float),
+            np.asarray(top_normal, float),
+        )
         self._thickness, self._tear_depth = float(thickness), float(tear_depth)
         self._friction_per_m, self._sliding_speed = float(friction_per_m), float(sliding_speed)
         self.plant_state = self.DeclareVectorInputPort(
-            "plant_state", BasicVector(plant.num_positions() + plant.num_velocities()))
+            "plant_state", BasicVector(plant.num_positions() + plant.num_velocities())
+        )
         self._stage_index = self.DeclareDiscreteState(1)
         self._force_index = self.DeclareDiscreteState(3)
-        self._spatial_index = self.DeclareAbstractState(AbstractValue.Make([self._applied(np.zeros(3))]))
+        self._spatial_index = self.DeclareAbstractState(
+            AbstractValue.Make([self._applied(np.zeros(3))])
+        )
         self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._update)
         self.DeclareStateOutputPort("force", self._force_index)
         self.DeclareStateOutputPort("spatial_forces", self._spatial_index)
@@ -101,12 +118,21 @@ class HoleFriction(LeafSystem):
         stage = self._stage(context)
         force = np.zeros(3)
         if stage >= 2:
-            force = self._axis * hole_friction(depth, self._thickness, float(np.dot(velocity, self._axis)),
-                                               self._friction_per_m, self._sliding_speed)
+            force = self._axis * hole_friction(
+                depth,
+                self._thickness,
+                float(np.dot(velocity, self._axis)),
+                self._friction_per_m,
+                self._sliding_speed,
+            )
         if stage >= 1:
             stage = 2.0
         else:
-            stage = 1.0 if tears(depth, -float(np.dot(velocity, self._top_normal)), self._tear_depth) else 0.0
+            stage = (
+                1.0
+                if tears(depth, -float(np.dot(velocity, self._top_normal)), self._tear_depth)
+                else 0.0
+            )
         state.get_mutable_discrete_state(self._stage_index).set_value([stage])
         if force.any() or context.get_discrete_state(self._force_index).get_value().any():
             state.get_mutable_discrete_state(self._force_index).set_value(force)

@@ -6,7 +6,13 @@ desired_acceleration (M each) and phase (1) -- so a controller cannot tell them 
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import BasicVector, Diagram, DiagramBuilder, LeafSystem, ValueProducer
+from pydrake.systems.framework import (
+    BasicVector,
+    Diagram,
+    DiagramBuilder,
+    LeafSystem,
+    ValueProducer,
+)
 from pydrake.systems.primitives import AffineSystem, Demultiplexer, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
@@ -34,12 +40,15 @@ class DmpSource(LeafSystem):
         state = {self.all_state_ticket()}
         # The derivatives and the acceleration output share one evaluation of the DMP.
         self._rates = self.DeclareCacheEntry(
-            "dmp_rates", ValueProducer(allocate=lambda: AbstractValue.Make(None), calc=self._calc_rates),
-            state)
+            "dmp_rates",
+            ValueProducer(allocate=lambda: AbstractValue.Make(None), calc=self._calc_rates),
+            state,
+        )
         self.DeclareVectorOutputPort("desired_position", m, self._calc_position, state)
         self.DeclareVectorOutputPort("desired_velocity", m, self._calc_velocity, state)
-        self.DeclareVectorOutputPort("desired_acceleration", m, self._calc_acceleration,
-                                     {self._rates.ticket()})
+        self.DeclareVectorOutputPort(
+            "desired_acceleration", m, self._calc_acceleration, {self._rates.ticket()}
+        )
         self.DeclareVectorOutputPort("phase", 1, self._calc_phase, state)
 
     @property
@@ -106,13 +115,20 @@ def linear_dmp_source(dmp: Dmp, duration: float, tau: float | None = None) -> Di
     drift = np.append(np.kron(b, settings.alpha * settings.beta_value * dmp.goal), 0.0)
     # Outputs: x_d = p, x_d' = z / tau, x_d'' = z' / tau, and s.
     z_rows = slice(m, 2 * m)
-    output_matrix = np.vstack([np.eye(m, 2 * m + 1), np.eye(m, 2 * m + 1, m) / tau,
-                               state_matrix[z_rows] / tau, np.eye(1, 2 * m + 1, 2 * m)])
+    output_matrix = np.vstack(
+        [
+            np.eye(m, 2 * m + 1),
+            np.eye(m, 2 * m + 1, m) / tau,
+            state_matrix[z_rows] / tau,
+            np.eye(1, 2 * m + 1, 2 * m),
+        ]
+    )
     feedthrough = np.vstack([np.zeros((2 * m, m)), input_matrix[z_rows] / tau, np.zeros((1, m))])
     output_offset = np.concatenate([np.zeros(2 * m), drift[z_rows] / tau, [0.0]])
     builder = DiagramBuilder()
-    affine = builder.AddSystem(AffineSystem(state_matrix, input_matrix, drift, output_matrix, feedthrough,
-                                            output_offset))
+    affine = builder.AddSystem(
+        AffineSystem(state_matrix, input_matrix, drift, output_matrix, feedthrough, output_offset)
+    )
     affine.set_name("transformation_system")
     affine.configure_default_state(np.concatenate([dmp.start, np.zeros(m), [1.0]]))
     times = np.arange(0.0, duration + 2 * FORCING_SAMPLE_S, FORCING_SAMPLE_S)
@@ -123,7 +139,9 @@ def linear_dmp_source(dmp: Dmp, duration: float, tau: float | None = None) -> Di
     builder.Connect(source.get_output_port(), affine.get_input_port())
     split = builder.AddSystem(Demultiplexer([m, m, m, 1]))
     builder.Connect(affine.get_output_port(), split.get_input_port())
-    for k, name in enumerate(("desired_position", "desired_velocity", "desired_acceleration", "phase")):
+    for k, name in enumerate(
+        ("desired_position", "desired_velocity", "desired_acceleration", "phase")
+    ):
         builder.ExportOutput(split.get_output_port(k), name)
     diagram = builder.Build()
     diagram.set_name("reference")
@@ -145,8 +163,9 @@ class StepReference(LeafSystem):
         self._tau, self._alpha_s = float(tau), float(alpha_s)
         m = self._positions.shape[1]
         self.DeclareContinuousState(BasicVector([1.0]), 0, 0, 1)
-        self.DeclareVectorOutputPort("desired_position", m, self._calc_position,
-                                     {self.time_ticket()})
+        self.DeclareVectorOutputPort(
+            "desired_position", m, self._calc_position, {self.time_ticket()}
+        )
         zero = {self.nothing_ticket()}
         self.DeclareVectorOutputPort("desired_velocity", m, lambda c, o: o.SetZero(), zero)
         self.DeclareVectorOutputPort("desired_acceleration", m, lambda c, o: o.SetZero(), zero)
@@ -171,7 +190,9 @@ class StepReference(LeafSystem):
 
     def DoCalcTimeDerivatives(self, context, derivatives):
         s = context.get_continuous_state_vector()[0]
-        derivatives.get_mutable_vector().SetFromVector([canonical_phase_rate(s, self._tau, self._alpha_s)])
+        derivatives.get_mutable_vector().SetFromVector(
+            [canonical_phase_rate(s, self._tau, self._alpha_s)]
+        )
 
     def _calc_position(self, context, output):
         output.SetFromVector(self.position_at(context.get_time()))

@@ -16,10 +16,10 @@ class TaskSpaceTerms:
 
     position: np.ndarray
     velocity: np.ndarray
-    jacobian: np.ndarray   # J (M x nv), rows of the point's translational Jacobian
-    inertia: np.ndarray    # Lambda = (J M^-1 J^T)^-1
-    coriolis: np.ndarray   # C_x = Jbar^T C(q, v) Jbar - Lambda Jdot Jbar (or its CoriolisProduct)
-    gravity: np.ndarray    # G_x = Jbar^T G(q)
+    jacobian: np.ndarray  # J (M x nv), rows of the point's translational Jacobian
+    inertia: np.ndarray  # Lambda = (J M^-1 J^T)^-1
+    coriolis: np.ndarray  # C_x = Jbar^T C(q, v) Jbar - Lambda Jdot Jbar (or its CoriolisProduct)
+    gravity: np.ndarray  # G_x = Jbar^T G(q)
     null_space: np.ndarray  # N^T = I - J^T Jbar^T (nv x nv), dynamically consistent
     joint_gravity: np.ndarray  # G(q) (nv,)
 
@@ -55,8 +55,12 @@ class TaskSpaceModel:
         self._point = np.asarray(point_in_frame, dtype=float).reshape(3, 1)
         self._axes = list(axes)
         self._context = plant.CreateDefaultContext()
-        self.nq, self.nv, self.n_axes = plant.num_positions(), plant.num_velocities(), len(self._axes)
-        self._world = plant.world_frame()   # looked up once: every tick uses it several times
+        self.nq, self.nv, self.n_axes = (
+            plant.num_positions(),
+            plant.num_velocities(),
+            len(self._axes),
+        )
+        self._world = plant.world_frame()  # looked up once: every tick uses it several times
         self._identity = np.eye(self.nv)
 
     @property
@@ -74,8 +78,14 @@ class TaskSpaceModel:
         sums = []
         for sign in (1.0, -1.0):
             plant.SetVelocities(ctx, v + sign * u)
-            sums.append((plant.CalcBiasTerm(ctx), plant.CalcBiasTranslationalAcceleration(
-                ctx, JacobianWrtVariable.kV, self._frame, self._point, world, world)[self._axes, 0]))
+            sums.append(
+                (
+                    plant.CalcBiasTerm(ctx),
+                    plant.CalcBiasTranslationalAcceleration(
+                        ctx, JacobianWrtVariable.kV, self._frame, self._point, world, world
+                    )[self._axes, 0],
+                )
+            )
         (bias_plus, accel_plus), (bias_minus, accel_minus) = sums
         return (jbar_t @ (bias_plus - bias_minus) - inertia @ (accel_plus - accel_minus)) / 4.0
 
@@ -102,7 +112,8 @@ class TaskSpaceModel:
         v = state[self.nq :]
         position = plant.CalcPointsPositions(ctx, self._frame, self._point, world)[self._axes, 0]
         jac = plant.CalcJacobianTranslationalVelocity(
-            ctx, JacobianWrtVariable.kV, self._frame, self._point, world, world)[self._axes]
+            ctx, JacobianWrtVariable.kV, self._frame, self._point, world, world
+        )[self._axes]
         mass = plant.CalcMassMatrix(ctx)
         minv_jt = np.linalg.solve(mass, jac.T)
         inertia = np.linalg.inv(jac @ minv_jt)
@@ -113,7 +124,9 @@ class TaskSpaceModel:
         if coriolis_matrix:
             coriolis = coriolis @ np.eye(self.n_axes)
         null_space = self._identity - jac.T @ jbar.T
-        return TaskSpaceTerms(position, jac @ v, jac, inertia, coriolis, gravity, null_space, joint_gravity)
+        return TaskSpaceTerms(
+            position, jac @ v, jac, inertia, coriolis, gravity, null_space, joint_gravity
+        )
 
 
 class CoriolisProduct:
@@ -140,8 +153,12 @@ class CoriolisProduct:
     def __matmul__(self, w: np.ndarray) -> np.ndarray:
         model = self._model
         columns = np.asarray(w, dtype=float).reshape(self._jbar.shape[1], -1)
-        product = np.column_stack([model._polarized_pair(self._v, self._jbar @ column, self._jbar.T, self._inertia)
-                                   for column in columns.T])
+        product = np.column_stack(
+            [
+                model._polarized_pair(self._v, self._jbar @ column, self._jbar.T, self._inertia)
+                for column in columns.T
+            ]
+        )
         return product if np.ndim(w) == 2 else product[:, 0]
 
 
@@ -161,18 +178,25 @@ class TaskSpaceDynamics(LeafSystem):
         self.plant_state = self.DeclareVectorInputPort("plant_state", BasicVector(nq + nv))
         self._terms = self.DeclareCacheEntry(
             "task_space_terms",
-            ValueProducer(allocate=lambda: AbstractValue.Make(None),
-                          calc=lambda context, value: value.set_value(
-                              self._model.terms(self.plant_state.Eval(context)))),
-            {self.input_port_ticket(self.plant_state.get_index())})
+            ValueProducer(
+                allocate=lambda: AbstractValue.Make(None),
+                calc=lambda context, value: value.set_value(
+                    self._model.terms(self.plant_state.Eval(context))
+                ),
+            ),
+            {self.input_port_ticket(self.plant_state.get_index())},
+        )
         prereq = {self._terms.ticket()}
-        for name, size, field in [("position", m, "position"), ("velocity", m, "velocity"),
-                                  ("jacobian", m * nv, "jacobian"),
-                                  ("task_inertia", m * m, "inertia"),
-                                  ("task_coriolis", m * m, "coriolis"),
-                                  ("task_gravity", m, "gravity"),
-                                  ("null_space_projector", nv * nv, "null_space"),
-                                  ("joint_gravity", nv, "joint_gravity")]:
+        for name, size, field in [
+            ("position", m, "position"),
+            ("velocity", m, "velocity"),
+            ("jacobian", m * nv, "jacobian"),
+            ("task_inertia", m * m, "inertia"),
+            ("task_coriolis", m * m, "coriolis"),
+            ("task_gravity", m, "gravity"),
+            ("null_space_projector", nv * nv, "null_space"),
+            ("joint_gravity", nv, "joint_gravity"),
+        ]:
             self.DeclareVectorOutputPort(name, size, self._output_from(field), prereq)
 
     def terms(self, context: Context) -> TaskSpaceTerms:
@@ -193,6 +217,7 @@ class TaskSpaceDynamics(LeafSystem):
     def _output_from(self, field):
         def calc(context, output):
             output.SetFromVector(np.ravel(getattr(self._terms.Eval(context), field)))
+
         return calc
 
 
@@ -213,7 +238,9 @@ def saturate(torque: np.ndarray, limits: np.ndarray) -> tuple[np.ndarray, int]:
     saturated : int
         The number of joints at their limit.
     """
-    return np.minimum(np.maximum(torque, -limits), limits), int(np.count_nonzero(np.abs(torque) >= limits))
+    return np.minimum(np.maximum(torque, -limits), limits), int(
+        np.count_nonzero(np.abs(torque) >= limits)
+    )
 
 
 class TaskForceToJointTorque(LeafSystem):
@@ -232,18 +259,24 @@ class TaskForceToJointTorque(LeafSystem):
         self._m, self._nv = n_axes, nv
         self.force = self.DeclareVectorInputPort("force", BasicVector(n_axes))
         self.jacobian = self.DeclareVectorInputPort("jacobian", BasicVector(n_axes * nv))
-        self.extra = self.DeclareVectorInputPort("extra_torque", BasicVector(nv)) if extra_torque else None
+        self.extra = (
+            self.DeclareVectorInputPort("extra_torque", BasicVector(nv)) if extra_torque else None
+        )
         # Both outputs come from one evaluation of the unsaturated torque.
         self._raw = self.DeclareCacheEntry(
-            "unsaturated_torque", ValueProducer(allocate=lambda: AbstractValue.Make(None),
-                                                calc=self._calc_raw), {self.all_input_ports_ticket()})
+            "unsaturated_torque",
+            ValueProducer(allocate=lambda: AbstractValue.Make(None), calc=self._calc_raw),
+            {self.all_input_ports_ticket()},
+        )
         prereq = {self._raw.ticket()}
         self.DeclareVectorOutputPort("joint_torque", nv, self._calc_torque, prereq)
         self.DeclareVectorOutputPort("saturated", 1, self._calc_saturated, prereq)
 
     def _calc_raw(self, context, abstract_value):
         torque = self.jacobian.Eval(context).reshape(self._m, self._nv).T @ self.force.Eval(context)
-        abstract_value.set_value(torque + self.extra.Eval(context) if self.extra is not None else torque)
+        abstract_value.set_value(
+            torque + self.extra.Eval(context) if self.extra is not None else torque
+        )
 
     def _calc_torque(self, context, output):
         output.SetFromVector(saturate(self._raw.Eval(context), self._limits)[0])

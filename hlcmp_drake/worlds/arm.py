@@ -12,21 +12,32 @@ import numpy as np
 from pydrake.math import RotationMatrix
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.primitives import Integrator, MatrixGain
 
 from hlcmp_drake.config.scenario import ArmTask, Scenario
 from hlcmp_drake.core.dmp import Dmp
 from hlcmp_drake.io.errors import InputError
-from pydrake.systems.primitives import Integrator, MatrixGain
-
 from hlcmp_drake.systems.arm import BelowTaskImpedance, NullSpaceImpedance, ToolContactForce
 from hlcmp_drake.systems.arm_loop import ArmControlLoop, ArmTick
 from hlcmp_drake.systems.ports import REFERENCE_PORTS
 from hlcmp_drake.systems.task_space import TaskSpaceDynamics, TaskSpaceModel
 from hlcmp_drake.worlds.checks import check_demonstration_feasible
-from hlcmp_drake.worlds.common import (BuiltDiagram, add_loggers, add_reference, add_safety_monitor,
-                                       add_torque_map, modular_log_ports, read_scenario_demonstration)
-from hlcmp_drake.worlds.controllers import (AddedController, WorldPorts, add_controller, controller_kind,
-                                            initial_theta)
+from hlcmp_drake.worlds.common import (
+    BuiltDiagram,
+    add_loggers,
+    add_reference,
+    add_safety_monitor,
+    add_torque_map,
+    modular_log_ports,
+    read_scenario_demonstration,
+)
+from hlcmp_drake.worlds.controllers import (
+    AddedController,
+    WorldPorts,
+    add_controller,
+    controller_kind,
+    initial_theta,
+)
 from hlcmp_drake.worlds.models import add_plant, load_models, scoped_frame, solve_ik_for_tool
 from hlcmp_drake.worlds.puncture import Puncture, add_puncture
 
@@ -45,7 +56,9 @@ class ArmSetup:
     tool_orientation: RotationMatrix
 
 
-def solve_start_posture(scenario: Scenario, tip_position: ArrayLike) -> tuple[np.ndarray, RotationMatrix]:
+def solve_start_posture(
+    scenario: Scenario, tip_position: ArrayLike
+) -> tuple[np.ndarray, RotationMatrix]:
     """The start posture for the tool point at `tip_position`, and the tool's orientation there.
 
     Inverse kinematics on a plant of the scenario's models, seeded with task.ik_seed_rad
@@ -75,10 +88,12 @@ def solve_start_posture(scenario: Scenario, tip_position: ArrayLike) -> tuple[np
     load_models(plant, scenario)
     q0 = solve_ik_for_tool(plant, task, tip_position, task.ik_seed_rad)
     if q0 is None:
-        raise InputError(f"inverse kinematics found no posture with the tool at {np.round(tip_position, 3)} "
-                         f"(the demonstration's start) pointing along {task.tool_direction} "
-                         f"(orientation {task.tool_rpy_rad or 'free about it'}): "
-                         "is it within the arm's reach?")
+        raise InputError(
+            f"inverse kinematics found no posture with the tool at {np.round(tip_position, 3)} "
+            f"(the demonstration's start) pointing along {task.tool_direction} "
+            f"(orientation {task.tool_rpy_rad or 'free about it'}): "
+            "is it within the arm's reach?"
+        )
     context = plant.CreateDefaultContext()
     plant.SetPositions(context, q0)
     return q0, scoped_frame(plant, task.tool_frame).CalcRotationMatrixInWorld(context)
@@ -167,9 +182,12 @@ def add_world(builder: DiagramBuilder, scenario: Scenario) -> ArmWorld:
     tool_frame = scoped_frame(plant, task.tool_frame)
     puncture = None
     if task.puncture.object_frame:
-        puncture = add_puncture(builder, plant, scene_graph, task.puncture, tool_frame, task.tool_direction)
-    sensor = builder.AddSystem(ToolContactForce(plant, tool_frame.body(), task.axes,
-                                                applied_force=puncture is not None))
+        puncture = add_puncture(
+            builder, plant, scene_graph, task.puncture, tool_frame, task.tool_direction
+        )
+    sensor = builder.AddSystem(
+        ToolContactForce(plant, tool_frame.body(), task.axes, applied_force=puncture is not None)
+    )
     sensor.set_name("wrist_force_sensor")
     builder.Connect(plant.get_contact_results_output_port(), sensor.contact_results)
     if puncture is not None:
@@ -177,8 +195,13 @@ def add_world(builder: DiagramBuilder, scenario: Scenario) -> ArmWorld:
     return ArmWorld(plant, tool_frame, sensor, puncture)
 
 
-def add_harness(builder: DiagramBuilder, scenario: Scenario, world: ArmWorld, log_ports: dict,
-                saturated: OutputPort) -> dict:
+def add_harness(
+    builder: DiagramBuilder,
+    scenario: Scenario,
+    world: ArmWorld,
+    log_ports: dict,
+    saturated: OutputPort,
+) -> dict:
     """Add what a run carries besides its world and controller: the SafetyMonitor (with
     the arm's checks on the wrist force, the joint limits and `saturated`) and the loggers.
 
@@ -199,15 +222,23 @@ def add_harness(builder: DiagramBuilder, scenario: Scenario, world: ArmWorld, lo
     dict of str to (VectorLogSink, slice)
         The loggers, as `add_loggers` returns them.
     """
-    add_safety_monitor(builder, scenario, world.plant, {"contact_force": world.sensor.GetOutputPort("force"),
-                                                        "saturated": saturated},
-                       arm_check(world.plant, scenario.task))
+    add_safety_monitor(
+        builder,
+        scenario,
+        world.plant,
+        {"contact_force": world.sensor.GetOutputPort("force"), "saturated": saturated},
+        arm_check(world.plant, scenario.task),
+    )
     return add_loggers(builder, scenario, log_ports)
 
 
-def build(scenario: Scenario, controller_name: str, setup: ArmSetup,
-          theta0: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
-          harness: bool = True) -> BuiltDiagram:
+def build(
+    scenario: Scenario,
+    controller_name: str,
+    setup: ArmSetup,
+    theta0: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+    harness: bool = True,
+) -> BuiltDiagram:
     """The iiwa diagram: the world, one controller and the harness (safety monitor, loggers).
 
     The controller goes in as task.control_path says: "fast" (`_add_fast_controller`) or
@@ -234,15 +265,32 @@ def build(scenario: Scenario, controller_name: str, setup: ArmSetup,
     """
     builder = DiagramBuilder()
     world = add_world(builder, scenario)
-    fast = scenario.task.control_path == "fast" and controller_kind(scenario, controller_name).law is not None
+    fast = (
+        scenario.task.control_path == "fast"
+        and controller_kind(scenario, controller_name).law is not None
+    )
     add = _add_fast_controller if fast else _add_modular_controller
-    controller, log_ports, saturated = add(builder, scenario, controller_name, world.plant, world.tool_frame,
-                                           setup, world.sensor.GetOutputPort("task_force"), theta0)
+    controller, log_ports, saturated = add(
+        builder,
+        scenario,
+        controller_name,
+        world.plant,
+        world.tool_frame,
+        setup,
+        world.sensor.GetOutputPort("task_force"),
+        theta0,
+    )
     loggers = add_harness(builder, scenario, world, log_ports, saturated) if harness else {}
     diagram = builder.Build()
     diagram.set_name(f"{scenario.name}_{controller_name}")
-    return BuiltDiagram(diagram, world.plant, controller, loggers, setup.q0,
-                        world.puncture.apply_tear if world.puncture is not None else None)
+    return BuiltDiagram(
+        diagram,
+        world.plant,
+        controller,
+        loggers,
+        setup.q0,
+        world.puncture.apply_tear if world.puncture is not None else None,
+    )
 
 
 def build_driven(scenario: Scenario, setup: ArmSetup) -> BuiltDiagram:
@@ -267,11 +315,19 @@ def build_driven(scenario: Scenario, setup: ArmSetup) -> BuiltDiagram:
     world = add_world(builder, scenario)
     diagram = builder.Build()
     diagram.set_name(f"{scenario.name}_driven")
-    return BuiltDiagram(diagram, world.plant, None, {}, setup.q0,
-                        world.puncture.apply_tear if world.puncture is not None else None)
+    return BuiltDiagram(
+        diagram,
+        world.plant,
+        None,
+        {},
+        setup.q0,
+        world.puncture.apply_tear if world.puncture is not None else None,
+    )
 
 
-def _add_modular_controller(builder, scenario, name, plant, tool_frame, setup, contact_force, theta0):
+def _add_modular_controller(
+    builder, scenario, name, plant, tool_frame, setup, contact_force, theta0
+):
     """DmpSource -> controller -> J^T f_c + NullSpaceImpedance -> plant, one system per role."""
     task: ArmTask = scenario.task
     task_space = builder.AddSystem(TaskSpaceDynamics(plant, tool_frame, axes=task.axes))
@@ -280,14 +336,18 @@ def _add_modular_controller(builder, scenario, name, plant, tool_frame, setup, c
     reference = add_reference(builder, scenario, setup.dmp)
     world = WorldPorts(reference, task_space, contact_force, setup.dmp.start)
     controller = add_controller(builder, scenario, name, world, theta0)
-    below_task = builder.AddSystem(NullSpaceImpedance(plant, tool_frame, setup.tool_orientation, setup.q0,
-                                                      *_below_task_gains(task)))
+    below_task = builder.AddSystem(
+        NullSpaceImpedance(
+            plant, tool_frame, setup.tool_orientation, setup.q0, *_below_task_gains(task)
+        )
+    )
     below_task.set_name("null_space_impedance")
     builder.Connect(plant.get_state_output_port(), below_task.plant_state)
     builder.Connect(task_space.GetOutputPort("null_space_projector"), below_task.projector)
     builder.Connect(task_space.GetOutputPort("joint_gravity"), below_task.gravity)
-    torque_map = add_torque_map(builder, scenario, plant, controller.system, task_space,
-                                below_task.get_output_port())
+    torque_map = add_torque_map(
+        builder, scenario, plant, controller.system, task_space, below_task.get_output_port()
+    )
     ports = modular_log_ports(plant, task_space, reference, controller, contact_force, torque_map)
     return controller, ports, torque_map.GetOutputPort("saturated")
 
@@ -315,20 +375,32 @@ def _add_fast_controller(builder, scenario, name, plant, tool_frame, setup, cont
         builder.Connect(integrator.get_output_port(), loop.GetInputPort("theta"))
 
         def read_theta(root_context):
-            flat = integrator.GetMyContextFromRoot(root_context).get_continuous_state_vector().CopyToVector()
+            flat = (
+                integrator.GetMyContextFromRoot(root_context)
+                .get_continuous_state_vector()
+                .CopyToVector()
+            )
             return law.unflatten(flat)
 
     logs = loop.GetOutputPort("logs")
-    controller = AddedController(loop, {series: (logs, loop.log_columns[field]) for series, field in kind.logs},
-                                 read_theta)
-    ports = {"x": (logs, loop.log_columns["position"]), "xd": reference.GetOutputPort("desired_position"),
-             "f_ext": contact_force, "fc": (logs, loop.log_columns["force"]),
-             "plant_state": plant.get_state_output_port(),
-             "saturated_joints": (logs, loop.log_columns["saturated"]), **controller.logs}
+    controller = AddedController(
+        loop, {series: (logs, loop.log_columns[field]) for series, field in kind.logs}, read_theta
+    )
+    ports = {
+        "x": (logs, loop.log_columns["position"]),
+        "xd": reference.GetOutputPort("desired_position"),
+        "f_ext": contact_force,
+        "fc": (logs, loop.log_columns["force"]),
+        "plant_state": plant.get_state_output_port(),
+        "saturated_joints": (logs, loop.log_columns["saturated"]),
+        **controller.logs,
+    }
     return controller, ports, _saturated_column(builder, loop, logs)
 
 
-def arm_tick(scenario: Scenario, controller_name: str, plant: MultibodyPlant, setup: ArmSetup) -> ArmTick:
+def arm_tick(
+    scenario: Scenario, controller_name: str, plant: MultibodyPlant, setup: ArmSetup
+) -> ArmTick:
     """The arm's whole controller at one instant (`ArmTick`): the controller's law, the tool
     point's task-space terms, the orientation and posture held below the task, and the
     actuators' effort limits.
@@ -351,11 +423,18 @@ def arm_tick(scenario: Scenario, controller_name: str, plant: MultibodyPlant, se
     """
     task: ArmTask = scenario.task
     tool_frame = scoped_frame(plant, task.tool_frame)
-    law = controller_kind(scenario, controller_name).law(scenario.controllers[controller_name], scenario)
+    law = controller_kind(scenario, controller_name).law(
+        scenario.controllers[controller_name], scenario
+    )
     effort = [plant.get_joint_actuator(i).effort_limit() for i in plant.GetJointActuatorIndices()]
-    return ArmTick(TaskSpaceModel(plant, tool_frame, axes=task.axes),
-                   BelowTaskImpedance(plant, tool_frame, setup.tool_orientation, setup.q0, *_below_task_gains(task)),
-                   law, effort)
+    return ArmTick(
+        TaskSpaceModel(plant, tool_frame, axes=task.axes),
+        BelowTaskImpedance(
+            plant, tool_frame, setup.tool_orientation, setup.q0, *_below_task_gains(task)
+        ),
+        law,
+        effort,
+    )
 
 
 def _saturated_column(builder, loop, logs):
@@ -368,8 +447,12 @@ def _saturated_column(builder, loop, logs):
 
 
 def _below_task_gains(task: ArmTask) -> tuple[float, float, float, float]:
-    return (task.orientation_stiffness_Nm_per_rad, task.orientation_damping_Nms_per_rad,
-            task.posture_stiffness_Nm_per_rad, task.posture_damping_Nms_per_rad)
+    return (
+        task.orientation_stiffness_Nm_per_rad,
+        task.orientation_damping_Nms_per_rad,
+        task.posture_stiffness_Nm_per_rad,
+        task.posture_damping_Nms_per_rad,
+    )
 
 
 def arm_check(plant: MultibodyPlant, task: ArmTask) -> Callable[[float, dict], str | None]:
@@ -395,8 +478,10 @@ def arm_check(plant: MultibodyPlant, task: ArmTask) -> Callable[[float, dict], s
     """
     lower, upper = plant.GetPositionLowerLimits(), plant.GetPositionUpperLimits()
     nq = plant.num_positions()
-    names = [plant.get_joint(plant.get_joint_actuator(i).joint().index()).name()
-             for i in plant.GetJointActuatorIndices()]
+    names = [
+        plant.get_joint(plant.get_joint_actuator(i).joint().index()).name()
+        for i in plant.GetJointActuatorIndices()
+    ]
     saturated_since = [None]
 
     def check(t, values):

@@ -12,11 +12,16 @@ from hlcmp_drake.config.scenario import Scenario
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.worlds.models import load_models, solve_ik_for_tool
 
-CHECKED_SAMPLES = 40   # IK solves along the path (about 20 ms each)
+CHECKED_SAMPLES = 40  # IK solves along the path (about 20 ms each)
 
 
-def check_demonstration_feasible(scenario: Scenario, t: np.ndarray, positions: np.ndarray, source: str,
-                                 lines: Sequence[int] | None = None) -> None:
+def check_demonstration_feasible(
+    scenario: Scenario,
+    t: np.ndarray,
+    positions: np.ndarray,
+    source: str,
+    lines: Sequence[int] | None = None,
+) -> None:
     """Check that the arm's tool can follow a demonstration, within the joints' speed limits.
 
     The path is checked at CHECKED_SAMPLES evenly spaced samples, each IK seeded with the
@@ -55,14 +60,18 @@ def check_demonstration_feasible(scenario: Scenario, t: np.ndarray, positions: n
     for k in indices:
         q = solve_ik_for_tool(plant, scenario.task, positions[k], seed)
         if q is None:
-            raise InputError(f"{where(k)}: the tool cannot reach ({positions[k][0]:.3f}, "
-                             f"{positions[k][1]:.3f}, {positions[k][2]:.3f}) m with the arm "
-                             f"(world frame); is the demonstration in the scenario's world?")
+            raise InputError(
+                f"{where(k)}: the tool cannot reach ({positions[k][0]:.3f}, "
+                f"{positions[k][1]:.3f}, {positions[k][2]:.3f}) m with the arm "
+                f"(world frame); is the demonstration in the scenario's world?"
+            )
         if previous is not None:
             speed = np.abs(q - previous[1]) / (t[k] - t[previous[0]])
             worst = int(np.argmax(speed / limits))
             if speed[worst] > limits[worst]:
-                raise InputError(f"{where(k)}: following the demonstration needs joint {worst + 1} "
-                                 f"at {speed[worst]:.2f} rad/s, above its limit of {limits[worst]:.2f} rad/s; "
-                                 "slow it down (e.g. hlcmp rollout --duration)")
+                raise InputError(
+                    f"{where(k)}: following the demonstration needs joint {worst + 1} "
+                    f"at {speed[worst]:.2f} rad/s, above its limit of {limits[worst]:.2f} rad/s; "
+                    "slow it down (e.g. hlcmp rollout --duration)"
+                )
         previous, seed = (k, q), q

@@ -65,7 +65,8 @@ class BuiltDiagram:
 
 
 def read_scenario_demonstration(
-        scenario: Scenario) -> tuple[np.ndarray, np.ndarray, tuple[str, ...], list[int]]:
+    scenario: Scenario,
+) -> tuple[np.ndarray, np.ndarray, tuple[str, ...], list[int]]:
     """Read the scenario's demonstration CSV, checked to have the axes the scenario controls.
 
     Parameters
@@ -92,13 +93,16 @@ def read_scenario_demonstration(
     reference: DemonstrationConfig = scenario.reference
     t, positions, axes, lines = read_demonstration(reference.file, with_lines=True)
     if axes != ("x", "y", "z")[: len(axes)] or len(axes) != scenario.n_axes:
-        raise InputError(f"{reference.file}: has columns {','.join(axes)}, the scenario "
-                         f"'{scenario.name}' needs x,y,z")
+        raise InputError(
+            f"{reference.file}: has columns {','.join(axes)}, the scenario "
+            f"'{scenario.name}' needs x,y,z"
+        )
     return t, positions, axes, lines
 
 
-def add_reference(builder: DiagramBuilder, scenario: Scenario, dmp: Dmp | None = None,
-                  compiled: bool = False) -> StepReference | DmpSource | Diagram:
+def add_reference(
+    builder: DiagramBuilder, scenario: Scenario, dmp: Dmp | None = None, compiled: bool = False
+) -> StepReference | DmpSource | Diagram:
     """Add the desired-motion source, named "reference", to `builder`.
 
     Set-points for a StepReferenceConfig; the DMP `dmp` for a DemonstrationConfig,
@@ -123,8 +127,9 @@ def add_reference(builder: DiagramBuilder, scenario: Scenario, dmp: Dmp | None =
     """
     reference = scenario.reference
     if isinstance(reference, StepReferenceConfig):
-        system = StepReference(reference.times_s, reference.positions_m, scenario.duration_s,
-                               scenario.dmp.alpha_s)
+        system = StepReference(
+            reference.times_s, reference.positions_m, scenario.duration_s, scenario.dmp.alpha_s
+        )
     elif compiled:
         system = linear_dmp_source(dmp, scenario.duration_s, tau=reference.duration_s or None)
     else:
@@ -133,7 +138,9 @@ def add_reference(builder: DiagramBuilder, scenario: Scenario, dmp: Dmp | None =
     return builder.AddSystem(system)
 
 
-def sample_reference(scenario: Scenario, dmp: Dmp, period: float, duration: float) -> tuple[np.ndarray, ...]:
+def sample_reference(
+    scenario: Scenario, dmp: Dmp, period: float, duration: float
+) -> tuple[np.ndarray, ...]:
     """The compiled DMP source of `add_reference` sampled every `period` from 0 to
     `duration`, simulated alone with the scenario's simulator config: the values a
     diagram's controller would read at its ticks, for a controller outside any diagram
@@ -172,9 +179,14 @@ def sample_reference(scenario: Scenario, dmp: Dmp, period: float, duration: floa
     return tuple(np.array(values) for values in samples)
 
 
-def add_torque_map(builder: DiagramBuilder, scenario: Scenario, plant: MultibodyPlant, controller: LeafSystem,
-                   task_space: TaskSpaceDynamics,
-                   extra_torque_port: OutputPort | None = None) -> TaskForceToJointTorque:
+def add_torque_map(
+    builder: DiagramBuilder,
+    scenario: Scenario,
+    plant: MultibodyPlant,
+    controller: LeafSystem,
+    task_space: TaskSpaceDynamics,
+    extra_torque_port: OutputPort | None = None,
+) -> TaskForceToJointTorque:
     """Add tau = J^T f_c (+ the torque below the task, when given) into the plant's actuation.
 
     Parameters
@@ -198,8 +210,9 @@ def add_torque_map(builder: DiagramBuilder, scenario: Scenario, plant: Multibody
         The added system, connected to the plant's actuation input.
     """
     effort = [plant.get_joint_actuator(i).effort_limit() for i in plant.GetJointActuatorIndices()]
-    torque_map = builder.AddSystem(TaskForceToJointTorque(scenario.n_axes, effort,
-                                                          extra_torque=extra_torque_port is not None))
+    torque_map = builder.AddSystem(
+        TaskForceToJointTorque(scenario.n_axes, effort, extra_torque=extra_torque_port is not None)
+    )
     torque_map.set_name("task_force_to_joint_torque")
     builder.Connect(controller.GetOutputPort("force"), torque_map.force)
     builder.Connect(task_space.GetOutputPort("jacobian"), torque_map.jacobian)
@@ -209,9 +222,14 @@ def add_torque_map(builder: DiagramBuilder, scenario: Scenario, plant: Multibody
     return torque_map
 
 
-def modular_log_ports(plant: MultibodyPlant, task_space: TaskSpaceDynamics, reference: StepReference | DmpSource,
-                      controller: AddedController, force_port: OutputPort,
-                      torque_map: TaskForceToJointTorque) -> dict[str, OutputPort]:
+def modular_log_ports(
+    plant: MultibodyPlant,
+    task_space: TaskSpaceDynamics,
+    reference: StepReference | DmpSource,
+    controller: AddedController,
+    force_port: OutputPort,
+    torque_map: TaskForceToJointTorque,
+) -> dict[str, OutputPort]:
     """The ports of the timeseries.npz contract's series in a diagram of modular systems.
 
     Parameters
@@ -246,8 +264,9 @@ def modular_log_ports(plant: MultibodyPlant, task_space: TaskSpaceDynamics, refe
     }
 
 
-def add_loggers(builder: DiagramBuilder, scenario: Scenario,
-                ports: dict) -> dict[str, tuple[VectorLogSink, slice]]:
+def add_loggers(
+    builder: DiagramBuilder, scenario: Scenario, ports: dict
+) -> dict[str, tuple[VectorLogSink, slice]]:
     """Log each series at scenario.log_period_s with a Drake VectorLogSink.
 
     One logger per distinct port, named "log_<first series>"; several series may be
@@ -277,9 +296,13 @@ def add_loggers(builder: DiagramBuilder, scenario: Scenario,
     return loggers
 
 
-def add_safety_monitor(builder: DiagramBuilder, scenario: Scenario, plant: MultibodyPlant,
-                       extra_inputs: dict | None = None,
-                       extra_check: Callable[[float, dict], str | None] | None = None) -> SafetyMonitor:
+def add_safety_monitor(
+    builder: DiagramBuilder,
+    scenario: Scenario,
+    plant: MultibodyPlant,
+    extra_inputs: dict | None = None,
+    extra_check: Callable[[float, dict], str | None] | None = None,
+) -> SafetyMonitor:
     """Add the run's SafetyMonitor: a finite plant state with positions within
     scenario.max_abs_position_m, then the world's own checks.
 
@@ -307,7 +330,10 @@ def add_safety_monitor(builder: DiagramBuilder, scenario: Scenario, plant: Multi
         problem = state_check(values["plant_state"])
         return problem if problem or extra_check is None else extra_check(t, values)
 
-    sizes = {"plant_state": plant.num_multibody_states(), **{n: p.size() for n, p in extra_inputs.items()}}
+    sizes = {
+        "plant_state": plant.num_multibody_states(),
+        **{n: p.size() for n, p in extra_inputs.items()},
+    }
     monitor = builder.AddSystem(SafetyMonitor(sizes, check))
     monitor.set_name("safety_monitor")
     builder.Connect(plant.get_state_output_port(), monitor.GetInputPort("plant_state"))

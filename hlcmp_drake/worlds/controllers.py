@@ -13,11 +13,16 @@ from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
-from hlcmp_drake.config.scenario import (ConstantImpedanceConfig, HlcmpConfig, Scenario,
-                                         StepReferenceConfig, VariableImpedanceConfig)
+from hlcmp_drake.config.scenario import (
+    ConstantImpedanceConfig,
+    HlcmpConfig,
+    Scenario,
+    StepReferenceConfig,
+    VariableImpedanceConfig,
+)
 from hlcmp_drake.core.dmp import basis_centers_and_widths
-from hlcmp_drake.systems.baselines import ConstantImpedanceController, VariableImpedanceController
 from hlcmp_drake.core.laws import ConstantImpedanceLaw, HlcmpGains, HlcmpLaw
+from hlcmp_drake.systems.baselines import ConstantImpedanceController, VariableImpedanceController
 from hlcmp_drake.systems.hlcmp_controller import HlcmpController
 from hlcmp_drake.systems.ports import REFERENCE_PORTS
 
@@ -77,13 +82,24 @@ def hlcmp_law(config: HlcmpConfig, scenario: Scenario) -> HlcmpLaw:
     """
     centers, widths = basis_centers_and_widths(scenario.dmp.n_basis, scenario.dmp.alpha_s)
     scale = config.rate_scale()
-    return HlcmpLaw(centers, widths, HlcmpGains(
-        np.asarray(config.q_k, float) * scale, np.asarray(config.q_d, float) * scale,
-        np.asarray(config.q_v, float) * scale, config.pi, np.asarray(config.gain_l, float)))
+    return HlcmpLaw(
+        centers,
+        widths,
+        HlcmpGains(
+            np.asarray(config.q_k, float) * scale,
+            np.asarray(config.q_d, float) * scale,
+            np.asarray(config.q_v, float) * scale,
+            config.pi,
+            np.asarray(config.gain_l, float),
+        ),
+    )
 
 
-def initial_theta(config: HlcmpConfig, scenario: Scenario,
-                  theta0: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+def initial_theta(
+    config: HlcmpConfig,
+    scenario: Scenario,
+    theta0: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+) -> np.ndarray:
     """A learner's flattened initial weights [θ_k, θ_d, θ_v].
 
     Parameters
@@ -111,12 +127,20 @@ def initial_theta(config: HlcmpConfig, scenario: Scenario,
         if flat.size != 3 * size:
             raise ValueError(f"theta0 must hold 3*M*N = {3 * size} values, got {flat.size}")
         return flat
-    return np.concatenate([np.full(size, config.theta_k0), np.full(size, config.theta_d0),
-                           np.full(size, config.theta_v0)])
+    return np.concatenate(
+        [
+            np.full(size, config.theta_k0),
+            np.full(size, config.theta_d0),
+            np.full(size, config.theta_v0),
+        ]
+    )
 
 
-def hlcmp_controller(config: HlcmpConfig, scenario: Scenario,
-                     theta0: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> HlcmpController:
+def hlcmp_controller(
+    config: HlcmpConfig,
+    scenario: Scenario,
+    theta0: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+) -> HlcmpController:
     """The Hl-CMP of `hlcmp_law` as one modular system, θ its continuous state.
 
     Parameters
@@ -132,20 +156,26 @@ def hlcmp_controller(config: HlcmpConfig, scenario: Scenario,
         The system (not yet added to a diagram).
     """
     law = hlcmp_law(config, scenario)
-    return HlcmpController(law.centers, law.widths, law.gains, initial_theta(config, scenario, theta0))
+    return HlcmpController(
+        law.centers, law.widths, law.gains, initial_theta(config, scenario, theta0)
+    )
 
 
 def _constant_law(config: ConstantImpedanceConfig, scenario: Scenario) -> ConstantImpedanceLaw:
-    return ConstantImpedanceLaw(config.stiffness_N_per_m, config.damping_Ns_per_m, config.pi, config.gain_l)
+    return ConstantImpedanceLaw(
+        config.stiffness_N_per_m, config.damping_Ns_per_m, config.pi, config.gain_l
+    )
 
 
 def _make_constant(config: ConstantImpedanceConfig, scenario: Scenario, initial_position, theta0):
-    return ConstantImpedanceController(config.stiffness_N_per_m, config.damping_Ns_per_m,
-                                       config.pi, config.gain_l)
+    return ConstantImpedanceController(
+        config.stiffness_N_per_m, config.damping_Ns_per_m, config.pi, config.gain_l
+    )
 
 
-def desired_force_schedule(config: VariableImpedanceConfig,
-                           reference: StepReferenceConfig) -> Callable[[float], np.ndarray]:
+def desired_force_schedule(
+    config: VariableImpedanceConfig, reference: StepReferenceConfig
+) -> Callable[[float], np.ndarray]:
     """f_d(t): the configured force during the listed reference segments, 0 elsewhere.
 
     Parameters
@@ -163,7 +193,10 @@ def desired_force_schedule(config: VariableImpedanceConfig,
     """
     edges = list(reference.times_s) + [float("inf")]
     windows = [(edges[k], edges[k + 1]) for k in config.force_segments]
-    force, zero = np.asarray(config.desired_force_N, dtype=float), np.zeros(len(config.desired_force_N))
+    force, zero = (
+        np.asarray(config.desired_force_N, dtype=float),
+        np.zeros(len(config.desired_force_N)),
+    )
 
     def schedule(t):
         return force if any(start <= t < end for start, end in windows) else zero
@@ -173,9 +206,16 @@ def desired_force_schedule(config: VariableImpedanceConfig,
 
 def _make_variable(config: VariableImpedanceConfig, scenario: Scenario, initial_position, theta0):
     return VariableImpedanceController(
-        config.mass_kg, config.damping_Ns_per_m, config.free_stiffness_N_per_m, config.sigma,
-        config.sample_period_s, config.kp, config.kv,
-        desired_force_schedule(config, scenario.reference), initial_position)
+        config.mass_kg,
+        config.damping_Ns_per_m,
+        config.free_stiffness_N_per_m,
+        config.sigma,
+        config.sample_period_s,
+        config.kp,
+        config.kv,
+        desired_force_schedule(config, scenario.reference),
+        initial_position,
+    )
 
 
 @dc.dataclass(frozen=True)
@@ -196,9 +236,19 @@ class ControllerKind:
 
 CONTROLLER_KINDS: dict[type, ControllerKind] = {
     HlcmpConfig: ControllerKind(
-        lambda config, scenario, initial_position, theta0: hlcmp_controller(config, scenario, theta0),
-        logs=(("Ks", "stiffness"), ("Kd", "damping"), ("v", "feedforward"), ("u", "impedance_force"),
-              ("eps", "sliding_error")), learns=True, law=hlcmp_law),
+        lambda config, scenario, initial_position, theta0: hlcmp_controller(
+            config, scenario, theta0
+        ),
+        logs=(
+            ("Ks", "stiffness"),
+            ("Kd", "damping"),
+            ("v", "feedforward"),
+            ("u", "impedance_force"),
+            ("eps", "sliding_error"),
+        ),
+        learns=True,
+        law=hlcmp_law,
+    ),
     ConstantImpedanceConfig: ControllerKind(_make_constant, law=_constant_law),
     VariableImpedanceConfig: ControllerKind(_make_variable, uses_contact_force=True),
 }
@@ -216,8 +266,13 @@ def controller_kind(scenario: Scenario, name: str) -> ControllerKind:
     return CONTROLLER_KINDS[type(scenario.controllers[name])]
 
 
-def add_controller(builder: DiagramBuilder, scenario: Scenario, name: str, world: WorldPorts,
-                   theta0: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> AddedController:
+def add_controller(
+    builder: DiagramBuilder,
+    scenario: Scenario,
+    name: str,
+    world: WorldPorts,
+    theta0: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+) -> AddedController:
     """Add the scenario's controller `name` to `builder` and wire it to `world`.
 
     Parameters
@@ -247,9 +302,12 @@ def add_controller(builder: DiagramBuilder, scenario: Scenario, name: str, world
         builder.Connect(world.task_space.GetOutputPort(port), system.GetInputPort(port))
     if kind.uses_contact_force:
         builder.Connect(world.contact_force, system.GetInputPort("external_force"))
+
     def read_theta(root_context):
         return system.theta(system.GetMyContextFromRoot(root_context))
 
-    return AddedController(system, {series: system.GetOutputPort(port) for series, port in kind.logs},
-                           read_theta if kind.learns else None)
-
+    return AddedController(
+        system,
+        {series: system.GetOutputPort(port) for series, port in kind.logs},
+        read_theta if kind.learns else None,
+    )

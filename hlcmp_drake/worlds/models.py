@@ -46,14 +46,21 @@ def load_models(plant: MultibodyPlant, scenario: Scenario, finalize: bool = True
         ProcessModelDirectives(ModelDirectives(directives=scenario.directives), plant, parser)
     except RuntimeError as error:
         first = next((line for line in str(error).splitlines() if line.strip()), "")
-        hint = " (drake_models is downloaded on first use: is there internet?)" if "drake_models" in str(error) else ""
-        raise InputError(f"{scenario.name}: the models could not be loaded{hint}: {first}") from None
+        hint = (
+            " (drake_models is downloaded on first use: is there internet?)"
+            if "drake_models" in str(error)
+            else ""
+        )
+        raise InputError(
+            f"{scenario.name}: the models could not be loaded{hint}: {first}"
+        ) from None
     if finalize:
         plant.Finalize()
 
 
-def add_plant(builder: DiagramBuilder, scenario: Scenario,
-              finalize: bool = True) -> tuple[MultibodyPlant, SceneGraph]:
+def add_plant(
+    builder: DiagramBuilder, scenario: Scenario, finalize: bool = True
+) -> tuple[MultibodyPlant, SceneGraph]:
     """MultibodyPlant + SceneGraph from the scenario's plant config and model directives.
 
     Parameters
@@ -96,11 +103,16 @@ def scoped_frame(plant: MultibodyPlant, scoped_name: str) -> Frame:
         The frame (Drake raises RuntimeError when there is no such model or frame).
     """
     model, _, name = scoped_name.rpartition("::")
-    return plant.GetFrameByName(name, plant.GetModelInstanceByName(model)) if model else plant.GetFrameByName(name)
+    return (
+        plant.GetFrameByName(name, plant.GetModelInstanceByName(model))
+        if model
+        else plant.GetFrameByName(name)
+    )
 
 
-def solve_ik_for_tool(plant: MultibodyPlant, task: ArmTask, tip_position: ArrayLike,
-                      seed: ArrayLike) -> np.ndarray | None:
+def solve_ik_for_tool(
+    plant: MultibodyPlant, task: ArmTask, tip_position: ArrayLike, seed: ArrayLike
+) -> np.ndarray | None:
     """Inverse kinematics: the tool point at `tip_position`, pointing as the task asks.
 
     Parameters
@@ -122,14 +134,30 @@ def solve_ik_for_tool(plant: MultibodyPlant, task: ArmTask, tip_position: ArrayL
     """
     frame = scoped_frame(plant, task.tool_frame)
     ik = InverseKinematics(plant)
-    ik.AddPositionConstraint(frame, np.zeros(3), plant.world_frame(),
-                             np.asarray(tip_position) - 1e-4, np.asarray(tip_position) + 1e-4)
+    ik.AddPositionConstraint(
+        frame,
+        np.zeros(3),
+        plant.world_frame(),
+        np.asarray(tip_position) - 1e-4,
+        np.asarray(tip_position) + 1e-4,
+    )
     if task.tool_rpy_rad:
-        ik.AddOrientationConstraint(plant.world_frame(), RotationMatrix(RollPitchYaw(task.tool_rpy_rad)),
-                                    frame, RotationMatrix(), 1e-3)
+        ik.AddOrientationConstraint(
+            plant.world_frame(),
+            RotationMatrix(RollPitchYaw(task.tool_rpy_rad)),
+            frame,
+            RotationMatrix(),
+            1e-3,
+        )
     else:
-        ik.AddAngleBetweenVectorsConstraint(plant.world_frame(), np.asarray(task.tool_direction, float),
-                                            frame, np.array([0.0, 0.0, 1.0]), 0.0, 1e-3)
+        ik.AddAngleBetweenVectorsConstraint(
+            plant.world_frame(),
+            np.asarray(task.tool_direction, float),
+            frame,
+            np.array([0.0, 0.0, 1.0]),
+            0.0,
+            1e-3,
+        )
     seed = np.asarray(seed, dtype=float)
     ik.get_mutable_prog().AddQuadraticErrorCost(np.eye(len(seed)), seed, ik.q())
     result = Solve(ik.prog(), seed)

@@ -8,7 +8,12 @@ import dataclasses as dc
 
 import numpy as np
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
-from pydrake.multibody.tree import PdControllerGains, PrismaticJoint, RotationalInertia, SpatialInertia
+from pydrake.multibody.tree import (
+    PdControllerGains,
+    PrismaticJoint,
+    RotationalInertia,
+    SpatialInertia,
+)
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
@@ -19,7 +24,7 @@ from hlcmp_drake.systems.arm import ToolContactForce
 from hlcmp_drake.worlds.models import add_plant, scoped_frame
 from hlcmp_drake.worlds.puncture import Puncture, add_puncture
 
-CARRIAGE_STIFFNESS_N_PER_M = 1.0e6   # stiff enough that contact forces of 20 N move it by 20 um
+CARRIAGE_STIFFNESS_N_PER_M = 1.0e6  # stiff enough that contact forces of 20 N move it by 20 um
 CARRIAGE_MASS_KG = 0.05
 
 
@@ -30,9 +35,9 @@ class ProbeWorld:
 
     diagram: object
     plant: object
-    waypoints: np.ndarray        # (K, 3) tool point positions [m]
-    times: np.ndarray            # (K,) when the carriage is at each [s]
-    push: tuple                  # (start time, end time) of the measured push [s]
+    waypoints: np.ndarray  # (K, 3) tool point positions [m]
+    times: np.ndarray  # (K,) when the carriage is at each [s]
+    push: tuple  # (start time, end time) of the measured push [s]
     state_log: object
     force_log: object
     puncture: Puncture | None
@@ -43,17 +48,25 @@ def _without_arm(scenario: Scenario, arm: str) -> tuple[list, str]:
     the tool's frame that was welded to the arm."""
     kept, mount = [], None
     for directive in scenario.directives:
-        model, weld, group = directive.add_model, directive.add_weld, directive.add_collision_filter_group
+        model, weld, group = (
+            directive.add_model,
+            directive.add_weld,
+            directive.add_collision_filter_group,
+        )
         if model is not None and model.name == arm:
             continue
-        if weld is not None and (weld.parent.startswith(f"{arm}::") or weld.child.startswith(f"{arm}::")):
+        if weld is not None and (
+            weld.parent.startswith(f"{arm}::") or weld.child.startswith(f"{arm}::")
+        ):
             mount = weld.child if weld.parent.startswith(f"{arm}::") else mount
             continue
         if group is not None and any(m.startswith(f"{arm}::") for m in group.members):
             continue
         kept.append(directive)
     if mount is None:
-        raise InputError(f"scenario '{scenario.name}': probe.arm_model '{arm}' has no tool welded to it")
+        raise InputError(
+            f"scenario '{scenario.name}': probe.arm_model '{arm}' has no tool welded to it"
+        )
     return kept, mount
 
 
@@ -88,15 +101,19 @@ def probe_path(probe: ProbeConfig, speed: float) -> tuple[np.ndarray, np.ndarray
     approach = np.asarray(probe.approach_m or [0.0, 0.0, 0.0], float)
     push = np.asarray(probe.push_m, float)
     points = [start, start + approach, start + approach + push, start + approach]
-    if not np.any(approach):   # no approach: the push starts at the start
+    if not np.any(approach):  # no approach: the push starts at the start
         points = [start, start + push, start]
     points = np.array(points)
-    times = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1) / speed)])
+    times = np.concatenate(
+        [[0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0), axis=1) / speed)]
+    )
     push_index = 0 if len(points) == 3 else 1
     return points, times, (times[push_index], times[push_index + 1])
 
 
-def build_probe(scenario: Scenario, speed: float | None = None, tilt_rad: float | None = None) -> ProbeWorld:
+def build_probe(
+    scenario: Scenario, speed: float | None = None, tilt_rad: float | None = None
+) -> ProbeWorld:
     """The probe diagram of an arm scenario.
 
     Parameters
@@ -110,28 +127,51 @@ def build_probe(scenario: Scenario, speed: float | None = None, tilt_rad: float 
     """
     task, probe = scenario.task, scenario.probe
     if not isinstance(task, ArmTask) or not probe.start_m or not probe.push_m:
-        raise InputError(f"scenario '{scenario.name}' has no probe: it needs an arm task and probe.start_m, "
-                         "probe.push_m")
+        raise InputError(
+            f"scenario '{scenario.name}' has no probe: it needs an arm task and probe.start_m, "
+            "probe.push_m"
+        )
     speed = probe.speed_m_per_s if speed is None else speed
     tilt_rad = probe.tilt_rad if tilt_rad is None else tilt_rad
     directives, mount = _without_arm(scenario, probe.arm_model)
     builder = DiagramBuilder()
-    plant, scene_graph = add_plant(builder, dc.replace(scenario, directives=directives), finalize=False)
-    plant.mutable_gravity_field().set_gravity_vector([0.0, 0.0, 0.0])   # the carriage carries contact only
+    plant, scene_graph = add_plant(
+        builder, dc.replace(scenario, directives=directives), finalize=False
+    )
+    plant.mutable_gravity_field().set_gravity_vector(
+        [0.0, 0.0, 0.0]
+    )  # the carriage carries contact only
     instance = plant.AddModelInstance("probe_carriage")
-    inertia = SpatialInertia.MakeFromCentralInertia(CARRIAGE_MASS_KG, np.zeros(3), RotationalInertia(1e-5, 1e-5, 1e-5))
+    inertia = SpatialInertia.MakeFromCentralInertia(
+        CARRIAGE_MASS_KG, np.zeros(3), RotationalInertia(1e-5, 1e-5, 1e-5)
+    )
     parent = plant.world_body()
-    for axis in range(3):   # carriage joints along world x, y, z: their positions are the tool point's
+    for axis in range(
+        3
+    ):  # carriage joints along world x, y, z: their positions are the tool point's
         body = plant.AddRigidBody(f"carriage_{'xyz'[axis]}", instance, inertia)
-        joint = plant.AddJoint(PrismaticJoint(f"carriage_{'xyz'[axis]}", parent.body_frame(), body.body_frame(),
-                                              np.eye(3)[axis], -10.0, 10.0))
+        joint = plant.AddJoint(
+            PrismaticJoint(
+                f"carriage_{'xyz'[axis]}",
+                parent.body_frame(),
+                body.body_frame(),
+                np.eye(3)[axis],
+                -10.0,
+                10.0,
+            )
+        )
         actuator = plant.AddJointActuator(f"carriage_{'xyz'[axis]}", joint)
-        actuator.set_controller_gains(PdControllerGains(
-            p=CARRIAGE_STIFFNESS_N_PER_M, d=2.0 * np.sqrt(CARRIAGE_STIFFNESS_N_PER_M * 0.5)))
+        actuator.set_controller_gains(
+            PdControllerGains(
+                p=CARRIAGE_STIFFNESS_N_PER_M, d=2.0 * np.sqrt(CARRIAGE_STIFFNESS_N_PER_M * 0.5)
+            )
+        )
         parent = body
     tool_point = scoped_frame(plant, task.tool_frame)
     mount_frame = scoped_frame(plant, mount)
-    X_mount_point = mount_frame.GetFixedPoseInBodyFrame().inverse() @ tool_point.GetFixedPoseInBodyFrame()
+    X_mount_point = (
+        mount_frame.GetFixedPoseInBodyFrame().inverse() @ tool_point.GetFixedPoseInBodyFrame()
+    )
     X_carriage_mount = RigidTransform(tool_orientation(task, tilt_rad)) @ X_mount_point.inverse()
     plant.WeldFrames(parent.body_frame(), mount_frame, X_carriage_mount)
     plant.Finalize()
@@ -142,8 +182,12 @@ def build_probe(scenario: Scenario, speed: float | None = None, tilt_rad: float 
     builder.Connect(source.get_output_port(), plant.get_desired_state_input_port(instance))
     puncture = None
     if task.puncture.object_frame:
-        puncture = add_puncture(builder, plant, scene_graph, task.puncture, tool_point, task.tool_direction)
-    sensor = builder.AddSystem(ToolContactForce(plant, tool_point.body(), applied_force=puncture is not None))
+        puncture = add_puncture(
+            builder, plant, scene_graph, task.puncture, tool_point, task.tool_direction
+        )
+    sensor = builder.AddSystem(
+        ToolContactForce(plant, tool_point.body(), applied_force=puncture is not None)
+    )
     builder.Connect(plant.get_contact_results_output_port(), sensor.contact_results)
     if puncture is not None:
         builder.Connect(puncture.system.GetOutputPort("force"), sensor.applied_force)

@@ -38,13 +38,21 @@ class Puncture:
             return
         sg_context = self.scene_graph.GetMyMutableContextFromRoot(root_context)
         self.scene_graph.collision_filter_manager(sg_context).Apply(
-            CollisionFilterDeclaration().ExcludeBetween(GeometrySet(self.tool_geometries),
-                                                        GeometrySet(self.object_geometries)))
+            CollisionFilterDeclaration().ExcludeBetween(
+                GeometrySet(self.tool_geometries), GeometrySet(self.object_geometries)
+            )
+        )
         self.torn = True
 
 
-def add_puncture(builder: DiagramBuilder, plant: MultibodyPlant, scene_graph: SceneGraph,
-                 config: PunctureConfig, tool_frame: Frame, tool_axis: list) -> Puncture:
+def add_puncture(
+    builder: DiagramBuilder,
+    plant: MultibodyPlant,
+    scene_graph: SceneGraph,
+    config: PunctureConfig,
+    tool_frame: Frame,
+    tool_axis: list,
+) -> Puncture:
     """Add the HoleFriction system for `config`, reading the plant's state and applying
     its force to the plant.
 
@@ -64,12 +72,29 @@ def add_puncture(builder: DiagramBuilder, plant: MultibodyPlant, scene_graph: Sc
     """
     context = plant.CreateDefaultContext()
     top = scoped_frame(plant, config.object_frame).CalcPoseInWorld(context)
-    system = builder.AddSystem(HoleFriction(
-        plant, tool_frame, tool_axis, top.translation(), top.rotation().matrix()[:, 2], config.thickness_m,
-        config.depth_m, config.hole_friction_N_per_m, config.sliding_speed_m_per_s, plant.time_step()))
+    system = builder.AddSystem(
+        HoleFriction(
+            plant,
+            tool_frame,
+            tool_axis,
+            top.translation(),
+            top.rotation().matrix()[:, 2],
+            config.thickness_m,
+            config.depth_m,
+            config.hole_friction_N_per_m,
+            config.sliding_speed_m_per_s,
+            plant.time_step(),
+        )
+    )
     system.set_name("puncture")
     builder.Connect(plant.get_state_output_port(), system.plant_state)
-    builder.Connect(system.GetOutputPort("spatial_forces"), plant.get_applied_spatial_force_input_port())
+    builder.Connect(
+        system.GetOutputPort("spatial_forces"), plant.get_applied_spatial_force_input_port()
+    )
     object_body = scoped_frame(plant, config.object_frame).body()
-    return Puncture(system, scene_graph, plant.GetCollisionGeometriesForBody(tool_frame.body()),
-                    plant.GetCollisionGeometriesForBody(object_body))
+    return Puncture(
+        system,
+        scene_graph,
+        plant.GetCollisionGeometriesForBody(tool_frame.body()),
+        plant.GetCollisionGeometriesForBody(object_body),
+    )
