@@ -24,7 +24,7 @@ from hlcmp_drake.systems.arm import NullSpaceImpedance, ToolContactForce
 from hlcmp_drake.systems.references import DmpSource
 from hlcmp_drake.systems.task_space import TaskForceToJointTorque, TaskSpaceDynamics
 from hlcmp_drake.worlds import arm
-from hlcmp_drake.worlds.controllers import hlcmp_controller
+from hlcmp_drake.worlds.controllers import modular_system
 from hlcmp_drake.worlds.models import add_plant
 
 
@@ -35,7 +35,9 @@ def build(scenario, setup, meshcat):
 
     dmp = builder.AddSystem(DmpSource(setup.dmp))  # x_d, x_d', x_d'', s
     task_space = builder.AddSystem(TaskSpaceDynamics(plant, tip))  # x, x', J, M, C, G
-    controller = builder.AddSystem(hlcmp_controller(scenario.controllers["hlcmp"], scenario))
+    controller = builder.AddSystem(
+        modular_system(scenario.controllers["hlcmp"], scenario, setup.dmp.start)
+    )
     task = scenario.task
     null_space = builder.AddSystem(
         NullSpaceImpedance(

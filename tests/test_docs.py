@@ -49,7 +49,7 @@ def _problems(path, node):
 
 def test_the_scan_sees_the_public_api():
     names = {node.name for _, node in _public_definitions()}
-    assert {"adaptation_rates", "load_scenario", "HlcmpController", "simulate"} <= names
+    assert {"adaptation_rates", "load_scenario", "LawController", "simulate"} <= names
 
 
 def test_public_functions_are_documented_and_typed():

@@ -15,7 +15,7 @@ from hlcmp_drake.systems.arm_loop import ArmControlLoop, ArmTick
 from hlcmp_drake.systems.references import DmpSource, linear_dmp_source
 from hlcmp_drake.systems.task_space import TaskSpaceDynamics, TaskSpaceModel
 from hlcmp_drake.worlds import arm
-from hlcmp_drake.worlds.controllers import hlcmp_controller, hlcmp_law
+from hlcmp_drake.worlds.controllers import hlcmp_law, modular_system
 from hlcmp_drake.worlds.models import add_plant, scoped_frame
 
 
@@ -130,7 +130,9 @@ def test_one_tick_gives_the_modular_systems_torque(insertion):
     np.testing.assert_allclose(fast_torque, modular_torque, rtol=1e-9, atol=1e-9)
     np.testing.assert_allclose(fast_rates, out.rates, rtol=1e-12)
     # and the modular controller system computes the same force from the same terms
-    controller = hlcmp_controller(scenario.controllers["hlcmp"], scenario, law.unflatten(theta))
+    controller = modular_system(
+        scenario.controllers["hlcmp"], scenario, np.zeros(3), law.unflatten(theta)
+    )
     assert controller.num_continuous_states() == law.theta_size
 
 

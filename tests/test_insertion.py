@@ -136,7 +136,7 @@ def test_build_insertion_diagram_by_hand(tmp_path):
     assert "simulated 0.30 s" in result.stdout
     assert (tmp_path / "recording.html").stat().st_size > 100_000
     graph = next(tmp_path.glob("diagram.*"))
-    for system in ("DmpSource", "HlcmpController", "TaskSpaceDynamics", "TaskForceToJointTorque"):
+    for system in ("DmpSource", "LawController", "TaskSpaceDynamics", "TaskForceToJointTorque"):
         assert system in graph.read_text()
 
 

@@ -92,3 +92,11 @@ def test_duan_law_presses_harder_when_force_is_too_low():
         np.zeros(1), np.zeros(1), phi, np.array([1.0]), np.ones(1), np.array([10.0]), np.zeros(1)
     )
     assert acc[0] < 0
+
+
+def test_forgetting_rates_subtract_gamma_theta():
+    from hlcmp_drake.core.adaptation import forgetting_rates
+
+    rates, theta = np.array([1.0, -2.0, 0.5]), np.array([10.0, 4.0, -6.0])
+    np.testing.assert_array_equal(forgetting_rates(rates, theta, 0.0), rates)
+    np.testing.assert_allclose(forgetting_rates(rates, theta, 0.1), [0.0, -2.4, 1.1])

@@ -8,10 +8,10 @@ from pydrake.multibody.tree import JacobianWrtVariable
 
 from hlcmp_drake.core.adaptation import adaptation_rates, compliant_profiles
 from hlcmp_drake.core.dmp import Dmp, basis_centers_and_widths, normalized_basis
-from hlcmp_drake.core.laws import HlcmpGains
-from hlcmp_drake.systems.baselines import ConstantImpedanceController, VariableImpedanceController
+from hlcmp_drake.core.laws import ConstantImpedanceLaw, HlcmpGains, HlcmpLaw
+from hlcmp_drake.systems.baselines import VariableImpedanceController
 from hlcmp_drake.systems.environment import UnilateralSpring
-from hlcmp_drake.systems.hlcmp_controller import HlcmpController
+from hlcmp_drake.systems.law_controller import LawController
 from hlcmp_drake.systems.references import DmpSource, StepReference
 from hlcmp_drake.systems.task_space import TaskForceToJointTorque, TaskSpaceDynamics
 
@@ -109,7 +109,7 @@ def hlcmp_setup():
     )
     rng = np.random.default_rng(3)
     theta0 = rng.uniform(0, 50, 3 * 2 * 4)
-    controller = HlcmpController(centers, widths, gains, theta0)
+    controller = LawController(HlcmpLaw(centers, widths, gains), theta0)
     context = controller.CreateDefaultContext()
     inputs = dict(
         x=np.array([0.1, 0.2]),
@@ -165,7 +165,7 @@ def test_hlcmp_theta_still_when_tracking_is_perfect(hlcmp_setup):
 
 
 def test_constant_impedance_controller():
-    controller = ConstantImpedanceController([500.0], [40.0], pi=2.0, gain_l=[3.0])
+    controller = LawController(ConstantImpedanceLaw([500.0], [40.0], pi=2.0, gain_l=[3.0]))
     context = controller.CreateDefaultContext()
     _fix_inputs(
         controller, context, 1, [0.1], [0.2], [0.0], [0.0], [0.0], 1.0, [[5.0]], [[0.0]], [1.0]

@@ -167,6 +167,25 @@ class HlcmpConfig(ControllerChecks):
 
 
 @dc.dataclass
+class HlcmpForgettingConfig(HlcmpConfig):
+    """The Hl-CMP learner with the forgetting factor of Yang et al. 2011: θ' = Eq. 31 - γ θ,
+    so that a weight decays at the rate γ = `forgetting_per_s` [1/s] wherever the error
+    vanishes. Every other field is the Hl-CMP's; γ = 0 gives its numbers exactly.
+    Checked: as the Hl-CMP, and γ finite and >= 0."""
+
+    forgetting_per_s: float = 0.0
+
+    def _check_scalars(self, name: str, fail: Fail) -> None:
+        super()._check_scalars(name, fail)
+        if not (math.isfinite(self.forgetting_per_s) and self.forgetting_per_s >= 0):
+            fail(
+                f"controllers.{name}.forgetting_per_s",
+                f"controller '{name}': forgetting_per_s must be finite and >= 0, "
+                f"got {self.forgetting_per_s}",
+            )
+
+
+@dc.dataclass
 class ConstantImpedanceConfig(ControllerChecks):
     """Fixed diagonal stiffness/damping in the same structure (Eqs. 33-34 with v = 0). Checked: pi > 0; L, stiffness and damping per axis and non-negative."""
 
@@ -215,7 +234,9 @@ class VariableImpedanceConfig(ControllerChecks):
             )
 
 
-ControllerConfig = Union[HlcmpConfig, ConstantImpedanceConfig, VariableImpedanceConfig]
+ControllerConfig = Union[
+    HlcmpConfig, HlcmpForgettingConfig, ConstantImpedanceConfig, VariableImpedanceConfig
+]
 
 
 @dc.dataclass

@@ -63,3 +63,28 @@ def adaptation_rates(
     """
     eps = np.asarray(eps, dtype=float)
     return (np.outer(q_k * eps * e, g), np.outer(q_d * eps * edot, g), np.outer(q_v * eps, g))
+
+
+def forgetting_rates(rates: np.ndarray, theta: np.ndarray, gamma: float) -> np.ndarray:
+    """The adaptation law with a forgetting factor (Yang et al. 2011, the -γK term of their
+    stiffness adaptation): θ' = (Eq. 31) - γ θ.
+
+    Without it a weight only falls where the Eq. 31 increment is negative (ε e < 0 for the
+    stiffness); with γ > 0 every weight decays towards zero at the rate γ wherever the
+    error, and so the Eq. 31 increment, vanishes. γ = 0 is the paper's law.
+
+    Parameters
+    ----------
+    rates : (P,) array
+        The flattened Eq. 31 rates of θ = [θ_k, θ_d, θ_v].
+    theta : (P,) array
+        The current weights, flattened the same way.
+    gamma : float
+        The forgetting factor γ >= 0 [1/s].
+
+    Returns
+    -------
+    (P,) array
+        θ' [per second].
+    """
+    return rates - gamma * np.asarray(theta, dtype=float)

@@ -2,20 +2,22 @@
 33-34) and the constant impedance it is compared with, composed from the functions that
 hold those equations. Pure numpy.
 
-Both ways of putting a law in a Drake diagram evaluate these objects: the modular
-systems (`systems.hlcmp_controller`, `systems.baselines`: one system per role, θ the
-controller's continuous state) and the arm's one-call control loop (`systems.arm_loop`).
+Every law has the shape of `ControlLaw`. Both ways of putting a law in a Drake diagram
+evaluate these objects: the modular system `systems.law_controller.LawController` (θ its
+continuous state) and the arm's one-call control loop (`systems.arm_loop`). A new law is a
+class here and an entry in the controller registry (`worlds.controllers`); it needs no
+LeafSystem of its own.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Callable
+from typing import Callable, Protocol
 
 import numpy as np
 
-from hlcmp_drake.core.adaptation import adaptation_rates, compliant_profiles
+from hlcmp_drake.core.adaptation import adaptation_rates, compliant_profiles, forgetting_rates
 from hlcmp_drake.core.control_law import commanded_force, impedance_force, nominal_command
 from hlcmp_drake.core.dmp import normalized_basis
 
@@ -78,6 +80,51 @@ class LawOutput:
         return None if self.rates_of is None else self.rates_of()
 
 
+class ControlLaw(Protocol):
+    """What the diagrams need of a task-space law.
+
+    Attributes
+    ----------
+    learns : bool
+        Whether it has weights θ that adapt (then `command` returns their rates).
+    log_fields : dict of str to str
+        Its own series: the key in `LawOutput.logs` (and the modular system's output
+        port) -> the series name in timeseries.npz.
+    n_axes : int
+        M, the task-space axes.
+    theta_size : int
+        The length of the flattened θ (0 for a law that does not learn).
+    """
+
+    learns: bool
+    log_fields: dict[str, str]
+    n_axes: int
+
+    @property
+    def theta_size(self) -> int:
+        """The length of the flattened θ."""
+        ...
+
+    def command(self, now: TaskSpaceInstant, theta: np.ndarray) -> LawOutput:
+        """The law's force, series and (learning) θ' at one instant.
+
+        Parameters
+        ----------
+        now : TaskSpaceInstant
+        theta : (theta_size,) array
+        """
+        ...
+
+    def unflatten(self, theta: np.ndarray) -> tuple[np.ndarray, ...]:
+        """θ's parts, each (M, N), from the flattened θ.
+
+        Parameters
+        ----------
+        theta : (theta_size,) array
+        """
+        ...
+
+
 @dataclass(frozen=True)
 class HlcmpGains:
     """Per-axis learning rates Q_k, Q_d, Q_v (M,), the sliding-surface slope pi > 0 and the
@@ -103,7 +150,14 @@ class HlcmpLaw:
     """
 
     learns = True
-    log_fields = ("stiffness", "damping", "feedforward", "impedance_force", "sliding_error")
+    # The law's own series: its output name -> the series name in timeseries.npz.
+    log_fields = {
+        "stiffness": "Ks",
+        "damping": "Kd",
+        "feedforward": "v",
+        "impedance_force": "u",
+        "sliding_error": "eps",
+    }
 
     def __init__(self, centers: np.ndarray, widths: np.ndarray, gains: HlcmpGains):
         self.centers, self.widths = np.asarray(centers, float), np.asarray(widths, float)
@@ -173,6 +227,48 @@ class HlcmpLaw:
         )
 
 
+class HlcmpForgettingLaw(HlcmpLaw):
+    """The Hl-CMP with the forgetting factor of Yang et al. 2011: the same profiles and
+    command as `HlcmpLaw`, with θ' = Eq. 31 - γ θ (`core.adaptation.forgetting_rates`).
+
+    Parameters
+    ----------
+    centers, widths : (N,) arrays
+        The phase basis.
+    gains : HlcmpGains
+        Learning rates [per second], pi and L.
+    forgetting_per_s : float
+        γ >= 0 [1/s]; 0 gives the paper's law.
+    """
+
+    def __init__(
+        self, centers: np.ndarray, widths: np.ndarray, gains: HlcmpGains, forgetting_per_s: float
+    ):
+        super().__init__(centers, widths, gains)
+        self.forgetting_per_s = float(forgetting_per_s)
+
+    def command(self, now: TaskSpaceInstant, theta: np.ndarray) -> LawOutput:
+        """As `HlcmpLaw.command`, with the forgetting term in θ'.
+
+        Parameters
+        ----------
+        now : TaskSpaceInstant
+        theta : (3 M N,) array
+
+        Returns
+        -------
+        LawOutput
+        """
+        paper = super().command(now, theta)
+        paper_rates = paper.rates_of
+        assert paper_rates is not None
+
+        def rates() -> np.ndarray:
+            return forgetting_rates(paper_rates(), theta, self.forgetting_per_s)
+
+        return LawOutput(paper.force, paper.logs, rates)
+
+
 class ConstantImpedanceLaw:
     """The Hl-CMP control structure with fixed profiles: f_c = f_0 - K_s e - K_d e'
     (Eqs. 33-34 with v = 0 and constant diagonal K_s, K_d), so that a comparison with the
@@ -189,13 +285,23 @@ class ConstantImpedanceLaw:
     """
 
     learns = False
-    log_fields = ()
-    theta_size = 0
+    log_fields: dict[str, str] = {}
 
     def __init__(self, stiffness: np.ndarray, damping: np.ndarray, pi: float, gain_l: np.ndarray):
         self.k_s, self.k_d = np.asarray(stiffness, float), np.asarray(damping, float)
         self.pi, self.gain_l = float(pi), np.asarray(gain_l, float)
         self.n_axes = len(self.k_s)
+
+    theta_size = 0
+
+    def unflatten(self, theta: np.ndarray) -> tuple[np.ndarray, ...]:
+        """No weights: an empty tuple.
+
+        Parameters
+        ----------
+        theta : (0,) array
+        """
+        return ()
 
     def command(self, now: TaskSpaceInstant, theta: np.ndarray | None = None) -> LawOutput:
         """f_c at this instant.

@@ -3,23 +3,24 @@ claim C2 (insertion and cutting), and the claims as a Table."""
 
 from __future__ import annotations
 
-from hlcmp_drake.config.scenario import ConstantImpedanceConfig, HlcmpConfig, Scenario
+from hlcmp_drake.config.scenario import Scenario
 from hlcmp_drake.experiments.table import Table
+from hlcmp_drake.worlds.controllers import CONSTANT_IMPEDANCE, labels_with_role, learners
 
 
 def learner(scenario: Scenario) -> str | None:
-    """The label of the scenario's (first) learning controller, an Hl-CMP, or None.
+    """The label of the scenario's (first) learning controller, or None.
 
     Parameters
     ----------
     scenario : Scenario
-        Its controllers are found by config kind (!HlcmpConfig), whatever their labels.
+        Its learners are found by the controller registry, whatever their labels.
 
     Returns
     -------
     str or None
     """
-    names = scenario.controllers_of(HlcmpConfig)
+    names = learners(scenario)
     return names[0] if names else None
 
 
@@ -29,7 +30,7 @@ def constant_impedances(scenario: Scenario) -> list[str]:
     Parameters
     ----------
     scenario : Scenario
-        The controllers of kind !ConstantImpedanceConfig are ordered by the sum of their
+        The controllers whose kind plays CONSTANT_IMPEDANCE are ordered by the sum of their
         configured per-axis stiffness [N/m].
 
     Returns
@@ -37,7 +38,7 @@ def constant_impedances(scenario: Scenario) -> list[str]:
     list of str
     """
     return sorted(
-        scenario.controllers_of(ConstantImpedanceConfig),
+        labels_with_role(scenario, CONSTANT_IMPEDANCE),
         key=lambda n: sum(scenario.controllers[n].stiffness_N_per_m),
     )
 

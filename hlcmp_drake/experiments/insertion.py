@@ -14,6 +14,7 @@ from hlcmp_drake.experiments.experiment import Experiment
 from hlcmp_drake.experiments.plots import bar_chart, new_figure
 from hlcmp_drake.experiments.table import Table, number, per_axis
 from hlcmp_drake.io.runs import RunResult
+from hlcmp_drake.worlds.controllers import kind_of, learners
 
 AXES = ("x", "y", "z")
 CONTACT_FORCE_N = 0.5  # |f_ext| above this counts as contact
@@ -78,7 +79,7 @@ def controller_metrics(run: RunResult, config: ControllerConfig, scenario: Scena
         "force_smoothness_N": _per_axis(force_smoothness(f)),
         "max_abs_force_N": _per_axis(max_abs_force(f)),
     }
-    if isinstance(config, HlcmpConfig):
+    if kind_of(config).learns:
         metrics["max_stiffness_N_per_m"] = _per_axis(np.max(run.series["Ks"], axis=0))
         metrics["max_abs_feedforward_N"] = _per_axis(np.max(np.abs(run.series["v"]), axis=0))
         share = feedforward_share(run, config)
@@ -360,7 +361,7 @@ def figures(runs: dict, scenario: Scenario) -> dict:
         fig4_profiles_z.png ... fig8_smoothness.png.
     """
     out = {}
-    for k, name in enumerate(n for n in scenario.controllers_of(HlcmpConfig) if n in runs):
+    for k, name in enumerate(n for n in learners(scenario) if n in runs):
         # Fig. 4 for each learner (each reading of Q); the first keeps the paper's file name.
         out["fig4_profiles_z.png" if k == 0 else f"fig4_profiles_z_{name}.png"] = _profiles_figure(
             runs[name], f"{name}: Hl-CMP profiles learned online in z (paper Fig. 4)"

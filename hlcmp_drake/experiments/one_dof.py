@@ -1,17 +1,13 @@
 """The 1-DOF comparison (paper Sec. V-B, Fig. 13) and claim C5."""
 
-from hlcmp_drake.config.scenario import (
-    ControllerConfig,
-    Scenario,
-    SliderTask,
-    VariableImpedanceConfig,
-)
+from hlcmp_drake.config.scenario import ControllerConfig, Scenario, SliderTask
 from hlcmp_drake.core.metrics import settle_time, value_at
 from hlcmp_drake.experiments.claims import learner
 from hlcmp_drake.experiments.experiment import Experiment
 from hlcmp_drake.experiments.plots import new_figure
 from hlcmp_drake.experiments.table import Table, number
 from hlcmp_drake.io.runs import RunResult
+from hlcmp_drake.worlds.controllers import FORCE_TRACKING, labels_with_role
 
 DEPTH_TOLERANCE_M = 0.005
 # The paper's sentences the claim tests (Sec. V-B).
@@ -99,7 +95,7 @@ def claims(
     hl = metrics[learner_name or learner(scenario)]
     if any(m["position_at_10s_m"] is None for m in metrics.values()):
         return {}  # a run shorter than the return command at 10 s: C5 cannot be judged
-    vic = {name: metrics[name] for name in scenario.controllers_of(VariableImpedanceConfig)}
+    vic = {name: metrics[name] for name in labels_with_role(scenario, FORCE_TRACKING)}
     by_force = sorted(vic, key=lambda n: sum(scenario.controllers[n].desired_force_N))
     weakest, strongest = by_force[0], by_force[-1]
     proper = min(vic, key=lambda n: abs(vic[n]["position_at_10s_m"] - depth))

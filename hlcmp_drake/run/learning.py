@@ -29,6 +29,7 @@ from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.run.runner import run_one, write_results
 from hlcmp_drake.worlds.arm import fit_demonstration
 from hlcmp_drake.worlds.build import diagram_factory
+from hlcmp_drake.worlds.controllers import controller_kind
 
 
 def learning_scenario(
@@ -64,12 +65,13 @@ def learning_scenario(
     name = learner(scenario)
     if name is None:
         raise InputError(
-            f"scenario '{scenario.name}' has no Hl-CMP controller (!HlcmpConfig) to learn with"
+            f"scenario '{scenario.name}' has no learning controller (e.g. !HlcmpConfig) to learn with"
         )
     config = scenario.controllers[name]
     if freeze:
-        zeros = [0.0] * scenario.n_axes
-        config = dc.replace(config, q_k=zeros, q_d=zeros, q_v=zeros)
+        frozen = controller_kind(scenario, name).frozen
+        assert frozen is not None  # every learner's kind can be frozen
+        config = frozen(config)
     reference = scenario.reference
     if demo_path is not None:
         reference = dc.replace(reference, file=str(demo_path))

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Callable, Sequence
 
 from hlcmp_drake.config.loading import load_scenario
-from hlcmp_drake.config.scenario import HlcmpConfig, Scenario
+from hlcmp_drake.config.scenario import Scenario
 from hlcmp_drake.config.variants import use_drake_models_iiwa
 from hlcmp_drake.experiments import Experiment, experiment_of
 from hlcmp_drake.experiments.table import Table
@@ -23,6 +23,7 @@ if TYPE_CHECKING:
 from hlcmp_drake.present.recording import record_runs
 from hlcmp_drake.run.simulate import simulate
 from hlcmp_drake.worlds.build import diagram_factory
+from hlcmp_drake.worlds.controllers import learners as learning_controllers
 
 NO_LEARNER = "without a learner"  # the claims' key when a scenario has no Hl-CMP
 
@@ -114,7 +115,7 @@ def evaluate(runs: dict[str, RunResult], scenario: Scenario, experiment: Experim
             for n, r in runs.items()
         },
     }
-    learners = scenario.controllers_of(HlcmpConfig)
+    learners = learning_controllers(scenario)
     metrics["learners"] = {
         name: {"q_units": scenario.controllers[name].q_units} for name in learners
     }

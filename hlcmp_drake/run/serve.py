@@ -30,7 +30,7 @@ from pydrake.lcm import DrakeLcm
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
 
-from hlcmp_drake.config.scenario import ArmTask, HlcmpConfig, Scenario
+from hlcmp_drake.config.scenario import ArmTask, Scenario
 from hlcmp_drake.experiments import experiment_of
 from hlcmp_drake.io import outputs
 from hlcmp_drake.io.errors import InputError
@@ -52,6 +52,7 @@ from hlcmp_drake.systems.monitor import plant_state_check
 from hlcmp_drake.worlds.arm import ArmSetup, arm_check, arm_tick, prepare
 from hlcmp_drake.worlds.common import sample_reference
 from hlcmp_drake.worlds.controllers import controller_kind, initial_theta
+from hlcmp_drake.worlds.controllers import learners as learning_controllers
 from hlcmp_drake.worlds.models import load_models, scoped_frame
 
 # The statuses a served run may end with: "ok" (served its duration), "unstable" (a
@@ -106,7 +107,7 @@ def served_scenario(
         raise InputError(
             "--freeze needs --skill: a frozen skill is served with the profiles it learned"
         )
-    learners = scenario.controllers_of(HlcmpConfig)
+    learners = learning_controllers(scenario)
     controller = controller or (learners[0] if learners else next(iter(scenario.controllers)))
     if controller not in scenario.controllers:
         raise InputError(

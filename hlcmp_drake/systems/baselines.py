@@ -1,4 +1,4 @@
-"""Baseline controllers as Drake systems: constant impedance and the variable-impedance
+"""The baseline controller without a `core.laws` law as a Drake system: the variable-impedance
 controller of Duan et al. 2018 standing in for the paper's ref. [21] (see
 `hlcmp_drake.core.duan2018` for its equations and citation)."""
 
@@ -12,25 +12,7 @@ from hlcmp_drake.core.duan2018 import (
     duan_force_error,
     inner_position_loop,
 )
-from hlcmp_drake.core.laws import ConstantImpedanceLaw
 from hlcmp_drake.systems.ports import declare_task_space_inputs
-
-
-class ConstantImpedanceController(LeafSystem):
-    """The constant impedance of `core.laws.ConstantImpedanceLaw` as a Drake system: the
-    Hl-CMP's structure with fixed K_s, K_d and v = 0. Output `force` f_c (M)."""
-
-    def __init__(self, stiffness, damping, pi, gain_l):
-        super().__init__()
-        self._law = ConstantImpedanceLaw(stiffness, damping, pi, gain_l)
-        self._m = self._law.n_axes
-        self.inputs = declare_task_space_inputs(self, self._m)
-        self.DeclareVectorOutputPort(
-            "force", self._m, self._calc_force, {self.all_input_ports_ticket()}
-        )
-
-    def _calc_force(self, context, output):
-        output.SetFromVector(self._law.command(self.inputs.instant(context, self._m)).force)
 
 
 class VariableImpedanceController(LeafSystem):

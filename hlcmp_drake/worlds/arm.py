@@ -384,7 +384,9 @@ def _add_fast_controller(builder, scenario, name, plant, tool_frame, setup, cont
 
     logs = loop.GetOutputPort("logs")
     controller = AddedController(
-        loop, {series: (logs, loop.log_columns[field]) for series, field in kind.logs}, read_theta
+        loop,
+        {series: (logs, loop.log_columns[field]) for field, series in kind.logs.items()},
+        read_theta,
     )
     ports = {
         "x": (logs, loop.log_columns["position"]),

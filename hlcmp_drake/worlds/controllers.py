@@ -1,33 +1,56 @@
-"""The controller registry: a controller config's type -> how to build its system, what
-else to wire to it and what to log. This is the one place that dispatches on a
-controller's kind; labels in the YAML are free text.
+"""The controller registry: a controller config's type -> what kind of controller it is
+(its role in the comparison, whether it learns), which `core.laws` law it evaluates, what
+it logs, and how it goes into a diagram. This is the one place that dispatches on a
+controller's config type; everything else asks the registry (`controller_kind`,
+`kind_of`, `labels_with_role`, `learners`). Labels in the YAML are free text.
 
-Adding a controller kind: its config class in `hlcmp_drake.config.scenario` (with a
-`check`), its LeafSystem in `hlcmp_drake.systems`, and one entry in CONTROLLER_KINDS.
+Adding a controller kind with a `core.laws` law: its config class in
+`hlcmp_drake.config.scenario` (with a `check`, and in the ControllerConfig Union), its law
+in `hlcmp_drake.core.laws`, and one entry in CONTROLLER_KINDS; the modular path wraps the
+law in `systems.law_controller.LawController` and the arm's fast path evaluates it in
+its one-call loop, so it needs no LeafSystem of its own.
 """
 
 from __future__ import annotations
 
 import dataclasses as dc
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING, Any, Callable
 
 import numpy as np
 
 from hlcmp_drake.config.scenario import (
     ConstantImpedanceConfig,
+    ControllerConfig,
     HlcmpConfig,
+    HlcmpForgettingConfig,
     Scenario,
     StepReferenceConfig,
     VariableImpedanceConfig,
 )
 from hlcmp_drake.core.dmp import basis_centers_and_widths
-from hlcmp_drake.core.laws import ConstantImpedanceLaw, HlcmpGains, HlcmpLaw
-from hlcmp_drake.systems.baselines import ConstantImpedanceController, VariableImpedanceController
-from hlcmp_drake.systems.hlcmp_controller import HlcmpController
+from hlcmp_drake.core.laws import (
+    ConstantImpedanceLaw,
+    ControlLaw,
+    HlcmpForgettingLaw,
+    HlcmpGains,
+    HlcmpLaw,
+)
+from hlcmp_drake.systems.baselines import VariableImpedanceController
+from hlcmp_drake.systems.law_controller import LawController
 from hlcmp_drake.systems.ports import REFERENCE_PORTS
 
 if TYPE_CHECKING:
-    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.framework import DiagramBuilder, LeafSystem, OutputPort, System
+
+    from hlcmp_drake.systems.task_space import TaskSpaceDynamics
+
+# A learner's weights as three (M, N) arrays (θ_k, θ_d, θ_v).
+Theta = tuple[np.ndarray, np.ndarray, np.ndarray]
+
+# The roles a controller plays in an experiment's comparison (ControllerKind.role).
+LEARNER = "learner"
+CONSTANT_IMPEDANCE = "constant_impedance"
+FORCE_TRACKING = "force_tracking"
 
 # The task-space inputs every controller reads (systems.ports), and where they come from.
 TASK_SPACE_INPUTS = ("position", "velocity", "task_inertia", "task_coriolis", "task_gravity")
@@ -49,20 +72,51 @@ class WorldPorts:
         The task-space position at t = 0 [m].
     """
 
-    reference: object
-    task_space: object
-    contact_force: object
+    reference: System
+    task_space: TaskSpaceDynamics
+    contact_force: OutputPort
     initial_position: np.ndarray
 
 
 @dc.dataclass
 class AddedController:
-    """A controller in a diagram: its system, the series to log from it (name -> output
-    port) and, for a learning controller, a reader of its theta from the root context."""
+    """A controller in a diagram.
 
-    system: object
-    logs: dict
-    read_theta: Callable | None = None
+    Attributes
+    ----------
+    system : LeafSystem
+        The controller's system (the modular controller, or the arm's one-call loop).
+    logs : dict of str to OutputPort or (OutputPort, columns)
+        The series to log from it, by series name.
+    read_theta : callable(root_context) -> tuple of (M, N) arrays, optional
+        A learning controller's weights read back from the diagram's root context.
+    """
+
+    system: LeafSystem
+    logs: dict[str, Any]
+    read_theta: Callable[[Any], tuple[np.ndarray, ...]] | None = None
+
+
+def hlcmp_gains(config: HlcmpConfig) -> HlcmpGains:
+    """The Hl-CMP's gains with Q as rates per second, whichever reading the config asks for.
+
+    Parameters
+    ----------
+    config : HlcmpConfig
+        The learning rates (read as its `q_units` say), pi and L.
+
+    Returns
+    -------
+    HlcmpGains
+    """
+    scale = config.rate_scale()
+    return HlcmpGains(
+        np.asarray(config.q_k, float) * scale,
+        np.asarray(config.q_d, float) * scale,
+        np.asarray(config.q_v, float) * scale,
+        config.pi,
+        np.asarray(config.gain_l, float),
+    )
 
 
 def hlcmp_law(config: HlcmpConfig, scenario: Scenario) -> HlcmpLaw:
@@ -81,24 +135,51 @@ def hlcmp_law(config: HlcmpConfig, scenario: Scenario) -> HlcmpLaw:
         With Q as rates per second, whichever reading the config asks for.
     """
     centers, widths = basis_centers_and_widths(scenario.dmp.n_basis, scenario.dmp.alpha_s)
-    scale = config.rate_scale()
-    return HlcmpLaw(
-        centers,
-        widths,
-        HlcmpGains(
-            np.asarray(config.q_k, float) * scale,
-            np.asarray(config.q_d, float) * scale,
-            np.asarray(config.q_v, float) * scale,
-            config.pi,
-            np.asarray(config.gain_l, float),
-        ),
+    return HlcmpLaw(centers, widths, hlcmp_gains(config))
+
+
+def hlcmp_forgetting_law(config: HlcmpForgettingConfig, scenario: Scenario) -> HlcmpForgettingLaw:
+    """The Hl-CMP with the forgetting factor γ (Yang et al. 2011) on the scenario's phase basis.
+
+    Parameters
+    ----------
+    config : HlcmpForgettingConfig
+        The Hl-CMP's settings and γ = forgetting_per_s [1/s].
+    scenario : Scenario
+        Its DMP settings.
+
+    Returns
+    -------
+    HlcmpForgettingLaw
+    """
+    centers, widths = basis_centers_and_widths(scenario.dmp.n_basis, scenario.dmp.alpha_s)
+    return HlcmpForgettingLaw(centers, widths, hlcmp_gains(config), config.forgetting_per_s)
+
+
+def constant_impedance_law(
+    config: ConstantImpedanceConfig, scenario: Scenario
+) -> ConstantImpedanceLaw:
+    """The constant impedance (Eqs. 33-34 with v = 0) of the config.
+
+    Parameters
+    ----------
+    config : ConstantImpedanceConfig
+    scenario : Scenario
+        Unused: the law has no phase basis.
+
+    Returns
+    -------
+    ConstantImpedanceLaw
+    """
+    return ConstantImpedanceLaw(
+        config.stiffness_N_per_m, config.damping_Ns_per_m, config.pi, config.gain_l
     )
 
 
 def initial_theta(
     config: HlcmpConfig,
     scenario: Scenario,
-    theta0: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+    theta0: Theta | None = None,
 ) -> np.ndarray:
     """A learner's flattened initial weights [θ_k, θ_d, θ_v].
 
@@ -136,43 +217,6 @@ def initial_theta(
     )
 
 
-def hlcmp_controller(
-    config: HlcmpConfig,
-    scenario: Scenario,
-    theta0: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
-) -> HlcmpController:
-    """The Hl-CMP of `hlcmp_law` as one modular system, θ its continuous state.
-
-    Parameters
-    ----------
-    config : HlcmpConfig
-    scenario : Scenario
-    theta0 : tuple of three (M, N) arrays, optional
-        As for `initial_theta`.
-
-    Returns
-    -------
-    HlcmpController
-        The system (not yet added to a diagram).
-    """
-    law = hlcmp_law(config, scenario)
-    return HlcmpController(
-        law.centers, law.widths, law.gains, initial_theta(config, scenario, theta0)
-    )
-
-
-def _constant_law(config: ConstantImpedanceConfig, scenario: Scenario) -> ConstantImpedanceLaw:
-    return ConstantImpedanceLaw(
-        config.stiffness_N_per_m, config.damping_Ns_per_m, config.pi, config.gain_l
-    )
-
-
-def _make_constant(config: ConstantImpedanceConfig, scenario: Scenario, initial_position, theta0):
-    return ConstantImpedanceController(
-        config.stiffness_N_per_m, config.damping_Ns_per_m, config.pi, config.gain_l
-    )
-
-
 def desired_force_schedule(
     config: VariableImpedanceConfig, reference: StepReferenceConfig
 ) -> Callable[[float], np.ndarray]:
@@ -204,7 +248,9 @@ def desired_force_schedule(
     return schedule
 
 
-def _make_variable(config: VariableImpedanceConfig, scenario: Scenario, initial_position, theta0):
+def _variable_impedance_system(
+    config: VariableImpedanceConfig, scenario: Scenario, initial_position: np.ndarray
+) -> VariableImpedanceController:
     return VariableImpedanceController(
         config.mass_kg,
         config.damping_Ns_per_m,
@@ -218,40 +264,84 @@ def _make_variable(config: VariableImpedanceConfig, scenario: Scenario, initial_
     )
 
 
+def _frozen_hlcmp(config: HlcmpConfig) -> HlcmpConfig:
+    zeros = [0.0] * len(config.q_k)
+    return dc.replace(config, q_k=zeros, q_d=zeros, q_v=zeros)
+
+
+def _frozen_forgetting(config: HlcmpForgettingConfig) -> HlcmpForgettingConfig:
+    return dc.replace(_frozen_hlcmp(config), forgetting_per_s=0.0)
+
+
 @dc.dataclass(frozen=True)
 class ControllerKind:
-    """How to add one kind of controller: `make(config, scenario, x0, theta0)` builds the
-    modular system; `logs` are (series name, output port) pairs to log besides the common
-    ones; `uses_contact_force` wires the world's measured force to its `external_force`
-    input; `learns` marks a controller whose theta is continuous state (read back after a
-    run); `law(config, scenario)`, when given, is its `core.laws` law, which a world may
-    evaluate in a one-call loop instead of the modular system."""
+    """What one kind of controller is and how it goes into a diagram.
 
-    make: Callable
-    logs: tuple = ()
+    Attributes
+    ----------
+    role : str
+        Its part in an experiment's comparison: LEARNER (learns θ online; the claims are
+        judged for each), CONSTANT_IMPEDANCE or FORCE_TRACKING (the variable impedance of
+        the paper's ref. [21]).
+    law_type : type, optional
+        Its `core.laws` class: what it logs (`log_fields`) and whether it learns.
+    law : callable(config, scenario) -> ControlLaw, optional
+        Builds that law; a world evaluates it in the modular `LawController` or in a
+        one-call loop (the arm's fast path).
+    system : callable(config, scenario, initial_position) -> LeafSystem, optional
+        For a kind without a law: its own modular system.
+    uses_contact_force : bool
+        Wire the world's measured force to the system's `external_force` input.
+    frozen : callable(config) -> config, optional
+        For a learner: the same config with its learning switched off (θ stays as it
+        starts), for replaying a skill.
+    """
+
+    role: str
+    law_type: type | None = None
+    law: Callable[[Any, Scenario], ControlLaw] | None = None
+    system: Callable[[Any, Scenario, np.ndarray], LeafSystem] | None = None
     uses_contact_force: bool = False
-    learns: bool = False
-    law: Callable | None = None
+    frozen: Callable[[Any], Any] | None = None
+
+    @property
+    def learns(self) -> bool:
+        """Whether its weights θ adapt during a run (and are read back after it)."""
+        return bool(self.law_type is not None and self.law_type.learns)
+
+    @property
+    def logs(self) -> dict[str, str]:
+        """Its own series: the law's output name -> the series name in timeseries.npz."""
+        return dict(self.law_type.log_fields) if self.law_type is not None else {}
 
 
 CONTROLLER_KINDS: dict[type, ControllerKind] = {
-    HlcmpConfig: ControllerKind(
-        lambda config, scenario, initial_position, theta0: hlcmp_controller(
-            config, scenario, theta0
-        ),
-        logs=(
-            ("Ks", "stiffness"),
-            ("Kd", "damping"),
-            ("v", "feedforward"),
-            ("u", "impedance_force"),
-            ("eps", "sliding_error"),
-        ),
-        learns=True,
-        law=hlcmp_law,
+    HlcmpConfig: ControllerKind(LEARNER, law_type=HlcmpLaw, law=hlcmp_law, frozen=_frozen_hlcmp),
+    HlcmpForgettingConfig: ControllerKind(
+        LEARNER, law_type=HlcmpForgettingLaw, law=hlcmp_forgetting_law, frozen=_frozen_forgetting
     ),
-    ConstantImpedanceConfig: ControllerKind(_make_constant, law=_constant_law),
-    VariableImpedanceConfig: ControllerKind(_make_variable, uses_contact_force=True),
+    ConstantImpedanceConfig: ControllerKind(
+        CONSTANT_IMPEDANCE, law_type=ConstantImpedanceLaw, law=constant_impedance_law
+    ),
+    VariableImpedanceConfig: ControllerKind(
+        FORCE_TRACKING, system=_variable_impedance_system, uses_contact_force=True
+    ),
 }
+
+
+def kind_of(config: ControllerConfig) -> ControllerKind:
+    """The registry entry of a controller config.
+
+    Parameters
+    ----------
+    config : controller config
+        One of the ControllerConfig types.
+
+    Returns
+    -------
+    ControllerKind
+    """
+    return CONTROLLER_KINDS[type(config)]
 
 
 def controller_kind(scenario: Scenario, name: str) -> ControllerKind:
@@ -262,8 +352,74 @@ def controller_kind(scenario: Scenario, name: str) -> ControllerKind:
     scenario : Scenario
     name : str
         A label of `scenario.controllers`.
+
+    Returns
+    -------
+    ControllerKind
     """
-    return CONTROLLER_KINDS[type(scenario.controllers[name])]
+    return kind_of(scenario.controllers[name])
+
+
+def labels_with_role(scenario: Scenario, role: str) -> list[str]:
+    """The labels of the scenario's controllers whose kind plays `role`, in file order.
+
+    Parameters
+    ----------
+    scenario : Scenario
+    role : str
+        LEARNER, CONSTANT_IMPEDANCE or FORCE_TRACKING.
+
+    Returns
+    -------
+    list of str
+    """
+    return [name for name, config in scenario.controllers.items() if kind_of(config).role == role]
+
+
+def learners(scenario: Scenario) -> list[str]:
+    """The labels of the scenario's learning controllers, in file order.
+
+    Parameters
+    ----------
+    scenario : Scenario
+
+    Returns
+    -------
+    list of str
+    """
+    return labels_with_role(scenario, LEARNER)
+
+
+def modular_system(
+    config: ControllerConfig,
+    scenario: Scenario,
+    initial_position: np.ndarray,
+    theta0: Theta | None = None,
+) -> LeafSystem:
+    """A controller as one modular system: its law in a `LawController` (θ its continuous
+    state), or the kind's own system.
+
+    Parameters
+    ----------
+    config : controller config
+    scenario : Scenario
+    initial_position : (M,) array
+        The task-space position at t = 0 [m] (for a kind with a state of its own).
+    theta0 : tuple of three (M, N) arrays, optional
+        As for `initial_theta` (learners only).
+
+    Returns
+    -------
+    LeafSystem
+        Not yet added to a diagram.
+    """
+    kind = kind_of(config)
+    if kind.law is None:
+        assert kind.system is not None
+        return kind.system(config, scenario, initial_position)
+    law = kind.law(config, scenario)
+    start = initial_theta(config, scenario, theta0) if kind.learns else None
+    return LawController(law, start)
 
 
 def add_controller(
@@ -271,7 +427,7 @@ def add_controller(
     scenario: Scenario,
     name: str,
     world: WorldPorts,
-    theta0: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+    theta0: Theta | None = None,
 ) -> AddedController:
     """Add the scenario's controller `name` to `builder` and wire it to `world`.
 
@@ -293,8 +449,8 @@ def add_controller(
         controller, its theta reader.
     """
     config = scenario.controllers[name]
-    kind = controller_kind(scenario, name)
-    system = builder.AddSystem(kind.make(config, scenario, world.initial_position, theta0))
+    kind = kind_of(config)
+    system = builder.AddSystem(modular_system(config, scenario, world.initial_position, theta0))
     system.set_name(name)
     for port in REFERENCE_PORTS:
         builder.Connect(world.reference.GetOutputPort(port), system.GetInputPort(port))
@@ -308,6 +464,6 @@ def add_controller(
 
     return AddedController(
         system,
-        {series: system.GetOutputPort(port) for series, port in kind.logs},
+        {series: system.GetOutputPort(port) for port, series in kind.logs.items()},
         read_theta if kind.learns else None,
     )
