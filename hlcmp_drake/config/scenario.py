@@ -249,6 +249,39 @@ class SliderTask:
     environment_stiffness_N_per_m: float = 10.0
     surface_position_m: float = 0.0
 
+    def axis_count(self, reference: object) -> int:
+        """M, the task-space axes: one per column of the set-points.
+
+        Parameters
+        ----------
+        reference : StepReferenceConfig
+
+        Returns
+        -------
+        int
+        """
+        assert isinstance(reference, StepReferenceConfig)
+        return len(reference.positions_m[0])
+
+    def check_scenario(self, scenario: "Scenario", fail: Fail) -> None:
+        """The slider follows set-points; its axis is one of the joint's three.
+
+        Parameters
+        ----------
+        scenario : Scenario
+        fail : callable(dotted_key: str, problem: str)
+            Raises the InputError that names where the key was set.
+        """
+        if not isinstance(scenario.reference, StepReferenceConfig):
+            fail("reference", "the slider world follows a !StepReferenceConfig reference")
+        if self.axis not in (0, 1, 2):
+            fail("task.axis", f"must be 0 (x), 1 (y) or 2 (z), got {self.axis}")
+        if not (
+            math.isfinite(self.environment_stiffness_N_per_m)
+            and self.environment_stiffness_N_per_m >= 0
+        ):
+            fail("task.environment_stiffness_N_per_m", "must be finite and non-negative")
+
 
 # How an arm world puts its controller in the diagram (ArmTask.control_path).
 CONTROL_PATHS = ("fast", "modular")
@@ -334,8 +367,61 @@ class ArmTask:
     puncture: PunctureConfig = dc.field(default_factory=PunctureConfig)
     control_path: str = "fast"
 
+    def physics_extras(self) -> list[PunctureConfig]:
+        """The world physics extras this task configures, in the order they are added
+        (`hlcmp_drake.worlds.extras`): the puncture when it names an object.
+
+        Returns
+        -------
+        list of extra configs
+        """
+        return [self.puncture] if self.puncture.object_frame else []
+
+    def axis_count(self, reference: object) -> int:
+        """M, the task-space axes the controllers act on: the tool point's x, y, z.
+
+        Parameters
+        ----------
+        reference : reference config
+            Unused: the arm's axes are its own.
+
+        Returns
+        -------
+        int
+        """
+        return len(self.axes)
+
+    def check_scenario(self, scenario: "Scenario", fail: Fail) -> None:
+        """The checks an arm world needs of the whole scenario: its own values (`check`),
+        a demonstration to follow, the iiwa driver's settings, and a plant the one-call
+        controller can tick with.
+
+        Parameters
+        ----------
+        scenario : Scenario
+        fail : callable(dotted_key: str, problem: str)
+            Raises the InputError that names where the key was set.
+        """
+        if not isinstance(scenario.reference, DemonstrationConfig):
+            fail("reference", "an arm task needs a !DemonstrationConfig reference")
+        self.check(fail)
+        scenario.iiwa_driver.check(fail)
+        if self.control_path == "fast" and not scenario.plant_config.time_step > 0:
+            fail(
+                "plant_config.time_step",
+                "the arm's fast path ticks once per plant step: it needs a "
+                "discrete plant (time_step > 0), or task.control_path: modular",
+            )
+        if scenario.plant_config.use_sampled_output_ports:
+            # The arm's controller and the foam's friction are unrestricted updates at the
+            # plant's step; a sampled plant steps in the same pass and would see them a step late.
+            fail(
+                "plant_config.use_sampled_output_ports",
+                "an arm world needs false (the controller's tick must come before the plant's step)",
+            )
+
     def check(self, fail: Fail) -> None:
-        """Check axes distinct in {0, 1, 2}, the tool direction and orientation, gains >= 0
+        """Check the axes [0, 1, 2], the tool direction and orientation, gains >= 0
         and positive safety limits.
 
         Parameters
@@ -348,14 +434,13 @@ class ArmTask:
         InputError
             Through `fail`, for the first problem found.
         """
-        if (
-            not self.axes
-            or any(a not in (0, 1, 2) for a in self.axes)
-            or len(set(self.axes)) != len(self.axes)
-        ):
+        if list(self.axes) != [0, 1, 2]:
+            # The demonstration, the start posture's inverse kinematics, the puncture and the
+            # metrics are all of the tool point in 3-D; nothing would hold an axis left out.
             fail(
                 "task.axes",
-                f"task axes must be distinct values of 0 (x), 1 (y), 2 (z), got {self.axes}",
+                f"an arm task controls the tool point in x, y and z: axes must be [0, 1, 2], "
+                f"got {self.axes}",
             )
         if len(self.tool_direction) != 3 or not any(self.tool_direction):
             fail("task.tool_direction", "needs a non-zero 3-vector")
@@ -378,11 +463,6 @@ class ArmTask:
             fail(
                 "task.control_path",
                 f"must be one of {', '.join(CONTROL_PATHS)}, got '{self.control_path}'",
-            )
-        if self.puncture.object_frame and list(self.axes) != [0, 1, 2]:
-            fail(
-                "task.puncture.object_frame",
-                "a puncture needs the task axes [0, 1, 2] (the tool point in 3-D)",
             )
 
 
@@ -526,21 +606,4 @@ class Scenario:
     @property
     def n_axes(self) -> int:
         """M, the number of task-space axes the controllers act on."""
-        if isinstance(self.task, ArmTask):
-            return len(self.task.axes)
-        return len(self.reference.positions_m[0])
-
-    def controllers_of(self, kind: type) -> list[str]:
-        """The labels of the controllers whose config is of type `kind`, in file order.
-
-        Parameters
-        ----------
-        kind : type
-            A controller config class, e.g. HlcmpConfig.
-
-        Returns
-        -------
-        list of str
-            The matching labels of `controllers`.
-        """
-        return [name for name, config in self.controllers.items() if isinstance(config, kind)]
+        return self.task.axis_count(self.reference)

@@ -5,7 +5,6 @@ from pathlib import Path
 from typing import Callable
 
 from hlcmp_drake.config.scenario import (
-    ArmTask,
     DemonstrationConfig,
     Fail,
     Scenario,
@@ -75,8 +74,6 @@ def validate_scenario(
         fail(f"dmp.{str(error).split()[0]}", str(error))
     reference = scenario.reference
     if isinstance(reference, StepReferenceConfig):
-        if isinstance(scenario.task, ArmTask):
-            fail("reference", "an arm task needs a !DemonstrationConfig reference")
         if len(reference.times_s) != len(reference.positions_m) or not reference.times_s:
             fail("reference.times_s", "needs one entry per row of positions_m")
         if reference.times_s[0] != 0 or any(
@@ -97,23 +94,7 @@ def validate_scenario(
                 "reference.duration_s",
                 "the demonstration's duration_s must be >= 0 (0: as demonstrated)",
             )
-    if isinstance(scenario.task, ArmTask):
-        scenario.task.check(fail)
-        scenario.iiwa_driver.check(fail)
-        if scenario.task.control_path == "fast" and not scenario.plant_config.time_step > 0:
-            fail(
-                "plant_config.time_step",
-                "the arm's fast path ticks once per plant step: it needs a "
-                "discrete plant (time_step > 0), or task.control_path: modular",
-            )
-        if scenario.plant_config.use_sampled_output_ports:
-            # The arm's controller and the foam's friction are unrestricted updates at the
-            # plant's step; a sampled plant steps in the same pass and would see them a step late.
-            fail(
-                "plant_config.use_sampled_output_ports",
-                "an arm world needs false (the controller's "
-                "tick must come before the plant's step)",
-            )
+    scenario.task.check_scenario(scenario, fail)
     if not scenario.controllers:
         fail("controllers", "at least one controller is needed")
     for name, config in scenario.controllers.items():

@@ -215,7 +215,7 @@ def _joint_space_replay(scenario, setup, run, harness):
         None,
         loggers,
         states[0, :nq],
-        world.puncture.apply_tear if world.puncture is not None else None,
+        world.sensing.after_step(),
     )
 
 

@@ -17,7 +17,9 @@ from hlcmp_drake.config.scenario import Scenario
 from hlcmp_drake.core.metrics import probe_readings
 from hlcmp_drake.experiments.plots import new_figure
 from hlcmp_drake.io import outputs
-from hlcmp_drake.worlds.probe import ProbeWorld, build_probe
+from hlcmp_drake.io.errors import InputError
+from hlcmp_drake.worlds.build import world_of
+from hlcmp_drake.worlds.probe import ProbeWorld
 
 
 @dc.dataclass
@@ -49,8 +51,8 @@ def simulate_probe(
     )
 
     def monitor(root_context):
-        if world.puncture is not None:
-            world.puncture.apply_tear(root_context)
+        if world.after_step is not None:
+            world.after_step(root_context)
         return EventStatus.DidNothing()
 
     simulator.set_monitor(monitor)
@@ -163,6 +165,12 @@ def run_probe(
         ``dotted.key=value`` overrides, e.g. ``probe.tilt_rad=0.001``.
     """
     scenario, _ = load_scenario(name_or_path, overrides)
+    build_probe = world_of(scenario).build_probe
+    if build_probe is None:
+        raise InputError(
+            f"scenario '{scenario.name}' has no probe: it needs an arm task and probe.start_m, "
+            "probe.push_m"
+        )
     world = build_probe(scenario, speed)
     t, position, force, status = simulate_probe(world, scenario)
     readings, distance, resisting, lateral = readings_of(world, scenario, t, position, force)

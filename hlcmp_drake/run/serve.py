@@ -30,7 +30,7 @@ from pydrake.lcm import DrakeLcm
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
 
-from hlcmp_drake.config.scenario import ArmTask, Scenario
+from hlcmp_drake.config.scenario import Scenario
 from hlcmp_drake.experiments import experiment_of
 from hlcmp_drake.io import outputs
 from hlcmp_drake.io.errors import InputError
@@ -50,6 +50,7 @@ from hlcmp_drake.run.runner import evaluate, without_claims, write_results
 from hlcmp_drake.run.sim_driver import DriverSummary, SimulatedIiwaDriver
 from hlcmp_drake.systems.monitor import plant_state_check
 from hlcmp_drake.worlds.arm import ArmSetup, arm_check, arm_tick, prepare
+from hlcmp_drake.worlds.build import driven_world_of
 from hlcmp_drake.worlds.common import sample_reference
 from hlcmp_drake.worlds.controllers import controller_kind, initial_theta
 from hlcmp_drake.worlds.controllers import learners as learning_controllers
@@ -94,11 +95,7 @@ def served_scenario(
         For a scenario without an arm, an unknown label, a controller that has no
         one-tick law (a variable impedance), or a skill that does not fit.
     """
-    if not isinstance(scenario.task, ArmTask):
-        raise InputError(
-            f"scenario '{scenario.name}' has no arm: hlcmp serve drives an iiwa, "
-            "use an arm scenario such as insertion or cutting"
-        )
+    driven_world_of(scenario, "hlcmp serve drives an iiwa")
     if skill is not None:
         scenario = learning_scenario(scenario, skill=skill, freeze=freeze)
         controller = next(iter(scenario.controllers))
@@ -197,8 +194,9 @@ class TorqueClient:
         self.log_rows: dict[str, list] = {
             name: [] for name in ("x", "xd", "f_ext", "fc", "plant_state", "saturated_joints")
         }
-        self._law_series = controller_kind(scenario, controller).logs  # (series, log column) pairs
-        self.log_rows.update({series: [] for series, _ in self._law_series})
+        # The law's log column -> its series name.
+        self._law_series = controller_kind(scenario, controller).logs
+        self.log_rows.update({series: [] for series in self._law_series.values()})
         self.stopped_because: str | None = None
         self.status = FINISHED
         lcm.Subscribe(self.config.status_channel, self._on_status)
@@ -377,7 +375,7 @@ class TorqueClient:
         logs["fc"].append(row[columns["force"]])
         logs["plant_state"].append(state)
         logs["saturated_joints"].append(row[columns["saturated"]])
-        for series, field in self._law_series:
+        for field, series in self._law_series.items():
             logs[series].append(row[columns[field]])
 
     def run_result(self) -> RunResult:

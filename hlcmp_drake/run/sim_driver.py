@@ -29,7 +29,7 @@ from pydrake.lcm import DrakeLcm
 from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.analysis import SimulatorStatus
 
-from hlcmp_drake.config.scenario import ArmTask, Scenario
+from hlcmp_drake.config.scenario import Scenario
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.io.iiwa_lcm import (
     IiwaStatus,
@@ -41,7 +41,8 @@ from hlcmp_drake.io.iiwa_lcm import (
 )
 from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.run.simulate import prepared_simulator
-from hlcmp_drake.worlds.arm import ArmSetup, build_driven, prepare
+from hlcmp_drake.worlds.arm import ArmSetup
+from hlcmp_drake.worlds.build import driven_world_of
 from hlcmp_drake.worlds.models import scoped_frame
 
 # drake-iiwa-driver's torque-only constants: its start-command guard, the age at which a
@@ -95,11 +96,7 @@ class SimulatedIiwaDriver:
     """
 
     def __init__(self, scenario: Scenario, lcm: DrakeLcm, setup: ArmSetup | None = None):
-        if not isinstance(scenario.task, ArmTask):
-            raise InputError(
-                f"scenario '{scenario.name}' has no arm: the simulated iiwa driver needs an "
-                "arm scenario such as insertion or cutting"
-            )
+        world = driven_world_of(scenario, "the simulated iiwa driver drives an arm")
         self.config = scenario.iiwa_driver
         step = scenario.plant_config.time_step
         self.period = self.config.period_s
@@ -109,8 +106,9 @@ class SimulatedIiwaDriver:
                 f"of plant steps (plant_config.time_step = {step} s)"
             )
         self._lcm = lcm
-        setup = setup or prepare(scenario)
-        built = build_driven(scenario, setup)
+        setup = setup or world.prepare(scenario, None)
+        assert world.build_driven is not None
+        built = world.build_driven(scenario, setup)
         self.plant = built.plant
         self.simulator = prepared_simulator(built, scenario)
         status = self.simulator.Initialize()

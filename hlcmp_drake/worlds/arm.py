@@ -38,11 +38,12 @@ from hlcmp_drake.worlds.controllers import (
     controller_kind,
     initial_theta,
 )
+from hlcmp_drake.worlds.extras import ToolSensing, add_tool_sensing
 from hlcmp_drake.worlds.models import add_plant, load_models, scoped_frame, solve_ik_for_tool
-from hlcmp_drake.worlds.puncture import Puncture, add_puncture
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
+    from pydrake.multibody.tree import Frame
     from pydrake.systems.framework import OutputPort
 
 
@@ -153,18 +154,31 @@ def prepare(scenario: Scenario, dmp: Dmp | None = None) -> ArmSetup:
 
 @dc.dataclass
 class ArmWorld:
-    """The arm's world in a diagram being built, before any controller: the plant, the
-    tool frame, the wrist force sensor and the foam's give-way (None without one)."""
+    """The arm's world in a diagram being built, before any controller.
+
+    Attributes
+    ----------
+    plant : MultibodyPlant
+        Finalized, with the scenario's models.
+    tool_frame : Frame
+        The tool point's frame (task.tool_frame).
+    sensing : ToolSensing
+        The wrist force sensor and the task's physics extras (e.g. the foam's give-way).
+    """
 
     plant: MultibodyPlant
-    tool_frame: object
-    sensor: ToolContactForce
-    puncture: Puncture | None
+    tool_frame: Frame
+    sensing: ToolSensing
+
+    @property
+    def sensor(self) -> ToolContactForce:
+        """The wrist force sensor."""
+        return self.sensing.sensor
 
 
 def add_world(builder: DiagramBuilder, scenario: Scenario) -> ArmWorld:
-    """Add the plant and its models, the foam's give-way (when the task has one) and the
-    wrist force sensor.
+    """Add the plant and its models, the task's physics extras (the foam's give-way, when
+    the task has one) and the wrist force sensor.
 
     Parameters
     ----------
@@ -180,19 +194,8 @@ def add_world(builder: DiagramBuilder, scenario: Scenario) -> ArmWorld:
     task: ArmTask = scenario.task
     plant, scene_graph = add_plant(builder, scenario)
     tool_frame = scoped_frame(plant, task.tool_frame)
-    puncture = None
-    if task.puncture.object_frame:
-        puncture = add_puncture(
-            builder, plant, scene_graph, task.puncture, tool_frame, task.tool_direction
-        )
-    sensor = builder.AddSystem(
-        ToolContactForce(plant, tool_frame.body(), task.axes, applied_force=puncture is not None)
-    )
-    sensor.set_name("wrist_force_sensor")
-    builder.Connect(plant.get_contact_results_output_port(), sensor.contact_results)
-    if puncture is not None:
-        builder.Connect(puncture.system.GetOutputPort("force"), sensor.applied_force)
-    return ArmWorld(plant, tool_frame, sensor, puncture)
+    sensing = add_tool_sensing(builder, plant, scene_graph, task, tool_frame, axes=tuple(task.axes))
+    return ArmWorld(plant, tool_frame, sensing)
 
 
 def add_harness(
@@ -289,7 +292,7 @@ def build(
         controller,
         loggers,
         setup.q0,
-        world.puncture.apply_tear if world.puncture is not None else None,
+        world.sensing.after_step(),
     )
 
 
@@ -321,7 +324,7 @@ def build_driven(scenario: Scenario, setup: ArmSetup) -> BuiltDiagram:
         None,
         {},
         setup.q0,
-        world.puncture.apply_tear if world.puncture is not None else None,
+        world.sensing.after_step(),
     )
 
 

@@ -1,36 +1,101 @@
-"""From a scenario to diagrams: the world kind its task names, built once per controller."""
+"""The world registry: a scenario's task type -> its world kind, and diagrams built from it
+once per controller.
+
+Adding a world kind: its task config in `hlcmp_drake.config.scenario` (owning its checks,
+`check_scenario`, and its axis count, `axis_count`; and in the Scenario's task Union), one
+module in this folder with its `prepare` and `build` (and, for an arm an iiwa driver can
+drive, `build_driven`; for a world the probe can measure, a probe builder), and one entry
+in WORLDS.
+"""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Callable
+import dataclasses as dc
+from typing import Any, Callable
 
 from hlcmp_drake.config.scenario import ArmTask, Scenario, SliderTask
 from hlcmp_drake.core.dmp import Dmp
-from hlcmp_drake.worlds import arm, slider
+from hlcmp_drake.io.errors import InputError
+from hlcmp_drake.worlds import arm, probe, slider
 from hlcmp_drake.worlds.common import BuiltDiagram
-
-if TYPE_CHECKING:
-    from types import ModuleType
-
-# A scenario's task type -> the module that builds its world (prepare, build).
-# Adding a world kind: its task config and one module.
-WORLDS = {SliderTask: slider, ArmTask: arm}
+from hlcmp_drake.worlds.controllers import Theta
 
 
-def world_of(scenario: Scenario) -> ModuleType:
-    """The world module for the scenario's task.
+@dc.dataclass(frozen=True)
+class World:
+    """What a world kind offers the runs, the iiwa driver and the probe.
+
+    Attributes
+    ----------
+    name : str
+        How messages name it ("slider", "arm").
+    prepare : callable(scenario, dmp) -> setup
+        The work every controller's diagram shares (for an arm: the DMP fit, unless a DMP
+        is given, and the start posture); its result is `build`'s `setup`.
+    build : callable(scenario, controller_name, setup, theta0) -> BuiltDiagram
+        One controller's diagram: the world, the controller and the harness.
+    build_driven : callable(scenario, setup) -> BuiltDiagram, optional
+        The world with its joints' torques left open for an external driver (`hlcmp
+        sim-driver`); None for a world with no arm to drive.
+    build_probe : callable(scenario, speed, tilt_rad) -> ProbeWorld, optional
+        The world measured alone, the tool on a carriage (`hlcmp probe`); None for a world
+        without a probe.
+    """
+
+    name: str
+    prepare: Callable[[Scenario, Dmp | None], Any]
+    build: Callable[[Scenario, str, Any, Theta | None], BuiltDiagram]
+    build_driven: Callable[[Scenario, Any], BuiltDiagram] | None = None
+    build_probe: Callable[..., probe.ProbeWorld] | None = None
+
+
+WORLDS: dict[type, World] = {
+    SliderTask: World("slider", slider.prepare, slider.build),
+    ArmTask: World("arm", arm.prepare, arm.build, arm.build_driven, probe.build_probe),
+}
+
+
+def world_of(scenario: Scenario) -> World:
+    """The world kind of the scenario's task.
 
     Parameters
     ----------
     scenario : Scenario
-        Its task's type (SliderTask, ArmTask) picks the module in WORLDS.
+        Its task's type picks the entry of WORLDS.
 
     Returns
     -------
-    module
-        `hlcmp_drake.worlds.slider` or `hlcmp_drake.worlds.arm`: its `prepare` and `build`.
+    World
     """
     return WORLDS[type(scenario.task)]
+
+
+def driven_world_of(scenario: Scenario, who: str) -> World:
+    """The scenario's world kind, which must have an arm an iiwa driver can drive.
+
+    Parameters
+    ----------
+    scenario : Scenario
+    who : str
+        What needs the arm, for the message (e.g. "hlcmp serve drives an iiwa").
+
+    Returns
+    -------
+    World
+        With `build_driven`.
+
+    Raises
+    ------
+    InputError
+        For a world without an arm to drive.
+    """
+    world = world_of(scenario)
+    if world.build_driven is None:
+        raise InputError(
+            f"scenario '{scenario.name}' has no arm: {who}, use an arm scenario such as "
+            "insertion or cutting"
+        )
+    return world
 
 
 def diagram_factory(scenario: Scenario, dmp: Dmp | None = None) -> Callable[..., BuiltDiagram]:

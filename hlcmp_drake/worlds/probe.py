@@ -5,6 +5,7 @@ the world itself can be measured with no controller under test (`hlcmp probe`)."
 from __future__ import annotations
 
 import dataclasses as dc
+from typing import Callable
 
 import numpy as np
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
@@ -14,15 +15,14 @@ from pydrake.multibody.tree import (
     RotationalInertia,
     SpatialInertia,
 )
-from pydrake.systems.framework import DiagramBuilder
+from pydrake.systems.framework import Context, DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
 from hlcmp_drake.config.scenario import ArmTask, ProbeConfig, Scenario
 from hlcmp_drake.io.errors import InputError
-from hlcmp_drake.systems.arm import ToolContactForce
+from hlcmp_drake.worlds.extras import add_tool_sensing
 from hlcmp_drake.worlds.models import add_plant, scoped_frame
-from hlcmp_drake.worlds.puncture import Puncture, add_puncture
 
 CARRIAGE_STIFFNESS_N_PER_M = 1.0e6  # stiff enough that contact forces of 20 N move it by 20 um
 CARRIAGE_MASS_KG = 0.05
@@ -40,7 +40,7 @@ class ProbeWorld:
     push: tuple  # (start time, end time) of the measured push [s]
     state_log: object
     force_log: object
-    puncture: Puncture | None
+    after_step: Callable[[Context], None] | None  # the physics extras' (e.g. the tear)
 
 
 def _without_arm(scenario: Scenario, arm: str) -> tuple[list, str]:
@@ -180,20 +180,13 @@ def build_probe(
     trajectory = PiecewisePolynomial.FirstOrderHold(times, points.T)
     source = builder.AddSystem(TrajectorySource(trajectory, output_derivative_order=1))
     builder.Connect(source.get_output_port(), plant.get_desired_state_input_port(instance))
-    puncture = None
-    if task.puncture.object_frame:
-        puncture = add_puncture(
-            builder, plant, scene_graph, task.puncture, tool_point, task.tool_direction
-        )
-    sensor = builder.AddSystem(
-        ToolContactForce(plant, tool_point.body(), applied_force=puncture is not None)
-    )
-    builder.Connect(plant.get_contact_results_output_port(), sensor.contact_results)
-    if puncture is not None:
-        builder.Connect(puncture.system.GetOutputPort("force"), sensor.applied_force)
+    sensing = add_tool_sensing(builder, plant, scene_graph, task, tool_point)
+    sensor = sensing.sensor
     period = plant.time_step()
     state_log = LogVectorOutput(plant.get_state_output_port(instance), builder, period)
     force_log = LogVectorOutput(sensor.GetOutputPort("force"), builder, period)
     diagram = builder.Build()
     diagram.set_name(f"{scenario.name}_probe")
-    return ProbeWorld(diagram, plant, points, times, push, state_log, force_log, puncture)
+    return ProbeWorld(
+        diagram, plant, points, times, push, state_log, force_log, sensing.after_step()
+    )
