@@ -17,6 +17,10 @@ core -> io -> config -> systems -> worlds -> experiments -> present -> run -> cl
 
 import importlib
 
+# The one place the version is written: pyproject.toml reads it from here
+# ([tool.setuptools.dynamic]), and `hlcmp --version` prints it.
+__version__ = "0.1.0"
+
 # public name -> the module that defines it
 _EXPORTS = {
     # the numpy core

@@ -401,14 +401,9 @@ def cmd_sim_driver(args):
 
 
 def build_parser():
-    from importlib.metadata import PackageNotFoundError, version
-
+    from hlcmp_drake import __version__
     from hlcmp_drake.io.paths import bundled_scenarios
 
-    try:
-        own_version = version("hlcmp_drake")
-    except PackageNotFoundError:  # run from a source tree that was never installed
-        own_version = "unknown"
     bundled = bundled_scenarios()
     # --debug and --quiet are accepted before or after the subcommand.
     common = argparse.ArgumentParser(add_help=False)
@@ -442,7 +437,7 @@ def build_parser():
         description="Hl-CMPs: learn human-like compliant skills on Drake.",
         parents=[common],
     )
-    parser.add_argument("--version", action="version", version=f"hlcmp_drake {own_version}")
+    parser.add_argument("--version", action="version", version=f"hlcmp_drake {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     run = sub.add_parser(

@@ -1,13 +1,17 @@
 """The built wheel carries the worlds: package.xml, the models, the bundled scenarios and
-the demonstrations, found by hlcmp_drake.io.paths where a wheel puts them."""
+the demonstrations, found by hlcmp_drake.io.paths where a wheel puts them; the version is
+written once, in hlcmp_drake/__init__.py."""
 
+import ast
 import os
+import re
 import shutil
 import subprocess
 import sys
 import textwrap
 import zipfile
 from pathlib import Path
+from xml.etree import ElementTree
 
 import pytest
 
@@ -49,6 +53,41 @@ def test_every_data_file_matches_a_package_data_pattern():
     data.add(REPO_ROOT / "package.xml")
     missing = sorted(str(p.relative_to(REPO_ROOT)) for p in data - shipped)
     assert not missing, f"not shipped in the wheel (add a package-data pattern): {missing}"
+
+
+def _version_literal() -> str:
+    """The string assigned to __version__ in hlcmp_drake/__init__.py, read without
+    importing it (as setuptools reads it)."""
+    init = ast.parse((REPO_ROOT / "hlcmp_drake" / "__init__.py").read_text())
+    (literal,) = [
+        node.value.value
+        for node in init.body
+        if isinstance(node, ast.Assign)
+        and [getattr(t, "id", None) for t in node.targets] == ["__version__"]
+        and isinstance(node.value, ast.Constant)
+    ]
+    return literal
+
+
+def test_the_version_is_written_once():
+    # pyproject.toml reads the version from hlcmp_drake/__init__.py; package.xml, which
+    # only Drake reads, carries none.
+    project = _pyproject()["project"]
+    assert "version" not in project and "version" in project["dynamic"]
+    dynamic = _pyproject()["tool"]["setuptools"]["dynamic"]
+    assert dynamic["version"] == {"attr": "hlcmp_drake.__version__"}
+    literal = _version_literal()
+    assert re.fullmatch(r"\d+\.\d+\.\d+\S*", literal), literal
+    manifest = ElementTree.parse(REPO_ROOT / "package.xml").getroot()
+    assert manifest.find("version") is None, "package.xml: the version lives in __init__.py"
+
+
+def test_drake_finds_the_package_without_a_version():
+    # Drake's PackageMap takes the package's name from package.xml and nothing else.
+    package_map = pytest.importorskip("pydrake.multibody.parsing").PackageMap.MakeEmpty()
+    package_map.AddPackageXml(str(REPO_ROOT / "package.xml"))
+    assert package_map.GetPackageNames() == ["hlcmp_drake"]
+    assert Path(package_map.GetPath("hlcmp_drake")).resolve() == REPO_ROOT.resolve()
 
 
 def _build_wheel(tmp_path: Path) -> Path:
@@ -96,6 +135,10 @@ def test_wheel_carries_the_worlds_and_paths_find_them(tmp_path):
     ]:
         assert DATA + name in names, name
     assert "hlcmp_drake/io/paths.py" in names
+    (metadata,) = [n for n in names if n.endswith(".dist-info/METADATA")]
+    version_line = f"Version: {_version_literal()}"
+    assert version_line in zipfile.ZipFile(wheel).read(metadata).decode().splitlines()
+    assert [n for n in names if n.endswith(".dist-info/licenses/LICENSE")]
     assert not [n for n in names if n.startswith(DATA) and n.endswith((".py", ".md", ".toml"))]
 
     # The wheel's files are the installed layout: put them first on the path and, from a

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 # Axes with |g - p0| below this fraction of the demonstration's range are "g ~ p0" axes
-# (SPEC section 2): their Eq. 13 amplitude would vanish, so the range is used instead.
+# (reach down, cut, come back up): their Eq. 13 amplitude would vanish; the range is used.
 DEGENERATE_GOAL_FRACTION = 0.1
 # The regression also sees the demonstration's end held at rest for this fraction of tau.
 TAIL_FRACTION = 0.5
