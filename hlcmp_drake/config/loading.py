@@ -13,7 +13,7 @@ import copy
 import re
 import typing
 from pathlib import Path
-from typing import Sequence, Union
+from typing import Any, NoReturn, Sequence, Union
 
 from pydrake.common.yaml import yaml_load_typed
 
@@ -122,10 +122,10 @@ class _Source:
         where = f"{self.path}:{line}" if line else f"{self.path}"
         return InputError(f"{where}: {leaf}: {problem}")
 
-    def fail(self, dotted_key: str, problem: str) -> None:
+    def fail(self, dotted_key: str, problem: str) -> NoReturn:
         raise self.error(dotted_key, problem)
 
-    def fail_model(self, file: str) -> None:
+    def fail_model(self, file: str) -> NoReturn:
         line = next((n for n, row in enumerate(self.text.splitlines(), 1) if file in row), None)
         where = f"{self.path}:{line}" if line else f"{self.path}"
         raise InputError(f"{where}: file: model file '{file}' does not exist")
@@ -204,7 +204,9 @@ def override_yaml(scenario: Scenario, dotted_key: str, value_yaml: str) -> str:
         With the part (its only argument) that names no field of a dataclass.
     """
     parts = dotted_key.split(".")
-    lines, node, i, depth = [], scenario, 0, 0
+    lines: list[str] = []
+    node: Any = scenario
+    i, depth = 0, 0
     while i < len(parts):
         owner = node
         key, i = _split_key(owner, parts, i)

@@ -13,7 +13,7 @@ adding its config class here and its factory in `hlcmp_drake.worlds.controllers`
 
 import dataclasses as dc
 import math
-from typing import Callable, Union
+from typing import Callable, NoReturn, Union
 
 from pydrake.multibody.parsing import ModelDirective
 from pydrake.multibody.plant import MultibodyPlantConfig
@@ -23,7 +23,7 @@ from hlcmp_drake.core.dmp import DmpSettings
 
 # fail(key, problem): raises the InputError that names where `key` -- a dotted path such as
 # "controllers.hlcmp.q_k" -- was set (the file's line, or the override).
-Fail = Callable[[str, str], None]
+Fail = Callable[[str, str], NoReturn]
 
 
 def check_per_axis(
@@ -77,6 +77,7 @@ class ControllerChecks:
     the YAML never sets it."""
 
     PER_AXIS: dict = {}
+    pi: float  # the sliding-surface slope of Eq. 29, declared by each config
 
     def check(self, name: str, m: int, fail: Fail) -> None:
         """Check this controller's values.

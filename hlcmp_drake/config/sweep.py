@@ -42,6 +42,7 @@ import yaml
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 
 from hlcmp_drake.config.loading import line_of, load_scenario, resolve_scenario_path, resolve_yaml
+from hlcmp_drake.config.scenario import Fail
 from hlcmp_drake.io.errors import InputError, located
 from hlcmp_drake.io.paths import DIAGRAMS_DIR
 
@@ -359,7 +360,7 @@ def load_sweep(name_or_path: str | Path) -> Sweep:
     return Sweep(path, text, config, scenario_path, parameters)
 
 
-def _scenario_path(scenario: str, sweep_path: Path, fail) -> Path:
+def _scenario_path(scenario: str, sweep_path: Path, fail: Fail) -> Path:
     if not scenario:
         fail("scenario", "scenario: must be given (a bundled scenario's name or a .yaml path)")
     candidate = Path(scenario)
@@ -522,8 +523,9 @@ def plan_tasks(sweep: Sweep, out_dir: str | Path) -> list[SweepTask]:
         problem the scenario loader found) or two tasks whose ids collide.
     """
     config = sweep.config
-    cases = config.cases or [None]
-    tasks, seen = [], {}
+    cases: list[SweepCase | None] = list(config.cases) or [None]
+    tasks: list = []
+    seen: dict = {}
     for case, point in itertools.product(cases, itertools.product(*config.grid.values())):
         parameters = ({CASE: case.label} if case else {}) | dict(zip(config.grid, point))
         overrides = [f"{k}={v}" for k, v in config.set.items()]

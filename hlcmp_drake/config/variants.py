@@ -2,6 +2,7 @@
 
 import dataclasses as dc
 
+import numpy as np
 from pydrake.common.schema import Transform
 from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import AddModel, AddWeld, ModelDirective
@@ -45,11 +46,13 @@ def use_drake_models_iiwa(scenario: Scenario) -> Scenario:
             )
         elif weld is not None and weld.parent.endswith("::flange"):
             x_pc = weld.X_PC.GetDeterministicValue() if weld.X_PC is not None else RigidTransform()
+            # pydrake's stubs spell a 3-vector as ndarray[float64]; numpy's arrays are generic.
+            flange_offset = RigidTransform(p=np.array([0.0, 0.0, FLANGE_OFFSET_M]))  # type: ignore[arg-type]
             directive = ModelDirective(
                 add_weld=AddWeld(
                     parent=weld.parent[: -len("flange")] + "iiwa_link_7",
                     child=weld.child,
-                    X_PC=Transform(RigidTransform([0.0, 0.0, FLANGE_OFFSET_M]) @ x_pc),
+                    X_PC=Transform(flange_offset @ x_pc),
                 )
             )
         directives.append(directive)

@@ -265,8 +265,8 @@ def transformation_matrices(tau: float, alpha: float, beta: float) -> tuple[np.n
     """
     a = np.column_stack(
         [
-            transformation_rates(1.0, 0.0, 0.0, 0.0, tau, alpha, beta),
-            transformation_rates(0.0, 1.0, 0.0, 0.0, tau, alpha, beta),
+            np.asarray(transformation_rates(1.0, 0.0, 0.0, 0.0, tau, alpha, beta)),
+            np.asarray(transformation_rates(0.0, 1.0, 0.0, 0.0, tau, alpha, beta)),
         ]
     )
     return a, np.array(transformation_rates(0.0, 0.0, 1.0, 0.0, tau, alpha, beta))
@@ -535,7 +535,8 @@ class Dmp:
         pdot, zdot = transformation_rates(
             p, z, self.forcing(s), self.goal, tau, self.settings.alpha, self.settings.beta_value
         )
-        return pdot, zdot, canonical_phase_rate(s, tau, self.settings.alpha_s)
+        sdot = float(canonical_phase_rate(s, tau, self.settings.alpha_s))
+        return np.asarray(pdot), np.asarray(zdot), sdot
 
     def forcing(self, s: float | np.ndarray) -> np.ndarray:
         """f = theta_p . g_p(s) per axis (Eqs. 9/13); s scalar -> (M,), s (T,) -> (T, M).
@@ -602,7 +603,7 @@ class Dmp:
             x[k + 1] = phi @ x[k] + drive[:, k]
         p, z = x[:, 0], x[:, 1]
         pdot, zdot = transformation_rates(p, z, forcing, goal, tau, alpha, beta)
-        return t, p, pdot, zdot / tau, s
+        return t, p, np.asarray(pdot), np.asarray(zdot) / tau, s
 
 
 def _first_order_hold(a, b, dt):

@@ -177,7 +177,8 @@ class HlcmpLaw:
         theta : (3 M N,) array
             θ_k, θ_d and θ_v one after the other, each row-major.
         """
-        return tuple(np.asarray(theta, float).reshape(3, self.n_axes, self.n_basis))
+        k, d, v = np.asarray(theta, float).reshape(3, self.n_axes, self.n_basis)
+        return k, d, v
 
     def command(self, now: TaskSpaceInstant, theta: np.ndarray) -> LawOutput:
         """f_c, the profiles, u, ε and θ' at this instant.

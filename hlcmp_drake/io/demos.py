@@ -60,7 +60,7 @@ def read_demonstration(path: str | Path, with_lines: bool = False) -> tuple:
     header_line, header_text = lines[0]
     header = [name.strip() for name in next(csv.reader([header_text]))]
     axes = _check_header(path, header_line, header)
-    rows = []
+    rows: list[tuple[int, list[float]]] = []
     for number, line in lines[1:]:
         fields = [f.strip() for f in next(csv.reader([line]))]
         if len(fields) != len(header):

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses as dc
 import re
+from typing import Any
 
 import numpy as np
 from drake import lcmt_force_torque, lcmt_iiwa_command, lcmt_iiwa_status
@@ -25,7 +26,7 @@ class ProtocolError(Exception):
     """A message that does not decode, or holds the wrong number of joints or a non-finite value."""
 
 
-def _decode(message_type: type, data: bytes, what: str):
+def _decode(message_type: Any, data: bytes, what: str):
     try:
         return message_type.decode(data)
     except ValueError as error:

@@ -13,14 +13,18 @@ import os
 import tempfile
 from collections.abc import Callable, Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from hlcmp_drake.io.errors import InputError
 
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
 _UMASK = os.umask(0)
 os.umask(_UMASK)
-WRITTEN = []  # every path written in this process, in order (for the interrupt message)
+WRITTEN: list[Path] = []  # every path written in this process, in order (for the interrupt message)
 
 
 def _existing_ancestor(path: Path) -> Path:
@@ -165,7 +169,7 @@ def write_json(path: str | Path, data: object) -> Path:
     return atomic_write(path, write)
 
 
-def write_npz(path: str | Path, arrays: Mapping[str, np.ndarray]) -> Path:
+def write_npz(path: str | Path, arrays: Mapping[str, Any]) -> Path:
     """Write arrays to a compressed NumPy .npz, atomically.
 
     Parameters
@@ -188,7 +192,7 @@ def write_npz(path: str | Path, arrays: Mapping[str, np.ndarray]) -> Path:
     return atomic_write(path, write)
 
 
-def save_figure(path: str | Path, figure: object) -> Path:
+def save_figure(path: str | Path, figure: Figure) -> Path:
     """Save a matplotlib Figure (PNG unless the suffix says otherwise), atomically.
 
     Parameters
@@ -232,7 +236,7 @@ def write_text(path: str | Path, text: str) -> Path:
     return atomic_write(path, write)
 
 
-def write_diagram_graph(out_dir: str | Path, diagram: object) -> Path:
+def write_diagram_graph(out_dir: str | Path, diagram: Any) -> Path:
     """The wired diagram as Drake draws it (GetGraphvizString): diagram.svg where Graphviz's
     `dot` is installed, else diagram.dot. Returns the path written.
 

@@ -7,6 +7,7 @@ pyproject.toml's package-dir and package-data), and that copy is used when it is
 """
 
 from pathlib import Path
+from typing import Any
 
 PACKAGE_NAME = "hlcmp_drake"
 
@@ -26,7 +27,7 @@ DIAGRAMS_DIR = DATA_ROOT / "diagrams"
 PACKAGE_XML = DATA_ROOT / "package.xml"
 
 
-def register_package(package_map: object) -> None:
+def register_package(package_map: Any) -> None:
     """Make package://hlcmp_drake/... resolve to the bundled models, through the
     package.xml that sits beside them (Drake's own way of finding a package).
 

@@ -11,6 +11,7 @@ import codecs
 import dataclasses as dc
 import zipfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -78,7 +79,7 @@ def save_skill(path: str | Path, skill: Skill) -> Path:
     from hlcmp_drake.io.outputs import atomic_write
 
     d = skill.dmp
-    arrays = dict(
+    arrays: dict[str, Any] = dict(
         format_version=np.array(FORMAT_VERSION),
         axis_names=np.array(d.axis_names),
         n_basis=np.array(d.settings.n_basis),
