@@ -110,7 +110,17 @@ class ControllerChecks:
 
 @dc.dataclass
 class StepReferenceConfig:
-    """Piecewise-constant set-points: positions_m[k] holds from times_s[k] on."""
+    """Piecewise-constant set-points: positions_m[k] holds from times_s[k] on.
+
+    Attributes
+    ----------
+    times_s : list of float
+        The switch times [s], K of them: starting at 0 and increasing. Default [0]: one
+        set-point for the whole run.
+    positions_m : list of list of float
+        K rows of M values: the desired position x_d [m] from times_s[k] on. Every row has
+        the same length, which is M for a slider world. Default [[0]]: x_d = 0 on one axis.
+    """
 
     times_s: list[float] = dc.field(default_factory=lambda: [0.0])
     positions_m: list[list[float]] = dc.field(default_factory=lambda: [[0.0]])
@@ -242,7 +252,23 @@ ControllerConfig = Union[
 @dc.dataclass
 class SliderTask:
     """A single-joint world (the 1-DOF experiment): the task space is the joint's body
-    position along `axis`; the elastic object is a unilateral spring at the surface."""
+    position along `axis`; the elastic object is a unilateral spring at the surface.
+
+    Attributes
+    ----------
+    body : str
+        The name of the plant's body that the joint moves (the model's; default "body",
+        the body of models/one_dof_slider.sdf).
+    axis : int
+        The world axis of the body's translation that is the task space: 0 (x), 1 (y) or
+        2 (z). Default 0.
+    environment_stiffness_N_per_m : float
+        The elastic object's stiffness k [N/m], >= 0. Default 10, the paper's.
+    surface_position_m : float
+        Where the object's surface is, in the joint's position q [m] (for the bundled
+        slider, the body's x); the object fills q < surface and pushes the body out with
+        k (surface - q) there (`UnilateralSpring`). Default 0.
+    """
 
     body: str = "body"
     axis: int = 0
@@ -265,13 +291,34 @@ class PunctureConfig:
       while moving in, the contact between the tool and the object ends for the rest of
       the run (a collision filter set in the simulation);
     - the hole: from then on, while the tool is in it, an axial friction force
-      F = hole_friction_N_per_m * (length of tool inside the object) * tanh(v / sliding_speed_m_per_s)
+      F = hole_friction_N_per_m * (length of tool inside the object) *
+      tanh(v / sliding_speed_m_per_s)
       opposes the tool's motion v along its axis (the tool's `tool_direction`).
 
     `object_frame` names the object's frame at the centre of its top face with +z out of
     the object; empty means no puncture. The values are chosen with `hlcmp probe` alone
     (docs/worlds.md): the tear at the mid-plane is where the elastic force peaks, and
-    150 N/m leaves a residual of about a third of the peak."""
+    150 N/m leaves a residual of about a third of the peak.
+
+    Attributes
+    ----------
+    object_frame : str
+        The object's frame, scoped "model::frame" (e.g. "foam_plank::plank"): origin at the
+        centre of its top face, +z out of the object. Default "": no puncture, and the
+        other fields are neither checked nor used.
+    thickness_m : float
+        The object's thickness [m], > 0: it caps the length of tool inside the hole.
+        Default 0.03, the foam plank's.
+    depth_m : float
+        The tear depth below the top face [m], in (0, thickness_m]. Default 0.015, the
+        plank's mid-plane.
+    hole_friction_N_per_m : float
+        c, the hole's friction per metre of tool inside the object [N/m], >= 0 (0: the
+        hole does not hold the tool). Default 150.
+    sliding_speed_m_per_s : float
+        v_s, the axial speed at which the friction reaches tanh(1) = 76 % of its full
+        value [m/s], > 0 (it smooths the friction near v = 0). Default 0.002.
+    """
 
     object_frame: str = ""
     thickness_m: float = 0.03
