@@ -363,7 +363,48 @@ class ArmTask:
     (`systems.arm_loop.ArmControlLoop`, θ in a C++ Integrator) -- or "modular" -- one
     system per role (DmpSource, TaskSpaceDynamics, the controller, NullSpaceImpedance,
     TaskForceToJointTorque), evaluated port by port. Both evaluate the same laws; a
-    controller kind without a `core.laws` law (the variable impedance) is always modular."""
+    controller kind without a `core.laws` law (the variable impedance) is always modular.
+
+    Attributes
+    ----------
+    tool_frame : str
+        The tool point P's frame, scoped "model::frame": the task space is P's translation
+        and the frame's +z is the tool's axis. Default "insertion_tool::tip", the rod's tip.
+    axes : list of int
+        The world axes of P's translation that make the task space, distinct values of
+        0 (x), 1 (y), 2 (z); M = len(axes). Default [0, 1, 2]; a puncture needs all three.
+    tool_direction : list of float
+        A non-zero world 3-vector (any length): the tool frame's +z at the start posture
+        when `tool_rpy_rad` is empty, and the tool's axis into the object for a puncture.
+        Default [0, 0, -1]: pointing straight down.
+    tool_rpy_rad : list of float
+        Empty (the default: the rotation about `tool_direction` is free) or three angles
+        (roll, pitch, yaw) [rad]: the tool frame's whole orientation in the world at the
+        start posture.
+    ik_seed_rad : list of float
+        The joint positions [rad], one per joint of the arm (7 for the iiwa), that inverse
+        kinematics starts from and stays close to, for the start posture and the check of
+        the demonstration's reach. Default an elbow-up iiwa posture.
+    orientation_stiffness_Nm_per_rad, orientation_damping_Nms_per_rad : float
+        K_o [N m/rad] and D_o [N m s/rad], finite and >= 0: the rotational impedance that
+        holds the start posture's tool orientation below the task (`BelowTaskImpedance`).
+        Defaults 100 and 10.
+    posture_stiffness_Nm_per_rad, posture_damping_Nms_per_rad : float
+        K_p [N m/rad] and D_p [N m s/rad], finite and >= 0: the joint impedance that keeps
+        the arm near its start posture q_0 in the task's null space. Defaults 20 and 5.
+    max_contact_force_N : float
+        The safety limit [N], > 0, on the norm of the force the wrist sensor reads (the
+        tool's contacts, and a torn hole's friction): a run above it stops with status
+        "unstable". Default 200.
+    max_saturation_s : float
+        How long [s], > 0, some joint torque may stay at its effort limit (seen at every
+        safety check, 100 Hz) before the run stops with status "unstable". Default 0.25.
+    puncture : PunctureConfig
+        The foam that gives way; the default (empty `object_frame`) has none.
+    control_path : str
+        "fast" (default) or "modular", as above (CONTROL_PATHS); "fast" needs a discrete
+        plant (plant_config.time_step > 0).
+    """
 
     tool_frame: str = "insertion_tool::tip"
     axes: list[int] = dc.field(default_factory=lambda: [0, 1, 2])
