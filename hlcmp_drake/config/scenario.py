@@ -398,7 +398,8 @@ class ArmTask:
         "unstable". Default 200.
     max_saturation_s : float
         How long [s], > 0, some joint torque may stay at its effort limit (seen at every
-        safety check, 100 Hz) before the run stops with status "unstable". Default 0.25.
+        safety check: 100 Hz in a simulation) before the run stops with status "unstable".
+        Default 0.25.
     puncture : PunctureConfig
         The foam that gives way; the default (empty `object_frame`) has none.
     control_path : str
