@@ -480,7 +480,19 @@ class DemonstrationConfig:
     """The reference is a DMP fitted at start-up to a demonstration CSV (t,x,y,z; world
     frame, metres). `file` is relative to the scenario file's folder. The DMP's shape
     (N, alpha, alpha_s, smoothing) is the scenario's `dmp`; `duration_s` > 0 replays it
-    at another tau (temporal scaling)."""
+    at another tau (temporal scaling).
+
+    Attributes
+    ----------
+    file : str
+        The demonstration CSV (format in `hlcmp_drake.io.demos`: header ``t,x,y,z``, time
+        [s], world positions [m]), relative to the scenario file's folder; loading resolves
+        it to an absolute path. Required (the default "" fails validation).
+    duration_s : float
+        The DMP's time constant tau [s] for the runs, >= 0. Default 0: as demonstrated
+        (tau = the demonstration's duration); another value runs the same path faster or
+        slower. The simulated time is the scenario's `duration_s`.
+    """
 
     file: str = ""
     duration_s: float = 0.0
@@ -489,7 +501,20 @@ class DemonstrationConfig:
 @dc.dataclass
 class RecordingConfig:
     """The offline 3-D recording: the runs' copies of the world stand `spacing_m` apart
-    along +y; the camera is placed relative to the middle copy."""
+    along +y; the camera is placed relative to the middle copy.
+
+    Attributes
+    ----------
+    spacing_m : float
+        The distance between neighbouring copies along +y [m], in the order the scenario
+        lists the controllers (the live view's too); > 0 keeps them apart. Default 0.6.
+    camera_position_m, camera_target_m : list of float
+        Two world points (3 values each) [m]: only their difference is used, the direction
+        from which the camera looks at the middle of all copies; its distance is chosen to
+        keep every copy and its sign in view. Defaults [1.6, -1.8, 1.2] and [0, 0, 0.2].
+    frames_per_second : float
+        The recording's frame rate [1/s], > 0: the runs are sampled at it. Default 30.
+    """
 
     spacing_m: float = 0.6
     camera_position_m: list[float] = dc.field(default_factory=lambda: [1.6, -1.8, 1.2])
@@ -506,7 +531,30 @@ class ProbeConfig:
     force across the push counts as lateral; with `lateral_axis` only its component along
     that axis does (cutting: the blade's normal, not the block's upward reaction).
     `tilt_rad` tilts the tool about the world y axis, to show whether the contact depends
-    on a tilt a controller could cause."""
+    on a tilt a controller could cause.
+
+    Attributes
+    ----------
+    arm_model : str
+        The model instance of the arm that the probe leaves out (its model, welds and
+        collision filters); the tool welded to it rides the carriage. Default "iiwa".
+    start_m : list of float
+        The tool point's start, world (3 values) [m]. Required for a probe: empty (the
+        default) means the scenario has none.
+    approach_m : list of float
+        An unmeasured move from the start before the push, world (3 values) [m]. Empty
+        (the default) or zeros: the push starts at `start_m`.
+    push_m : list of float
+        The measured push, world displacement (3 values, non-zero) [m]; the carriage then
+        goes back along it. Required for a probe.
+    lateral_axis : list of float
+        A world direction (3 values, any length): the lateral force is the force's
+        component along it. Empty (the default): the norm of the force across the push.
+    speed_m_per_s : float
+        The carriage's speed along every leg of its path [m/s], > 0. Default 0.03.
+    tilt_rad : float
+        The tool's tilt about the world y axis [rad]. Default 0.
+    """
 
     arm_model: str = "iiwa"
     start_m: list[float] = dc.field(default_factory=list)
