@@ -587,7 +587,38 @@ class IiwaDriverConfig:
     (the driver then holds the arm after its own 50 ms), and waits `start_guard_s` after
     its first status before the first command (the driver aborts on a command within
     0.25 s of its start). The arm must start within `start_tolerance_rad` of the
-    scenario's start posture on every joint."""
+    scenario's start posture on every joint.
+
+    Attributes
+    ----------
+    status_channel : str
+        The LCM channel of the driver's lcmt_iiwa_status, non-empty. Default
+        "IIWA_STATUS".
+    command_channel : str
+        The LCM channel of the client's lcmt_iiwa_command, non-empty. Default
+        "IIWA_COMMAND".
+    wrist_channel : str
+        The LCM channel of the wrist sensor's lcmt_force_torque, non-empty; read with
+        `force_source` "wrist_sensor" only (`hlcmp sim-driver` publishes it). Default
+        "IIWA_WRIST_FT".
+    period_s : float
+        The driver's status period [s], > 0: the client's tick, at which the reference is
+        sampled; for `hlcmp sim-driver` a whole number of plant steps. Default 0.001
+        (1 kHz).
+    start_guard_s : float
+        The wait after the first status before the first command [s], > 0. Default 0.3.
+    stale_status_s : float
+        The longest time without a status [s], > 0, before the client stops commanding
+        (once statuses have come). Default 0.05.
+    first_status_timeout_s : float
+        How long the client waits for the first status [s], > 0, before it stops (is the
+        driver running?). Default 30.
+    start_tolerance_rad : float
+        The largest distance of any joint from the start posture [rad], > 0, in the
+        statuses before the first command (further: the client stops). Default 0.05.
+    force_source : str
+        "wrist_sensor" (default) or "external_torque", as above (FORCE_SOURCES).
+    """
 
     status_channel: str = "IIWA_STATUS"
     command_channel: str = "IIWA_COMMAND"
@@ -638,7 +669,60 @@ class Scenario:
     `plant_config.use_sampled_output_ports` defaults to false: the plant then steps after
     the unrestricted updates at the same time (the arm's one-call controller, the foam's
     friction), from their values at that time. `iiwa_driver` is how `hlcmp serve` talks
-    to an iiwa driver (arm scenarios only)."""
+    to an iiwa driver (arm scenarios only).
+
+    Attributes
+    ----------
+    name : str
+        Names the outputs (default folder out/<name>, the diagrams <name>_<controller>);
+        required (the default "" fails validation).
+    experiment : str
+        The name of an experiment registered in `hlcmp_drake.experiments` whose world
+        fits `task`: "one_dof" (a SliderTask), "insertion" or "cutting" (an ArmTask) as
+        bundled. The default "" names none and is refused (`experiment_of`) when the
+        scenario is run.
+    duration_s : float
+        The simulated (or served) time of every run [s], > 0; for set-points also the
+        phase's time constant tau. Default 1.
+    log_period_s : float
+        The period at which every series is logged [s], > 0 (`hlcmp serve`: every
+        round(log_period_s / iiwa_driver.period_s) statuses). Default 0.01.
+    directives : list of ModelDirective
+        Drake's model directives of the world (add_model, add_weld,
+        add_collision_filter_group, ...); our package://hlcmp_drake/models/ files and plain
+        paths must exist. Default none.
+    plant_config : MultibodyPlantConfig
+        Drake's plant config (time_step [s], contact model, ...). Default Drake's with
+        use_sampled_output_ports false, which an arm world requires; the arm's fast path
+        also needs time_step > 0.
+    simulator_config : SimulatorConfig
+        Drake's simulator config (integration scheme, max step size [s], accuracy,
+        target real-time rate, ...). Default Drake's.
+    task : SliderTask or ArmTask
+        The world kind, tagged !SliderTask or !ArmTask in the YAML. Default a SliderTask.
+    reference : StepReferenceConfig or DemonstrationConfig
+        The desired motion, tagged !StepReferenceConfig (slider only) or
+        !DemonstrationConfig (an arm needs it). Default one set-point x_d = 0.
+    dmp : DmpSettings
+        The DMP's shape and the phase basis it shares with the compliant profiles
+        (Eqs. 8, 13, 15, 16); for set-points the phase's alpha_s and the profiles' N.
+        Default DmpSettings().
+    controllers : dict of str to controller config
+        The controllers to compare, label (free text; names the runs) -> a tagged
+        ControllerConfig (!HlcmpConfig, !HlcmpForgettingConfig, !ConstantImpedanceConfig,
+        !VariableImpedanceConfig), each per-axis list checked to hold M values. At least
+        one is required (the default is empty).
+    max_abs_position_m : float
+        The bound on every |q| [m or rad]: a run whose joint positions go beyond it stops
+        with status "unstable". Default 10.
+    recording : RecordingConfig
+        The 3-D recording's layout and camera. Default RecordingConfig().
+    probe : ProbeConfig
+        `hlcmp probe`'s carriage path (arm scenarios). Default: no probe.
+    iiwa_driver : IiwaDriverConfig
+        `hlcmp serve`'s LCM channels, period and watchdogs, checked for arm scenarios.
+        Default IiwaDriverConfig().
+    """
 
     name: str = ""
     experiment: str = ""
