@@ -197,7 +197,8 @@ class HlcmpForgettingConfig(HlcmpConfig):
 
 @dc.dataclass
 class ConstantImpedanceConfig(ControllerChecks):
-    """Fixed diagonal stiffness/damping in the same structure (Eqs. 33-34 with v = 0). Checked: pi > 0; L, stiffness and damping per axis and non-negative."""
+    """Fixed diagonal stiffness/damping in the same structure (Eqs. 33-34 with v = 0).
+    Checked: pi > 0; L, stiffness and damping per axis and non-negative."""
 
     PER_AXIS = {"gain_l": ">= 0", "stiffness_N_per_m": ">= 0", "damping_Ns_per_m": ">= 0"}
 
