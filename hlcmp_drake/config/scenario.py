@@ -111,7 +111,17 @@ class ControllerChecks:
 
 @dc.dataclass
 class StepReferenceConfig:
-    """Piecewise-constant set-points: positions_m[k] holds from times_s[k] on."""
+    """Piecewise-constant set-points: positions_m[k] holds from times_s[k] on.
+
+    Attributes
+    ----------
+    times_s : list of float
+        The switch times [s], K of them: starting at 0 and increasing. Default [0]: one
+        set-point for the whole run.
+    positions_m : list of list of float
+        K rows of M values: the desired position x_d [m] from times_s[k] on. Every row has
+        the same length, which is M for a slider world. Default [[0]]: x_d = 0 on one axis.
+    """
 
     times_s: list[float] = dc.field(default_factory=lambda: [0.0])
     positions_m: list[list[float]] = dc.field(default_factory=lambda: [[0.0]])
@@ -188,7 +198,8 @@ class HlcmpForgettingConfig(HlcmpConfig):
 
 @dc.dataclass
 class ConstantImpedanceConfig(ControllerChecks):
-    """Fixed diagonal stiffness/damping in the same structure (Eqs. 33-34 with v = 0). Checked: pi > 0; L, stiffness and damping per axis and non-negative."""
+    """Fixed diagonal stiffness/damping in the same structure (Eqs. 33-34 with v = 0).
+    Checked: pi > 0; L, stiffness and damping per axis and non-negative."""
 
     PER_AXIS = {"gain_l": ">= 0", "stiffness_N_per_m": ">= 0", "damping_Ns_per_m": ">= 0"}
 
@@ -243,7 +254,23 @@ ControllerConfig = Union[
 @dc.dataclass
 class SliderTask:
     """A single-joint world (the 1-DOF experiment): the task space is the joint's body
-    position along `axis`; the elastic object is a unilateral spring at the surface."""
+    position along `axis`; the elastic object is a unilateral spring at the surface.
+
+    Attributes
+    ----------
+    body : str
+        The name of the plant's body that the joint moves (the model's; default "body",
+        the body of models/one_dof_slider.sdf).
+    axis : int
+        The world axis of the body's translation that is the task space: 0 (x), 1 (y) or
+        2 (z). Default 0.
+    environment_stiffness_N_per_m : float
+        The elastic object's stiffness k [N/m], >= 0. Default 10, the paper's.
+    surface_position_m : float
+        Where the object's surface is, in the joint's position q [m] (for the bundled
+        slider, the body's x); the object fills q < surface and pushes the body out with
+        k (surface - q) there (`UnilateralSpring`). Default 0.
+    """
 
     body: str = "body"
     axis: int = 0
@@ -299,13 +326,34 @@ class PunctureConfig:
       while moving in, the contact between the tool and the object ends for the rest of
       the run (a collision filter set in the simulation);
     - the hole: from then on, while the tool is in it, an axial friction force
-      F = hole_friction_N_per_m * (length of tool inside the object) * tanh(v / sliding_speed_m_per_s)
+      F = hole_friction_N_per_m * (length of tool inside the object) *
+      tanh(v / sliding_speed_m_per_s)
       opposes the tool's motion v along its axis (the tool's `tool_direction`).
 
     `object_frame` names the object's frame at the centre of its top face with +z out of
     the object; empty means no puncture. The values are chosen with `hlcmp probe` alone
     (docs/worlds.md): the tear at the mid-plane is where the elastic force peaks, and
-    150 N/m leaves a residual of about a third of the peak."""
+    150 N/m leaves a residual of about a third of the peak.
+
+    Attributes
+    ----------
+    object_frame : str
+        The object's frame, scoped "model::frame" (e.g. "foam_plank::plank"): origin at the
+        centre of its top face, +z out of the object. Default "": no puncture, and the
+        other fields are neither checked nor used.
+    thickness_m : float
+        The object's thickness [m], > 0: it caps the length of tool inside the hole.
+        Default 0.03, the foam plank's.
+    depth_m : float
+        The tear depth below the top face [m], in (0, thickness_m]. Default 0.015, the
+        plank's mid-plane.
+    hole_friction_N_per_m : float
+        c, the hole's friction per metre of tool inside the object [N/m], >= 0 (0: the
+        hole does not hold the tool). Default 150.
+    sliding_speed_m_per_s : float
+        v_s, the axial speed at which the friction reaches tanh(1) = 76 % of its full
+        value [m/s], > 0 (it smooths the friction near v = 0). Default 0.002.
+    """
 
     object_frame: str = ""
     thickness_m: float = 0.03
@@ -350,7 +398,49 @@ class ArmTask:
     (`systems.arm_loop.ArmControlLoop`, θ in a C++ Integrator) -- or "modular" -- one
     system per role (DmpSource, TaskSpaceDynamics, the controller, NullSpaceImpedance,
     TaskForceToJointTorque), evaluated port by port. Both evaluate the same laws; a
-    controller kind without a `core.laws` law (the variable impedance) is always modular."""
+    controller kind without a `core.laws` law (the variable impedance) is always modular.
+
+    Attributes
+    ----------
+    tool_frame : str
+        The tool point P's frame, scoped "model::frame": the task space is P's translation
+        and the frame's +z is the tool's axis. Default "insertion_tool::tip", the rod's tip.
+    axes : list of int
+        The world axes of P's translation that make the task space, distinct values of
+        0 (x), 1 (y), 2 (z); M = len(axes). Default [0, 1, 2]; a puncture needs all three.
+    tool_direction : list of float
+        A non-zero world 3-vector (any length): the tool frame's +z at the start posture
+        when `tool_rpy_rad` is empty, and the tool's axis into the object for a puncture.
+        Default [0, 0, -1]: pointing straight down.
+    tool_rpy_rad : list of float
+        Empty (the default: the rotation about `tool_direction` is free) or three angles
+        (roll, pitch, yaw) [rad]: the tool frame's whole orientation in the world at the
+        start posture.
+    ik_seed_rad : list of float
+        The joint positions [rad], one per joint of the arm (7 for the iiwa), that inverse
+        kinematics starts from and stays close to, for the start posture and the check of
+        the demonstration's reach. Default an elbow-up iiwa posture.
+    orientation_stiffness_Nm_per_rad, orientation_damping_Nms_per_rad : float
+        K_o [N m/rad] and D_o [N m s/rad], finite and >= 0: the rotational impedance that
+        holds the start posture's tool orientation below the task (`BelowTaskImpedance`).
+        Defaults 100 and 10.
+    posture_stiffness_Nm_per_rad, posture_damping_Nms_per_rad : float
+        K_p [N m/rad] and D_p [N m s/rad], finite and >= 0: the joint impedance that keeps
+        the arm near its start posture q_0 in the task's null space. Defaults 20 and 5.
+    max_contact_force_N : float
+        The safety limit [N], > 0, on the norm of the force the wrist sensor reads (the
+        tool's contacts, and a torn hole's friction): a run above it stops with status
+        "unstable". Default 200.
+    max_saturation_s : float
+        How long [s], > 0, some joint torque may stay at its effort limit (seen at every
+        safety check: 100 Hz in a simulation) before the run stops with status "unstable".
+        Default 0.25.
+    puncture : PunctureConfig
+        The foam that gives way; the default (empty `object_frame`) has none.
+    control_path : str
+        "fast" (default) or "modular", as above (CONTROL_PATHS); "fast" needs a discrete
+        plant (plant_config.time_step > 0).
+    """
 
     tool_frame: str = "insertion_tool::tip"
     axes: list[int] = dc.field(default_factory=lambda: [0, 1, 2])
@@ -472,7 +562,19 @@ class DemonstrationConfig:
     """The reference is a DMP fitted at start-up to a demonstration CSV (t,x,y,z; world
     frame, metres). `file` is relative to the scenario file's folder. The DMP's shape
     (N, alpha, alpha_s, smoothing) is the scenario's `dmp`; `duration_s` > 0 replays it
-    at another tau (temporal scaling)."""
+    at another tau (temporal scaling).
+
+    Attributes
+    ----------
+    file : str
+        The demonstration CSV (format in `hlcmp_drake.io.demos`: header ``t,x,y,z``, time
+        [s], world positions [m]), relative to the scenario file's folder; loading resolves
+        it to an absolute path. Required (the default "" fails validation).
+    duration_s : float
+        The DMP's time constant tau [s] for the runs, >= 0. Default 0: as demonstrated
+        (tau = the demonstration's duration); another value runs the same path faster or
+        slower. The simulated time is the scenario's `duration_s`.
+    """
 
     file: str = ""
     duration_s: float = 0.0
@@ -481,7 +583,20 @@ class DemonstrationConfig:
 @dc.dataclass
 class RecordingConfig:
     """The offline 3-D recording: the runs' copies of the world stand `spacing_m` apart
-    along +y; the camera is placed relative to the middle copy."""
+    along +y; the camera is placed relative to the middle copy.
+
+    Attributes
+    ----------
+    spacing_m : float
+        The distance between neighbouring copies along +y [m], in the order the scenario
+        lists the controllers (the live view's too); > 0 keeps them apart. Default 0.6.
+    camera_position_m, camera_target_m : list of float
+        Two world points (3 values each) [m]: only their difference is used, the direction
+        from which the camera looks at the middle of all copies; its distance is chosen to
+        keep every copy and its sign in view. Defaults [1.6, -1.8, 1.2] and [0, 0, 0.2].
+    frames_per_second : float
+        The recording's frame rate [1/s], > 0: the runs are sampled at it. Default 30.
+    """
 
     spacing_m: float = 0.6
     camera_position_m: list[float] = dc.field(default_factory=lambda: [1.6, -1.8, 1.2])
@@ -498,7 +613,30 @@ class ProbeConfig:
     force across the push counts as lateral; with `lateral_axis` only its component along
     that axis does (cutting: the blade's normal, not the block's upward reaction).
     `tilt_rad` tilts the tool about the world y axis, to show whether the contact depends
-    on a tilt a controller could cause."""
+    on a tilt a controller could cause.
+
+    Attributes
+    ----------
+    arm_model : str
+        The model instance of the arm that the probe leaves out (its model, welds and
+        collision filters); the tool welded to it rides the carriage. Default "iiwa".
+    start_m : list of float
+        The tool point's start, world (3 values) [m]. Required for a probe: empty (the
+        default) means the scenario has none.
+    approach_m : list of float
+        An unmeasured move from the start before the push, world (3 values) [m]. Empty
+        (the default) or zeros: the push starts at `start_m`.
+    push_m : list of float
+        The measured push, world displacement (3 values, non-zero) [m]; the carriage then
+        goes back along it. Required for a probe.
+    lateral_axis : list of float
+        A world direction (3 values, any length): the lateral force is the force's
+        component along it. Empty (the default): the norm of the force across the push.
+    speed_m_per_s : float
+        The carriage's speed along every leg of its path [m/s], > 0. Default 0.03.
+    tilt_rad : float
+        The tool's tilt about the world y axis [rad]. Default 0.
+    """
 
     arm_model: str = "iiwa"
     start_m: list[float] = dc.field(default_factory=list)
@@ -531,7 +669,38 @@ class IiwaDriverConfig:
     (the driver then holds the arm after its own 50 ms), and waits `start_guard_s` after
     its first status before the first command (the driver aborts on a command within
     0.25 s of its start). The arm must start within `start_tolerance_rad` of the
-    scenario's start posture on every joint."""
+    scenario's start posture on every joint.
+
+    Attributes
+    ----------
+    status_channel : str
+        The LCM channel of the driver's lcmt_iiwa_status, non-empty. Default
+        "IIWA_STATUS".
+    command_channel : str
+        The LCM channel of the client's lcmt_iiwa_command, non-empty. Default
+        "IIWA_COMMAND".
+    wrist_channel : str
+        The LCM channel of the wrist sensor's lcmt_force_torque, non-empty; read with
+        `force_source` "wrist_sensor" only (`hlcmp sim-driver` publishes it). Default
+        "IIWA_WRIST_FT".
+    period_s : float
+        The driver's status period [s], > 0: the client's tick, at which the reference is
+        sampled; for `hlcmp sim-driver` a whole number of plant steps. Default 0.001
+        (1 kHz).
+    start_guard_s : float
+        The wait after the first status before the first command [s], > 0. Default 0.3.
+    stale_status_s : float
+        The longest time without a status [s], > 0, before the client stops commanding
+        (once statuses have come). Default 0.05.
+    first_status_timeout_s : float
+        How long the client waits for the first status [s], > 0, before it stops (is the
+        driver running?). Default 30.
+    start_tolerance_rad : float
+        The largest distance of any joint from the start posture [rad], > 0, in the
+        statuses before the first command (further: the client stops). Default 0.05.
+    force_source : str
+        "wrist_sensor" (default) or "external_torque", as above (FORCE_SOURCES).
+    """
 
     status_channel: str = "IIWA_STATUS"
     command_channel: str = "IIWA_COMMAND"
@@ -582,7 +751,60 @@ class Scenario:
     `plant_config.use_sampled_output_ports` defaults to false: the plant then steps after
     the unrestricted updates at the same time (the arm's one-call controller, the foam's
     friction), from their values at that time. `iiwa_driver` is how `hlcmp serve` talks
-    to an iiwa driver (arm scenarios only)."""
+    to an iiwa driver (arm scenarios only).
+
+    Attributes
+    ----------
+    name : str
+        Names the outputs (default folder out/<name>, the diagrams <name>_<controller>);
+        required (the default "" fails validation).
+    experiment : str
+        The name of an experiment registered in `hlcmp_drake.experiments` whose world
+        fits `task`: "one_dof" (a SliderTask), "insertion" or "cutting" (an ArmTask) as
+        bundled. The default "" names none and is refused (`experiment_of`) when the
+        scenario is run.
+    duration_s : float
+        The simulated (or served) time of every run [s], > 0; for set-points also the
+        phase's time constant tau. Default 1.
+    log_period_s : float
+        The period at which every series is logged [s], > 0 (`hlcmp serve`: every
+        round(log_period_s / iiwa_driver.period_s) statuses). Default 0.01.
+    directives : list of ModelDirective
+        Drake's model directives of the world (add_model, add_weld,
+        add_collision_filter_group, ...); our package://hlcmp_drake/models/ files and plain
+        paths must exist. Default none.
+    plant_config : MultibodyPlantConfig
+        Drake's plant config (time_step [s], contact model, ...). Default Drake's with
+        use_sampled_output_ports false, which an arm world requires; the arm's fast path
+        also needs time_step > 0.
+    simulator_config : SimulatorConfig
+        Drake's simulator config (integration scheme, max step size [s], accuracy,
+        target real-time rate, ...). Default Drake's.
+    task : SliderTask or ArmTask
+        The world kind, tagged !SliderTask or !ArmTask in the YAML. Default a SliderTask.
+    reference : StepReferenceConfig or DemonstrationConfig
+        The desired motion, tagged !StepReferenceConfig (slider only) or
+        !DemonstrationConfig (an arm needs it). Default one set-point x_d = 0.
+    dmp : DmpSettings
+        The DMP's shape and the phase basis it shares with the compliant profiles
+        (Eqs. 8, 13, 15, 16); for set-points the phase's alpha_s and the profiles' N.
+        Default DmpSettings().
+    controllers : dict of str to controller config
+        The controllers to compare, label (free text; names the runs) -> a tagged
+        ControllerConfig (!HlcmpConfig, !HlcmpForgettingConfig, !ConstantImpedanceConfig,
+        !VariableImpedanceConfig), each per-axis list checked to hold M values. At least
+        one is required (the default is empty).
+    max_abs_position_m : float
+        The bound on every |q| [m or rad]: a run whose joint positions go beyond it stops
+        with status "unstable". Default 10.
+    recording : RecordingConfig
+        The 3-D recording's layout and camera. Default RecordingConfig().
+    probe : ProbeConfig
+        `hlcmp probe`'s carriage path (arm scenarios). Default: no probe.
+    iiwa_driver : IiwaDriverConfig
+        `hlcmp serve`'s LCM channels, period and watchdogs, checked for arm scenarios.
+        Default IiwaDriverConfig().
+    """
 
     name: str = ""
     experiment: str = ""

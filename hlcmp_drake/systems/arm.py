@@ -101,9 +101,33 @@ class BelowTaskImpedance:
 
 
 class NullSpaceImpedance(LeafSystem):
-    """`BelowTaskImpedance` as a Drake system. Inputs: `plant_state`,
-    `null_space_projector` and `joint_gravity` (from TaskSpaceDynamics). Output:
-    `joint_torque` (nv).
+    """`BelowTaskImpedance` as a Drake system: tau_0, the tool's orientation and the arm's
+    posture held below the translational task, for `TaskForceToJointTorque`'s
+    ``extra_torque`` input.
+
+    Sizes: nq positions and nv velocities of the plant; matrices flattened row-major.
+
+    Input ports:
+
+    - ``plant_state`` (nq + nv): the plant's positions q [rad] and velocities v [rad/s].
+    - ``null_space_projector`` (nv * nv, row-major): N^T of the translational task [-],
+      from `TaskSpaceDynamics`.
+    - ``joint_gravity`` (nv): G(q) [N m], from `TaskSpaceDynamics`.
+
+    Output ports:
+
+    - ``joint_torque`` (nv): tau_0 [N m], `BelowTaskImpedance.torque` (the null-space
+      share N^T G(q) of the gravity compensation included).
+
+    Parameters
+    ----------
+    plant, tool_frame, desired_orientation, nominal_positions
+        As for `BelowTaskImpedance`: the finalized plant, the tool frame whose orientation
+        is held, that orientation (RotationMatrix, world) and q_0 ((nq,) array [rad]).
+    orientation_stiffness, orientation_damping : float
+        K_o [N m/rad] and D_o [N m s/rad], >= 0.
+    posture_stiffness, posture_damping : float
+        K_p [N m/rad] and D_p [N m s/rad], >= 0.
     """
 
     def __init__(
@@ -151,10 +175,31 @@ class ToolContactForce(LeafSystem):
     """The contact force on the tool's body, world frame: what a wrist force/torque sensor
     reads of the environment (gravity and inertia of the tool aside). Sums the hydroelastic
     and point contacts in the plant's contact results that involve `tool_body`.
-    Input `contact_results` (abstract ContactResults) and, with `applied_force=True`,
-    `applied_force` (3, world [N]): a force the world applies to the tool other than by
-    contact (a torn hole's friction), which a wrist sensor reads too. Output `force` (3)
-    and, restricted to `axes`, `task_force` (M)."""
+
+    Input ports:
+
+    - ``contact_results`` (abstract, `ContactResults`): the plant's contact results
+      output.
+    - ``applied_force`` (3), only with `applied_force=True`: a force the world applies to
+      the tool other than by contact (a torn hole's friction, `HoleFriction`'s ``force``),
+      which a wrist sensor reads too, world [N].
+
+    Output ports:
+
+    - ``force`` (3): the environment's force on the tool, world [N] (`force_on_tool`).
+    - ``task_force`` (M): its components along `axes`, M = len(axes) [N].
+
+    Parameters
+    ----------
+    plant : MultibodyPlant
+        Finalized; the tool body's collision geometries are looked up in it.
+    tool_body : RigidBody
+        The tool's body, whose contacts are summed.
+    axes : sequence of int
+        The world axes (0 = x, 1 = y, 2 = z) of ``task_force``; default all three.
+    applied_force : bool
+        Whether to declare the ``applied_force`` input (default False).
+    """
 
     def __init__(self, plant, tool_body, axes=(0, 1, 2), applied_force: bool = False):
         super().__init__()

@@ -155,11 +155,28 @@ class ArmTick:
 class ArmControlLoop(LeafSystem):
     """`ArmTick` as a Drake system, evaluated once per plant step.
 
-    Inputs: `plant_state` (nq + nv), the reference's `desired_position`,
-    `desired_velocity`, `desired_acceleration` (M each) and `phase` (1), and for a learning
-    law `theta` (its flattened weights, from an Integrator). Outputs: `joint_torque` (nv)
-    and, for a learning law, `theta_rate`: the values of the last tick, held; `logs`: the
-    loggable series evaluated at the present context (layout in `log_columns`).
+    Sizes: M task-space axes (the model's), nq positions and nv velocities of the plant,
+    P = `law.theta_size` (3 M N for the Hl-CMP, N basis functions).
+
+    Input ports:
+
+    - ``plant_state`` (nq + nv): the plant's positions q [rad] and velocities v [rad/s].
+    - ``desired_position``, ``desired_velocity``, ``desired_acceleration`` (M): x_d [m],
+      x_d' [m/s], x_d'' [m/s^2] from the reference.
+    - ``phase`` (1): the canonical phase s [-].
+    - ``theta`` (P), only for a law that learns: its flattened weights θ = [θ_k, θ_d, θ_v]
+      (each (M, N) row-major; for the Hl-CMP [N/m], [N s/m], [N]), from an Integrator.
+
+    Output ports:
+
+    - ``joint_torque`` (nv): the saturated joint torque of the last tick, held until the
+      next [N m], gravity compensation G(q) included; zero before the first tick.
+    - ``theta_rate`` (P), only for a law that learns: θ' of the last tick, held (the
+      Integrator's input) [θ's units per s].
+    - ``logs`` (`ArmTick.log_size` = 2 M + 1 + M K, K the law's `log_fields`): the
+      loggable series evaluated at the present context, not held: x [m], f_c [N], the
+      number of saturated joints [-], then each logged series (M); layout in
+      `log_columns`.
 
     Parameters
     ----------

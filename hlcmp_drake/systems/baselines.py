@@ -24,6 +24,47 @@ class VariableImpedanceController(LeafSystem):
     Extra input `external_force` (the wrist sensor's reaction force, M); desired force
     per reference segment: `desired_force(t)` returns f_d (M), and segments with f_d = 0
     use the plain impedance with `free_stiffness` and Phi held at zero.
+
+    Input ports (M task-space axes), the standard controller inputs
+    (`declare_task_space_inputs`) and one more:
+
+    - ``position``, ``velocity`` (M): measured x [m], x' [m/s].
+    - ``desired_position``, ``desired_velocity``, ``desired_acceleration`` (M): the
+      reference x_r [m], x_r' [m/s], x_r'' [m/s^2] that the admittance is written about.
+    - ``phase`` (1): the canonical phase s [-]; declared so the controller is
+      interchangeable with the others, not read.
+    - ``task_inertia``, ``task_coriolis`` (M * M, row-major): Λ [kg], C [kg/s], for the
+      inner loop.
+    - ``task_gravity`` (M): G [N].
+    - ``external_force`` (M): the measured reaction force f_e of the environment on the
+      robot [N] (e.g. `ToolContactForce`'s ``task_force``).
+
+    Output ports:
+
+    - ``force`` (M): the commanded task-space force f [N] of the inner inverse-dynamics
+      PD loop tracking x_c (`inner_position_loop`).
+
+    Parameters
+    ----------
+    mass : (M,) array_like
+        Target mass m [kg], > 0.
+    damping : (M,) array_like
+        Target damping b [N s/m], > 0.
+    free_stiffness : (M,) array_like
+        Target stiffness k [N/m] where f_d = 0 (0 while tracking a force), >= 0.
+    sigma : float
+        The adaptation's update rate sigma [-], >= 0.
+    sample_period : float
+        lambda, the period of Phi's update [s], > 0.
+    kp : (M,) array_like
+        Inner-loop position gain [1/s^2].
+    kv : (M,) array_like
+        Inner-loop velocity gain [1/s].
+    desired_force : callable(t) -> (M,) array
+        f_d at time t [s]: the desired reaction force [N], 0 on an axis where the task
+        asks for none.
+    initial_position : (M,) array_like
+        x_c(0) [m] (x_c'(0) = 0): the task-space position at t = 0.
     """
 
     def __init__(

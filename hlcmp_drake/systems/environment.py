@@ -31,6 +31,24 @@ class UnilateralSpring(LeafSystem):
     Input `plant_state` [q, v]; outputs `generalized_force` (to the plant's
     applied_generalized_force port) and `reaction_force` (what a force sensor between the
     body and the object reads, logged as f_ext).
+
+    Input ports:
+
+    - ``plant_state`` (2): the prismatic joint's position q [m] and velocity v [m/s].
+
+    Output ports:
+
+    - ``generalized_force`` (1): k (surface - q) while q < surface, else 0
+      (`unilateral_spring_force`), on the joint [N].
+    - ``reaction_force`` (1): the same value, the object's reaction on the body [N].
+
+    Parameters
+    ----------
+    surface : float
+        Position of the object's surface along the joint [m]; the object fills
+        q < surface.
+    stiffness : float
+        The object's stiffness k [N/m].
     """
 
     def __init__(self, surface, stiffness):

@@ -16,6 +16,13 @@ class SafetyMonitor(LeafSystem):
     ReachedTermination, whose message the Simulator returns) at the first problem `check`
     reports.
 
+    Input ports: one vector port per entry of `inputs`, named and sized as given, in the
+    units of the port it is connected to. The worlds declare ``plant_state`` (nq + nv,
+    the plant's state) and, for an arm, ``contact_force`` (3, `ToolContactForce`'s
+    ``force``, world [N]) and ``saturated`` (1, the number of joints at their effort limit).
+
+    Output ports: none (a periodic publish event).
+
     Parameters
     ----------
     inputs : dict of str to int

@@ -26,9 +26,18 @@ class HoleFriction(LeafSystem):
     each update, acts from the update after that; the steps in between keep it from adding
     to a contact force not yet ended.
 
-    Input `plant_state`. Outputs `force` (3, world [N]): the hole's friction on the tool
-    (zero before the tear), and `spatial_forces`: the same force at the tool point, for
-    the plant's applied_spatial_force input; both are the held values of the last update.
+    Input ports:
+
+    - ``plant_state`` (nq + nv): the plant's positions q and velocities v (its state
+      output).
+
+    Output ports (both the held values of the last update):
+
+    - ``force`` (3): the hole's friction on the tool, world [N]; zero before the tear
+      (for `ToolContactForce`'s ``applied_force``).
+    - ``spatial_forces`` (abstract, list of one `ExternallyAppliedSpatialForce`): the same
+      force at the tool point, on the tool body, for the plant's applied_spatial_force
+      input.
 
     Parameters
     ----------

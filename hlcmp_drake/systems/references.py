@@ -27,7 +27,28 @@ FORCING_SAMPLE_S = 0.002
 class DmpSource(LeafSystem):
     """A fitted DMP as a Drake system. Continuous state [p (M), z (M), s]; Drake integrates
     Eqs. 7, 8 and 15 through `Dmp.rates`. tau may differ from the demonstration's
-    (temporal scaling); a new goal is set with `Dmp.with_goal` before construction."""
+    (temporal scaling); a new goal is set with `Dmp.with_goal` before construction.
+
+    The state starts at p = `dmp.start` (p0) [m], z = 0, s = 1; z = tau p' is the scaled
+    velocity [m].
+
+    Input ports: none.
+
+    Output ports (M task-space axes, the DMP's `n_axes`):
+
+    - ``desired_position`` (M): x_d = p [m].
+    - ``desired_velocity`` (M): x_d' = z / tau [m/s].
+    - ``desired_acceleration`` (M): x_d'' = z' / tau [m/s^2] (Eq. 15, through `Dmp.rates`).
+    - ``phase`` (1): the canonical phase s [-] (Eq. 8), from 1 decaying towards 0.
+
+    Parameters
+    ----------
+    dmp : Dmp
+        The fitted DMP (with a new goal already set, if any); its `n_axes` is M.
+    tau : float, optional
+        Time constant [s], > 0; default the demonstration's `dmp.tau` (another value:
+        temporal scaling, the same path run faster or slower).
+    """
 
     def __init__(self, dmp: Dmp, tau: float | None = None):
         super().__init__()
@@ -101,8 +122,13 @@ def linear_dmp_source(dmp: Dmp, duration: float, tau: float | None = None) -> Di
     Returns
     -------
     Diagram
-        Named "reference", with outputs desired_position, desired_velocity,
-        desired_acceleration (M each) and phase (1).
+        Named "reference", without input ports; its output ports, as `DmpSource`'s (M task
+        axes, the DMP's `n_axes`):
+
+        - ``desired_position`` (M): x_d = p [m].
+        - ``desired_velocity`` (M): x_d' = z / tau [m/s].
+        - ``desired_acceleration`` (M): x_d'' = z' / tau [m/s^2].
+        - ``phase`` (1): the canonical phase s [-] (Eq. 8).
     """
     tau = dmp.tau if tau is None else float(tau)
     m, settings = dmp.n_axes, dmp.settings
@@ -153,7 +179,28 @@ class StepReference(LeafSystem):
     phase (Eq. 8) as continuous state, for tasks defined by set-points, such as the
     paper's 1-DOF comparison (x_d = -0.15 m from t = 0, x_d = 0 from t = 10 s).
 
-    times: (K,) switch times, increasing, times[0] = 0; positions: (K, M).
+    Input ports: none.
+
+    Output ports (M task-space axes, the columns of `positions`):
+
+    - ``desired_position`` (M): x_d [m], the row of `positions` in force at the context's
+      time (see `position_at`).
+    - ``desired_velocity``, ``desired_acceleration`` (M): x_d' [m/s] and x_d'' [m/s^2],
+      always zero.
+    - ``phase`` (1): the canonical phase s [-], continuous state from s(0) = 1 with
+      tau s' = -alpha_s s (Eq. 8).
+
+    Parameters
+    ----------
+    times : (K,) array_like
+        The switch times [s], increasing, times[0] = 0.
+    positions : (K, M) array_like
+        The set-points x_d [m]: row k holds from times[k] on (K * M values in any shape are
+        reshaped to K rows).
+    tau : float
+        The phase's time constant [s] (the scenarios pass the run's `duration_s`).
+    alpha_s : float
+        The canonical system's decay rate [-], > 0 (the scenario's `dmp.alpha_s`).
     """
 
     def __init__(self, times, positions, tau, alpha_s):

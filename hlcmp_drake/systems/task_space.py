@@ -169,6 +169,40 @@ class TaskSpaceDynamics(LeafSystem):
 
     All outputs come from one cache entry that depends on the plant-state input only,
     so integrator stages that do not change the plant's state reuse it.
+
+    Sizes: M task-space axes (`axes`), nq positions and nv velocities of the plant.
+    Matrices are flattened row-major. Joint units are those of the plant's joints: [rad],
+    [rad/s], [N m] for a revolute joint, [m], [m/s], [N] for a prismatic one.
+
+    Input ports:
+
+    - ``plant_state`` (nq + nv): the plant's positions q and velocities v (its state
+      output).
+
+    Output ports:
+
+    - ``position`` (M): P's position x along `axes`, world [m].
+    - ``velocity`` (M): its velocity x' = J v [m/s].
+    - ``jacobian`` (M * nv, row-major M x nv): J, the rows of P's translational Jacobian
+      with respect to v [m/rad for a revolute joint, - for a prismatic one].
+    - ``task_inertia`` (M * M, row-major): Lambda = (J M^-1 J^T)^-1 [kg].
+    - ``task_coriolis`` (M * M, row-major): C_x [kg/s] (see `TaskSpaceModel`).
+    - ``task_gravity`` (M): G_x = Jbar^T G(q) [N].
+    - ``null_space_projector`` (nv * nv, row-major): N^T = I - J^T Jbar^T [-].
+    - ``joint_gravity`` (nv): G(q), the joint torque that holds the arm against gravity
+      (minus Drake's gravity generalized force) [N m or N per joint].
+
+    Parameters
+    ----------
+    plant : MultibodyPlant
+        Finalized; a control-side context of it is made here.
+    frame : Frame
+        The frame P is fixed on (e.g. the tool tip's).
+    point_in_frame : (3,) array_like
+        P in `frame` [m]; default its origin.
+    axes : sequence of int
+        The world axes of the task space (0 = x, 1 = y, 2 = z), distinct; default all
+        three. M = len(axes).
     """
 
     def __init__(self, plant, frame, point_in_frame=(0.0, 0.0, 0.0), axes=(0, 1, 2)):
@@ -247,9 +281,31 @@ class TaskForceToJointTorque(LeafSystem):
     """tau = J^T f_c (+ a joint torque from below the task, e.g. the null-space terms),
     saturated element-wise at the actuators' effort limits.
 
-    Inputs: `force` (M), `jacobian` (M x nv row-major) and, with `extra_torque=True`,
-    `extra_torque` (nv). Outputs: `joint_torque` (nv), and `saturated` (1): the number
-    of joints at their limit, for the run monitor.
+    Sizes: M task-space axes, nv the plant's velocities (one actuator per velocity).
+    Joint torques are in the joints' units: [N m] for a revolute joint, [N] for a
+    prismatic one.
+
+    Input ports:
+
+    - ``force`` (M): the commanded task-space force f_c [N].
+    - ``jacobian`` (M * nv, row-major M x nv): J, as `TaskSpaceDynamics` outputs it.
+    - ``extra_torque`` (nv), only with `extra_torque=True`: a joint torque added before
+      the saturation (e.g. `NullSpaceImpedance`'s) [N m].
+
+    Output ports:
+
+    - ``joint_torque`` (nv): sat(J^T f_c + extra_torque), for the plant's actuation [N m].
+    - ``saturated`` (1): the number of joints at their effort limit [-], for the run
+      monitor.
+
+    Parameters
+    ----------
+    n_axes : int
+        M, the number of task-space axes.
+    effort_limits : (nv,) array_like
+        The actuators' effort limits [N m], > 0; their length sets nv.
+    extra_torque : bool
+        Whether to declare the ``extra_torque`` input (default False).
     """
 
     def __init__(self, n_axes, effort_limits, extra_torque=False):
