@@ -8,7 +8,8 @@
     hlcmp fit DEMO.csv --out SKILL.npz       fit the DMP of a demonstration
     hlcmp rollout SKILL.npz --out TRAJ.csv   roll a skill's DMP out
     hlcmp sweep SWEEP.yaml [--out DIR] [--engine local|ray] [--address A] [--workers N] [--dry-run]
-    hlcmp serve SCENARIO --lcm URL [--controller C] [--skill SKILL.npz [--freeze]] [--duration S] [--out DIR]
+    hlcmp serve SCENARIO --lcm URL [--controller C] [--skill SKILL.npz [--freeze]]
+                [--duration S] [--out DIR]
     hlcmp sim-driver SCENARIO --lcm URL [--realtime] [--duration S] [--idle-timeout S]
 
 Exit codes: 0 success, 2 bad input (one line on stderr; --debug shows the traceback),
@@ -131,7 +132,8 @@ def cmd_run(args):
 
         meshcat = Meshcat()
         print(
-            f"live view: {meshcat.web_url()} (open it in a browser; it closes when the command ends)",
+            f"live view: {meshcat.web_url()} (open it in a browser; it closes when the command "
+            "ends)",
             flush=True,
         )
     try:
@@ -158,7 +160,8 @@ def cmd_report(args):
     _quiet_drake(args)
     result = run_report(args.out, args.scenarios, Progress(args.quiet))
     print(
-        f"report: {result.page} ({result.wall_s:.0f} s for {', '.join(s.name for s in result.sections)})"
+        f"report: {result.page} ({result.wall_s:.0f} s for "
+        f"{', '.join(s.name for s in result.sections)})"
     )
     return 0 if result.all_ok else EXIT_UNSTABLE
 
@@ -221,8 +224,10 @@ def cmd_probe(args):
     result = run_probe(args.scenario, args.out, args.speed, overrides=args.set)
     readings = result.readings
     print(
-        f"probe {readings['scenario']} at {readings['speed_m_per_s']:.3f} m/s: peak {readings['peak_force_N']:.2f} N "
-        f"at {1000 * readings['depth_at_peak_m']:.1f} mm, residual {readings['residual_force_N']:.2f} N, "
+        f"probe {readings['scenario']} at {readings['speed_m_per_s']:.3f} m/s: peak "
+        f"{readings['peak_force_N']:.2f} N "
+        f"at {1000 * readings['depth_at_peak_m']:.1f} mm, residual "
+        f"{readings['residual_force_N']:.2f} N, "
         f"max lateral {readings['max_lateral_force_N']:.3f} N; {readings['status']}"
     )
     print(f"probe.json, probe.png in {result.out_dir}")
@@ -291,7 +296,8 @@ def cmd_sweep(args):
             state: list(plan.states.values()).count(state) for state in ("done", "stale", "pending")
         }
         print(
-            f"sweep {plan.sweep.path}: {len(plan.tasks)} tasks of {plan.sweep.scenario_path.name} into "
+            f"sweep {plan.sweep.path}: {len(plan.tasks)} tasks of {plan.sweep.scenario_path.name} "
+            "into "
             f"{plan.out_dir} ({counts['done']} done, {counts['stale']} to rerun (changed), "
             f"{counts['pending']} to run)"
         )
@@ -394,7 +400,8 @@ def cmd_sim_driver(args):
         return EXIT_DRIVER_ABORT
     late = f", {summary.late_steps} late" if args.realtime else ""
     print(
-        f"sim-driver: {summary.steps} steps ({summary.commanded_steps} commanded, {summary.held_steps} held{late}), "
+        f"sim-driver: {summary.steps} steps ({summary.commanded_steps} commanded, "
+        f"{summary.held_steps} held{late}), "
         f"{summary.sim_time_s:.3f} s simulated in {summary.wall_s:.1f} s; {summary.stopped_because}"
     )
     return 0

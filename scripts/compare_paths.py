@@ -64,7 +64,8 @@ def main():
         )
     same = verdicts(first["claims"]) == verdicts(second["claims"])
     print(
-        f"\nclaims' verdicts: {'the same' if same else 'DIFFERENT'} ({len(verdicts(first['claims']))} verdicts)"
+        f"\nclaims' verdicts: {'the same' if same else 'DIFFERENT'} "
+        f"({len(verdicts(first['claims']))} verdicts)"
     )
 
 

@@ -18,7 +18,8 @@ from pathlib import Path
 
 
 def one_run(scenario: str, duration: float, realtime: bool, out: Path) -> dict:
-    url = f"udpm://239.255.{random.randint(1, 254)}.{random.randint(1, 254)}:{random.randint(20000, 60000)}?ttl=0"
+    group = f"239.255.{random.randint(1, 254)}.{random.randint(1, 254)}"
+    url = f"udpm://{group}:{random.randint(20000, 60000)}?ttl=0"
     cli = [sys.executable, "-m", "hlcmp_drake.cli"]
     driver = subprocess.Popen(
         [
@@ -73,18 +74,21 @@ def main() -> None:
             ticks = record["tick_us"]
             print(
                 f"run {k + 1}: {record['ticks']} ticks, {record['missed_ticks']} missed, "
-                f"tick p50 {ticks['p50']:.0f} us, p99 {ticks['p99']:.0f} us, max {ticks['max']:.0f} us",
+                f"tick p50 {ticks['p50']:.0f} us, p99 {ticks['p99']:.0f} us, max "
+                f"{ticks['max']:.0f} us",
                 flush=True,
             )
     pacing = "real time" if args.realtime else "as fast as the client answers"
     print(
-        f"\n| run ({args.scenario}, {args.duration:g} s, {pacing}) | ticks | missed | tick p50 | tick p99 | max |"
+        f"\n| run ({args.scenario}, {args.duration:g} s, {pacing}) | ticks | missed | tick p50 | "
+        "tick p99 | max |"
     )
     print("|---|---|---|---|---|---|")
     for k, record in enumerate(rows, 1):
         ticks = record["tick_us"]
         print(
-            f"| {k} | {record['ticks']} | {record['missed_ticks']} | {ticks['p50']:.0f} µs | {ticks['p99']:.0f} µs "
+            f"| {k} | {record['ticks']} | {record['missed_ticks']} | {ticks['p50']:.0f} µs | "
+            f"{ticks['p99']:.0f} µs "
             f"| {ticks['max']:.0f} µs |"
         )
 

@@ -5,7 +5,8 @@
     hlcmp reproduce out/learn/skill.npz --scenario insertion --freeze --out out/reproduce
     hlcmp bench --out out/bench
     hlcmp sweep diagrams/sweeps/one_dof_sensitivity.yaml --out out/sweeps/one_dof_sensitivity
-    hlcmp sweep diagrams/sweeps/insertion_learning_rate.yaml --out out/sweeps/insertion_learning_rate
+    hlcmp sweep diagrams/sweeps/insertion_learning_rate.yaml \
+        --out out/sweeps/insertion_learning_rate
     python scripts/update_readme.py --runs out/report --learn out/learn --reproduce out/reproduce \
         --bench out/bench --sweeps out/sweeps
 """

@@ -168,7 +168,8 @@ class HlcmpConfig(ControllerChecks):
         if self.q_units not in self.Q_UNITS:
             fail(
                 f"controllers.{name}.q_units",
-                f"controller '{name}': q_units must be one of {', '.join(self.Q_UNITS)}, got '{self.q_units}'",
+                f"controller '{name}': q_units must be one of {', '.join(self.Q_UNITS)}, got "
+                f"'{self.q_units}'",
             )
         if not self.control_step_s > 0:
             fail(
@@ -508,7 +509,8 @@ class ArmTask:
             # plant's step; a sampled plant steps in the same pass and would see them a step late.
             fail(
                 "plant_config.use_sampled_output_ports",
-                "an arm world needs false (the controller's tick must come before the plant's step)",
+                "an arm world needs false (the controller's tick must come before the plant's "
+                "step)",
             )
 
     def check(self, fail: Fail) -> None:

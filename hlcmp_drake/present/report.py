@@ -161,7 +161,8 @@ def _probe_html(out_dir: Path, probe_dir: Path) -> str:
     rel = probe_dir.resolve().relative_to(out_dir.resolve()).as_posix()
     return (
         f"<h3>The world alone (hlcmp probe)</h3><p>The tool on a stiff carriage, no controller, at "
-        f"{readings['speed_m_per_s']:.3f} m/s: peak resisting force <b>{readings['peak_force_N']:.2f} N</b> "
+        f"{readings['speed_m_per_s']:.3f} m/s: peak resisting force "
+        f"<b>{readings['peak_force_N']:.2f} N</b> "
         f"{1000 * readings['depth_at_peak_m']:.1f} mm after first contact, residual "
         f"<b>{readings['residual_force_N']:.2f} N</b>, max lateral force "
         f"<b>{readings['max_lateral_force_N']:.3f} N</b>; {html.escape(readings['status'])}. "
@@ -200,7 +201,8 @@ def report_page(out_dir: Path, sections: list) -> str:
         metrics = json.loads((Path(run_dir) / "metrics.json").read_text())
         rel = Path(run_dir).resolve().relative_to(out_dir.resolve()).as_posix()
         parts.append(
-            f"<h2 id='{name}'>{html.escape(experiment.title)} (paper {experiment.paper_figures})</h2>"
+            f"<h2 id='{name}'>{html.escape(experiment.title)} (paper "
+            f"{experiment.paper_figures})</h2>"
         )
         parts.append(
             f"<p>Status: <b>{metrics['status']}</b>; ran in {section.wall_s:.0f} s. "

@@ -10,6 +10,7 @@ import statistics
 import sys
 import tempfile
 import time
+from functools import partial
 
 import numpy as np
 from pydrake.systems.analysis import Simulator
@@ -138,15 +139,15 @@ def insertion_runs(duration: float, repetitions: int) -> dict:
     for _ in range(repetitions):
         built = arm.build(scenario, "hlcmp", setup)
         ticks.append(built.controller.system.record_tick_times())  # filled as the run goes
-        walls["fast"].append(_wall(lambda: advance(built, scenario))[0])
+        walls["fast"].append(_wall(partial(advance, built, scenario))[0])
         replay = _joint_space_replay(scenario, setup, run, harness=True)
-        walls["cpp"].append(_wall(lambda: advance(replay, scenario))[0])
+        walls["cpp"].append(_wall(partial(advance, replay, scenario))[0])
         bare = arm.build(scenario, "hlcmp", setup, harness=False)
-        walls["fast_bare"].append(_wall(lambda: advance(bare, scenario))[0])
+        walls["fast_bare"].append(_wall(partial(advance, bare, scenario))[0])
         replay = _joint_space_replay(scenario, setup, run, harness=False)
-        walls["cpp_bare"].append(_wall(lambda: advance(replay, scenario))[0])
+        walls["cpp_bare"].append(_wall(partial(advance, replay, scenario))[0])
         built = arm.build(modular, "hlcmp", setup)
-        walls["modular"].append(_wall(lambda: advance(built, modular))[0])
+        walls["modular"].append(_wall(partial(advance, built, modular))[0])
 
     def ratio(a, b):
         return statistics.median([x / y for x, y in zip(walls[a], walls[b])])
@@ -252,8 +253,8 @@ def dmp_timings(repetitions: int) -> dict:
     except ImportError:
         DMP = None
     for _ in range(repetitions):
-        fit_s, dmp = _wall(lambda: Dmp.fit(t, positions, "xyz", settings))
-        rollout_s, _ = _wall(lambda: dmp.rollout(dt=0.001))
+        fit_s, dmp = _wall(partial(Dmp.fit, t, positions, "xyz", settings))
+        rollout_s, _ = _wall(partial(dmp.rollout, dt=0.001))
         ours_fit.append(fit_s)
         ours_rollout.append(rollout_s)
         if DMP is not None:
@@ -293,7 +294,7 @@ def scenario_walls(names: list[str], duration: float | None = None) -> dict:
     out = {}
     for name in names:
         with tempfile.TemporaryDirectory() as folder:
-            out[name] = _wall(lambda: run_scenario(name, folder, overrides=overrides))[0]
+            out[name] = _wall(partial(run_scenario, name, folder, overrides=overrides))[0]
     return out
 
 
@@ -331,21 +332,24 @@ def _rows(results):
     ratio = results.get("dmp_vs_movement_primitives")
     rows = [
         (
-            "insertion_rtf: simulated s per wall s, Hl-CMP insertion on the fast path (9.5 s, harnessed, "
+            "insertion_rtf: simulated s per wall s, Hl-CMP insertion on the fast path (9.5 s, "
+            "harnessed, "
             "no recording)",
             number(results["insertion_rtf"]),
             "≥ 4",
             results["insertion_rtf"] >= 4,
         ),
         (
-            "controller_overhead_ratio: that run / the same world and harness driven by Drake's C++ "
+            "controller_overhead_ratio: that run / the same world and harness driven by Drake's "
+            "C++ "
             "InverseDynamicsController along the same joint motion",
             number(results["controller_overhead_ratio"]),
             "≤ 2.5",
             results["controller_overhead_ratio"] <= 2.5,
         ),
         (
-            "controller_overhead_ratio_bare: the same, neither side with monitor, sensor or loggers",
+            "controller_overhead_ratio_bare: the same, neither side with monitor, sensor or "
+            "loggers",
             number(results["controller_overhead_ratio_bare"]),
             "",
             None,
@@ -357,7 +361,8 @@ def _rows(results):
             None,
         ),
         (
-            "python_calls_per_step: calls from Drake into Python per 1 ms plant step, fast path (counted)",
+            "python_calls_per_step: calls from Drake into Python per 1 ms plant step, fast path "
+            "(counted)",
             number(results["python_calls_per_step"]),
             "≤ 4",
             results["python_calls_per_step"] <= 4,
@@ -369,7 +374,8 @@ def _rows(results):
             None,
         ),
         (
-            "controller_tick_us: one tick, plant state to joint torques and Eq. 31 rates, in the running "
+            "controller_tick_us: one tick, plant state to joint torques and Eq. 31 rates, in the "
+            "running "
             "insertion, p50 / p99",
             f"{tick['p50']:.0f} / {tick['p99']:.0f} µs",
             "p99 ≤ 250",

@@ -65,7 +65,8 @@ def learning_scenario(
     name = learner(scenario)
     if name is None:
         raise InputError(
-            f"scenario '{scenario.name}' has no learning controller (e.g. !HlcmpConfig) to learn with"
+            f"scenario '{scenario.name}' has no learning controller (e.g. !HlcmpConfig) to learn "
+            "with"
         )
     config = scenario.controllers[name]
     if freeze:

@@ -278,7 +278,8 @@ class TorqueClient:
         k = int(round(t / self.config.period_s))
         last = len(self._reference[0]) - 1  # the tick at the duration
         if self._last_utime is not None:
-            # Statuses between the last answered one and this one (up to the duration) went unanswered.
+            # Statuses between the last answered one and this one (up to the duration) went
+            # unanswered.
             previous = int(round((self._last_utime - self._utime0) / 1e6 / self.config.period_s))
             self.missed_ticks += max(0, min(k, last + 1) - previous - 1)
         if k > last:
@@ -322,7 +323,8 @@ class TorqueClient:
                 STOPPED,
                 f"the arm is not at the scenario's start posture: joint {joint + 1} is "
                 f"{off[joint]:.3f} rad away (iiwa_driver.start_tolerance_rad = "
-                f"{self.config.start_tolerance_rad}); move it to q0 = {np.round(self.q0, 3).tolist()}",
+                f"{self.config.start_tolerance_rad}); move it to q0 = "
+                f"{np.round(self.q0, 3).tolist()}",
             )
             return False
         if received - self.first_status_wall < self.config.start_guard_s:

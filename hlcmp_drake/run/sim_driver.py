@@ -215,9 +215,10 @@ class SimulatedIiwaDriver:
         try:
             status = self.simulator.AdvanceTo(self._steps * self.period)
         except RuntimeError as error:
+            message = " ".join(str(error).split())[:200]
             raise DriverAbort(
-                f"the simulation failed at t = {self.time:.3f} s: {' '.join(str(error).split())[:200]}"
-            )
+                f"the simulation failed at t = {self.time:.3f} s: {message}"
+            ) from None
         if status.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition:
             raise DriverAbort(f"the world stopped at t = {self.time:.3f} s: {status.message()}")
         if not np.all(np.isfinite(plant.GetPositionsAndVelocities(context))):
@@ -287,7 +288,8 @@ def drive(
         When the driver aborts (see `SimulatedIiwaDriver`).
     """
     reporter.say(
-        f"sim-driver: publishing {driver.config.status_channel} every {driver.period * 1000:.0f} ms "
+        f"sim-driver: publishing {driver.config.status_channel} every "
+        f"{driver.period * 1000:.0f} ms "
         f"({'real time' if realtime else 'as fast as the client answers'}); waiting for a command"
     )
     wait_for_first_command(driver, lcm, first_command_timeout_s)
@@ -335,7 +337,10 @@ def _await_answer(driver: SimulatedIiwaDriver, lcm: DrakeLcm, idle_timeout_s: fl
         lcm.HandleSubscriptions(0)
         now = time.perf_counter()
         if now - since > idle_timeout_s:
-            return f"the client stopped answering at t = {driver.time:.3f} s (no command for {idle_timeout_s:g} s)"
+            return (
+                f"the client stopped answering at t = {driver.time:.3f} s "
+                f"(no command for {idle_timeout_s:g} s)"
+            )
         if now - sent > RESEND_S:
             driver.publish_status()
             sent = now

@@ -492,7 +492,10 @@ def arm_check(plant: MultibodyPlant, task: ArmTask) -> Callable[[float, dict], s
     def check(t, values):
         force = np.linalg.norm(values["contact_force"])
         if force > task.max_contact_force_N:
-            return f"contact force {force:.0f} N above max_contact_force_N = {task.max_contact_force_N} N"
+            return (
+                f"contact force {force:.0f} N above max_contact_force_N = "
+                f"{task.max_contact_force_N} N"
+            )
         q = values["plant_state"][:nq]
         beyond = np.flatnonzero((q < lower - 1e-3) | (q > upper + 1e-3))
         if beyond.size:
@@ -501,7 +504,10 @@ def arm_check(plant: MultibodyPlant, task: ArmTask) -> Callable[[float, dict], s
         if values["saturated"][0] > 0:
             saturated_since[0] = t if saturated_since[0] is None else saturated_since[0]
             if t - saturated_since[0] > task.max_saturation_s:
-                return f"joint torques saturated for more than max_saturation_s = {task.max_saturation_s} s"
+                return (
+                    "joint torques saturated for more than max_saturation_s = "
+                    f"{task.max_saturation_s} s"
+                )
         else:
             saturated_since[0] = None
         return None
