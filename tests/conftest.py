@@ -1,5 +1,22 @@
+"""What more than one test file shares: the checkout's paths, the bundled scenarios' whole
+runs (session fixtures, slow) and small helpers. Test files import the constants and
+helpers by name (`from conftest import REPO_ROOT`); pytest finds the fixtures itself."""
+
+from pathlib import Path
+
 import numpy as np
 import pytest
+
+from hlcmp_drake.io.paths import DIAGRAMS_DIR
+
+# --- paths ---------------------------------------------------------------------------
+
+# The checkout: README.md, pyproject.toml, scripts/, .ci/.
+REPO_ROOT = Path(__file__).resolve().parents[1]
+# The bundled insertion demonstration.
+INSERTION_DEMO = DIAGRAMS_DIR / "demos" / "insertion_demo.csv"
+
+# --- the slow marker -------------------------------------------------------------------
 
 # Tests that use a whole bundled scenario's run are slow (tens of seconds each).
 SCENARIO_RUNS = {"one_dof_run", "insertion_run", "cutting_run"}

@@ -1,18 +1,16 @@
 """The cutting experiment: its demonstration (the g ~ p0 case), the full run, its claims."""
 
 import json
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
+from conftest import REPO_ROOT
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.scenario import ArmTask, HlcmpConfig
 from hlcmp_drake.experiments import cutting
 from hlcmp_drake.present.report import results_markdown
 from hlcmp_drake.worlds.arm import fit_demonstration
-
-REPO_ROOT = Path(__file__).resolve().parents[1]  # the checkout (README.md, scripts/, .ci/)
 
 CONTROLLERS = ["hlcmp", "hlcmp_per_step", "const_500", "const_1000"]
 

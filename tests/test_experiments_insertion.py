@@ -4,11 +4,11 @@
 import json
 import subprocess
 import sys
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from conftest import INSERTION_DEMO, REPO_ROOT
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.scenario import (
@@ -18,11 +18,8 @@ from hlcmp_drake.config.scenario import (
     HlcmpConfig,
 )
 from hlcmp_drake.experiments import insertion
-from hlcmp_drake.io.paths import DIAGRAMS_DIR
 from hlcmp_drake.run.simulate import simulate
 from hlcmp_drake.worlds.build import diagram_factory
-
-REPO_ROOT = Path(__file__).resolve().parents[1]  # the checkout (README.md, scripts/, .ci/)
 
 CONTROLLERS = ["hlcmp", "hlcmp_per_step", "const_500", "const_1000", "const_2000"]
 FIGURES = [
@@ -39,7 +36,7 @@ def test_scenario_file_loads_with_the_paper_values():
     assert isinstance(scenario.task, ArmTask) and isinstance(
         scenario.reference, DemonstrationConfig
     )
-    assert (DIAGRAMS_DIR / "demos" / "insertion_demo.csv").samefile(scenario.reference.file)
+    assert INSERTION_DEMO.samefile(scenario.reference.file)
     assert list(scenario.controllers) == CONTROLLERS
     hl = scenario.controllers["hlcmp"]
     assert isinstance(hl, HlcmpConfig)

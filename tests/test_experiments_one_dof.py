@@ -1,17 +1,15 @@
 """End to end: `hlcmp run one_dof` (the full 20 s scenario, about 25 s of wall time)."""
 
 import json
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from conftest import REPO_ROOT
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.experiments import one_dof
 from hlcmp_drake.present.report import results_markdown
-
-REPO_ROOT = Path(__file__).resolve().parents[1]  # the checkout (README.md, scripts/, .ci/)
 
 CONTROLLERS = ["hlcmp", "hlcmp_per_step", "vic_fd_0.5", "vic_fd_1.5", "vic_fd_5.0"]
 

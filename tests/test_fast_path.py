@@ -3,6 +3,7 @@ modular systems it replaces: the same torques from the same state, the same runs
 
 import numpy as np
 import pytest
+from conftest import REPO_ROOT
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
@@ -198,9 +199,8 @@ def test_an_arm_scenario_the_fast_path_cannot_run_is_refused_with_the_field_name
 
 def _compare_paths_script():
     import importlib.util
-    from pathlib import Path
 
-    path = Path(__file__).resolve().parent.parent / "scripts" / "compare_paths.py"
+    path = REPO_ROOT / "scripts" / "compare_paths.py"
     spec = importlib.util.spec_from_file_location("compare_paths", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)

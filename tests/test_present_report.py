@@ -5,14 +5,12 @@ import json
 import re
 import shutil
 import subprocess
-from pathlib import Path
 
 import pytest
+from conftest import REPO_ROOT
 
 from hlcmp_drake.experiments import EXPERIMENTS
 from hlcmp_drake.present.report import ReportSection, report_page
-
-REPO_ROOT = Path(__file__).resolve().parents[1]  # the checkout (README.md, scripts/, .ci/)
 
 
 @pytest.fixture(scope="session")

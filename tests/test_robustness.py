@@ -9,6 +9,7 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import INSERTION_DEMO
 
 from hlcmp_drake.cli import main
 from hlcmp_drake.config.loading import load_scenario
@@ -16,8 +17,6 @@ from hlcmp_drake.io.demos import read_demonstration, write_trajectory
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.io.paths import DIAGRAMS_DIR
 from hlcmp_drake.present.progress import Progress
-
-DEMO = DIAGRAMS_DIR / "demos" / "insertion_demo.csv"
 
 
 def run_cli(*args):
@@ -47,7 +46,7 @@ def one_line_error(result, code=2):
     ],
 )
 def test_unfollowable_demonstrations_stop_before_simulating(tmp_path, change, expected):
-    t, positions, axes = read_demonstration(DEMO)
+    t, positions, axes = read_demonstration(INSERTION_DEMO)
     bad = write_trajectory(tmp_path / "bad.csv", *change(t, positions), axes)
     line = one_line_error(run_cli("learn", bad, "--scenario", "insertion", "--out", tmp_path / "o"))
     assert line.startswith(f"hlcmp: error: {bad}:") and expected in line
@@ -59,7 +58,7 @@ def test_missing_model_file_names_the_line(tmp_path):
         (DIAGRAMS_DIR / "insertion.yaml").read_text().replace("foam_plank.sdf", "no_such_plank.sdf")
     )
     path = tmp_path / "s.yaml"
-    path.write_text(text.replace("file: demos/insertion_demo.csv", f"file: {DEMO}"))
+    path.write_text(text.replace("file: demos/insertion_demo.csv", f"file: {INSERTION_DEMO}"))
     line = one_line_error(run_cli("run", path, "--out", tmp_path / "o"))
     number = next(n for n, row in enumerate(text.splitlines(), 1) if "no_such_plank" in row)
     assert (

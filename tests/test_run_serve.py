@@ -11,6 +11,7 @@ import time
 
 import numpy as np
 import pytest
+from conftest import INSERTION_DEMO
 from pydrake.lcm import DrakeLcm
 from pydrake.multibody.tree import JacobianWrtVariable
 
@@ -356,13 +357,12 @@ def test_serve_in_one_process_from_the_command_line(tmp_path):
     """hlcmp serve --lcm memq:// runs the simulated driver in the same process; a frozen
     skill keeps its profiles (here the untrained ones: θ stays 0)."""
     from hlcmp_drake.cli import main
-    from hlcmp_drake.io.paths import DIAGRAMS_DIR
 
     assert (
         main(
             [
                 "fit",
-                str(DIAGRAMS_DIR / "demos" / "insertion_demo.csv"),
+                str(INSERTION_DEMO),
                 "--out",
                 str(tmp_path / "skill.npz"),
                 "--basis",
