@@ -43,8 +43,8 @@ def test_a_new_label_builds_its_controller_by_kind():
     scenario, _ = load_scenario(
         "one_dof",
         [
-            "controllers.soft=!ConstantImpedanceConfig {stiffness_N_per_m: [100], damping_Ns_per_m: [20], "
-            "gain_l: [10]}"
+            "controllers.soft=!ConstantImpedanceConfig {stiffness_N_per_m: [100], "
+            "damping_Ns_per_m: [20], gain_l: [10]}"
         ],
     )
     built = diagram_factory(scenario)("soft")

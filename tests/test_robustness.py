@@ -62,8 +62,8 @@ def test_missing_model_file_names_the_line(tmp_path):
     line = one_line_error(run_cli("run", path, "--out", tmp_path / "o"))
     number = next(n for n, row in enumerate(text.splitlines(), 1) if "no_such_plank" in row)
     assert (
-        f"{path}:{number}: file: model file 'package://hlcmp_drake/models/no_such_plank.sdf' does not exist"
-        in line
+        f"{path}:{number}: file: model file "
+        "'package://hlcmp_drake/models/no_such_plank.sdf' does not exist" in line
     )
 
 

@@ -321,7 +321,8 @@ def test_the_table_shows_values_as_the_readme_does():
         ],
     }
     assert to_markdown(sweep_table(summary), code_first_column=False) == (
-        "| N | L | x [m] | reach [s] | C4 |\n|---|---|---|---|---|\n| 2 | 10 | -0.1116 | never | yes |\n"
+        "| N | L | x [m] | reach [s] | C4 |\n|---|---|---|---|---|\n"
+        "| 2 | 10 | -0.1116 | never | yes |\n"
     )
     summary["tasks"][1].update(status="unstable", values={"x [m]": 3.0})
     assert sweep_table(summary).rows[1] == ["30", "1", "3.0000", "never", "n/a", "unstable"]

@@ -230,9 +230,12 @@ DOUBLE_PENDULUM = """<?xml version="1.0"?>
     <inertia><ixx>0.02</ixx><iyy>0.03</iyy><izz>0.01</izz><ixy>0</ixy><ixz>0</ixz><iyz>0</iyz></inertia></inertial></link>
   <link name="l3"><pose>0 0 -1.1 0 0 0</pose><inertial><mass>0.5</mass>
     <inertia><ixx>0.01</ixx><iyy>0.01</iyy><izz>0.01</izz><ixy>0</ixy><ixz>0</ixz><iyz>0</iyz></inertia></inertial></link>
-  <joint name="j1" type="revolute"><parent>world</parent><child>l1</child><axis><xyz>0 1 0</xyz></axis></joint>
-  <joint name="j2" type="revolute"><parent>l1</parent><child>l2</child><axis><xyz>1 0 0</xyz></axis></joint>
-  <joint name="j3" type="revolute"><parent>l2</parent><child>l3</child><axis><xyz>0 1 0</xyz></axis></joint>
+  <joint name="j1" type="revolute"><parent>world</parent><child>l1</child>
+    <axis><xyz>0 1 0</xyz></axis></joint>
+  <joint name="j2" type="revolute"><parent>l1</parent><child>l2</child>
+    <axis><xyz>1 0 0</xyz></axis></joint>
+  <joint name="j3" type="revolute"><parent>l2</parent><child>l3</child>
+    <axis><xyz>0 1 0</xyz></axis></joint>
 </model></sdf>"""
 
 
