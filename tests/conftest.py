@@ -2,6 +2,8 @@
 runs (session fixtures, slow) and small helpers. Test files import the constants and
 helpers by name (`from conftest import REPO_ROOT`); pytest finds the fixtures itself."""
 
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +17,10 @@ from hlcmp_drake.io.paths import DIAGRAMS_DIR
 REPO_ROOT = Path(__file__).resolve().parents[1]
 # The bundled insertion demonstration.
 INSERTION_DEMO = DIAGRAMS_DIR / "demos" / "insertion_demo.csv"
+# A short 3-axis demonstration (20 samples, 0.1 s apart) as CSV text.
+DEMO_CSV = "t,x,y,z\n" + "".join(
+    f"{0.1 * k:.1f},{0.01 * k:.2f},0,{0.2 - 0.01 * k:.2f}\n" for k in range(20)
+)
 
 # --- the slow marker -------------------------------------------------------------------
 
@@ -26,6 +32,9 @@ def pytest_collection_modifyitems(items):
     for item in items:
         if SCENARIO_RUNS & set(getattr(item, "fixturenames", ())):
             item.add_marker(pytest.mark.slow)
+
+
+# --- fixtures ----------------------------------------------------------------------------
 
 
 def minimum_jerk(u):
@@ -71,3 +80,69 @@ def cutting_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("cutting")
     assert main(["run", "cutting", "--out", str(out), "--quiet"]) == 0
     return out
+
+
+# --- helpers ---------------------------------------------------------------------------
+
+
+def run_cli(*args):
+    return subprocess.run(
+        [sys.executable, "-m", "hlcmp_drake.cli", *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+
+
+def one_line_error(result, code=2):
+    assert result.returncode == code, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in result.stderr, result.stderr
+    return lines[0]
+
+
+def short_one_dof(seconds=3.0):
+    """The `run` arguments of the 1-DOF scenario cut short."""
+    return ["one_dof", "--set", f"duration_s={seconds}"]
+
+
+# Fuzzing the loaders: whatever the bytes, a clean InputError (exit 2) or a valid result.
+def mutations(text, rng, count):
+    pieces = [
+        "",
+        ",",
+        "\n",
+        "nan",
+        "-",
+        "1e999",
+        "abc",
+        "t",
+        ":",
+        "[",
+        "]",
+        "{",
+        "!",
+        "#",
+        " ",
+        "\t",
+        "0",
+        "-1",
+        "\x00",
+        "é",
+        "'",
+        '"',
+        "x,y",
+    ]
+    for _ in range(count):
+        chars = list(text)
+        for _ in range(rng.randint(1, 4)):
+            where = rng.randrange(len(chars) + 1)
+            action = rng.random()
+            if action < 0.4 and chars:
+                del chars[min(where, len(chars) - 1)]
+            elif action < 0.8:
+                chars.insert(where, rng.choice(pieces))
+            else:
+                cut = rng.randrange(len(chars) + 1)
+                chars = chars[:cut]
+        yield "".join(chars)
