@@ -82,6 +82,49 @@ def cutting_run(tmp_path_factory):
     return out
 
 
+@pytest.fixture(scope="session")
+def insertion():
+    """The insertion scenario and its ArmSetup (the fitted DMP, the start posture q0 and the
+    tool orientation), shared read-only by the arm's tests."""
+    from hlcmp_drake.config.loading import load_scenario
+    from hlcmp_drake.worlds.arm import prepare
+
+    scenario, _ = load_scenario("insertion")
+    return scenario, prepare(scenario)
+
+
+@pytest.fixture(scope="session")
+def arm():
+    """The iiwa of the insertion at rest in its start posture: the scenario, its ArmSetup,
+    a control-side plant, the tool frame, the task-space terms there and the state."""
+    import dataclasses as dc
+
+    from pydrake.multibody.parsing import ModelDirectives, Parser, ProcessModelDirectives
+    from pydrake.multibody.plant import MultibodyPlant
+
+    from hlcmp_drake.config.loading import load_scenario
+    from hlcmp_drake.io.paths import register_package
+    from hlcmp_drake.systems.task_space import TaskSpaceDynamics
+    from hlcmp_drake.worlds.arm import prepare as prepare_arm
+    from hlcmp_drake.worlds.models import scoped_frame
+
+    scenario, _ = load_scenario("insertion")
+    setup = prepare_arm(scenario)
+    plant = MultibodyPlant(0.0)
+    parser = Parser(plant)
+    register_package(parser.package_map())
+    ProcessModelDirectives(ModelDirectives(directives=scenario.directives), plant, parser)
+    plant.Finalize()
+    tip = scoped_frame(plant, scenario.task.tool_frame)
+    task_space = TaskSpaceDynamics(plant, tip)
+    context = task_space.CreateDefaultContext()
+    state = np.concatenate([setup.q0, np.zeros(7)])
+    task_space.plant_state.FixValue(context, state)
+    return dc.make_dataclass("Arm", ["scenario", "setup", "plant", "tip", "terms", "state"])(
+        scenario, setup, plant, tip, task_space.terms(context), state
+    )
+
+
 # --- helpers ---------------------------------------------------------------------------
 
 
@@ -146,3 +189,45 @@ def mutations(text, rng, count):
                 cut = rng.randrange(len(chars) + 1)
                 chars = chars[:cut]
         yield "".join(chars)
+
+
+# Fixing a task-space controller's inputs (the port layout of systems.ports).
+def fix_inputs(system, context, m, x, xdot, xd, xd_dot, xd_ddot, s, inertia, coriolis, gravity):
+    values = dict(
+        position=x,
+        velocity=xdot,
+        desired_position=xd,
+        desired_velocity=xd_dot,
+        desired_acceleration=xd_ddot,
+        phase=[s],
+        task_inertia=np.ravel(inertia),
+        task_coriolis=np.ravel(coriolis),
+        task_gravity=gravity,
+    )
+    for name, value in values.items():
+        system.GetInputPort(name).FixValue(context, value)
+
+
+# Sweep files: TINY is a 2-task sweep of the 1-DOF scenario (pi = 1 and 5), 0.1 s each.
+TINY = """\
+scenario: one_dof
+set:
+  duration_s: {duration}
+grid:
+  controllers.hlcmp.pi: {values}
+controllers: [hlcmp]
+metrics:
+- {{label: "x final [mm]", series: hlcmp/x, reduce: final, scale: 1000.0, digits: 1}}
+- {{label: "max K_s [N/m]", series: hlcmp/Ks, reduce: max}}
+- {{label: "final x [m]", path: controllers.hlcmp.final_position_m, digits: 4}}
+"""
+
+
+def write_sweep(folder, text, name="sweep.yaml"):
+    path = Path(folder) / name
+    path.write_text(text)
+    return path
+
+
+def tiny(folder, duration=0.1, values="[1.0, 5.0]", name="sweep.yaml"):
+    return write_sweep(folder, TINY.format(duration=duration, values=values), name)

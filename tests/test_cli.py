@@ -1,4 +1,6 @@
-"""The command line: fit/rollout work, and every bad input ends with exit 2 and one line."""
+"""hlcmp_drake.cli: fit/rollout work; every bad input ends with exit 2 and one line; output
+paths are refused before any work; the small conveniences (--version, --debug, the help's
+defaults and names, run --meshcat)."""
 
 import contextlib
 import gc

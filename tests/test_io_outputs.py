@@ -5,6 +5,7 @@ import re
 
 import pytest
 
+from hlcmp_drake.io import outputs
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.io.outputs import check_output_file, check_output_folder
 
@@ -53,3 +54,20 @@ def test_a_read_only_parent_is_refused(tmp_path):
             check_output_folder(locked / "out")
     finally:
         locked.chmod(0o700)
+
+
+def test_atomic_write_replaces_whole_or_not_at_all(tmp_path):
+    path = tmp_path / "deep" / "metrics.json"
+    outputs.write_json(path, {"a": 1})
+    assert path.read_text() == '{\n  "a": 1\n}\n'
+    assert oct(path.stat().st_mode & 0o777) == oct(0o666 & ~outputs._UMASK)
+
+    def broken(temp):
+        with open(temp, "w") as stream:
+            stream.write("half")
+        raise RuntimeError("disk full")
+
+    with pytest.raises(RuntimeError):
+        outputs.atomic_write(path, broken)
+    assert path.read_text() == '{\n  "a": 1\n}\n'  # the old file is intact
+    assert os.listdir(path.parent) == ["metrics.json"]  # no temporary left behind

@@ -1,3 +1,6 @@
+"""hlcmp_drake.io.skill: a skill file round trips; a bad, truncated, missing or non-skill
+file is one clear error."""
+
 import numpy as np
 import pytest
 from conftest import DEMO_CSV

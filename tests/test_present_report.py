@@ -1,4 +1,5 @@
-"""The report page: generated from the runs' own metrics, offline, every image and link local."""
+"""hlcmp_drake.present.report: the report page, generated from the runs' own metrics,
+offline, every image and link local, and the README's claims summary."""
 
 import html
 import json
@@ -81,15 +82,6 @@ def test_the_page_renders_in_chromium_with_every_image(report, tmp_path):
     images = re.findall(r"<img[^>]*>", result.stdout)
     assert images and not [img for img in images if re.search(r'class="[^"]*missing', img)]
     assert result.stdout.count("<h2 id=") == 3
-
-
-@pytest.mark.slow
-def test_report_command_runs_the_scenarios(tmp_path):
-    from hlcmp_drake.cli import main
-
-    assert main(["report", "--out", str(tmp_path), "--scenarios", "one_dof", "--quiet"]) == 0
-    text = (tmp_path / "index.html").read_text()
-    assert "one_dof/recording.html" in text and (tmp_path / "one_dof" / "metrics.json").exists()
 
 
 def test_readme_claims_summary_comes_from_the_runs(one_dof_run, insertion_run, cutting_run):
