@@ -24,14 +24,18 @@ DEMO_CSV = "t,x,y,z\n" + "".join(
 
 # --- the slow marker -------------------------------------------------------------------
 
-# Tests that use a whole bundled scenario's run are slow (tens of seconds each).
+# Tests that use a whole bundled scenario's run are slow (tens of seconds each). Every slow
+# test says so itself with @pytest.mark.slow; one that uses these runs and forgets is
+# still deselected by -m "not slow", and collecting it warns.
 SCENARIO_RUNS = {"one_dof_run", "insertion_run", "cutting_run"}
 
 
 def pytest_collection_modifyitems(items):
     for item in items:
-        if SCENARIO_RUNS & set(getattr(item, "fixturenames", ())):
+        uses_a_run = SCENARIO_RUNS & set(getattr(item, "fixturenames", ()))
+        if uses_a_run and not item.get_closest_marker("slow"):
             item.add_marker(pytest.mark.slow)
+            item.warn(pytest.PytestWarning(f"{item.name} uses a whole run: mark it slow"))
 
 
 # --- fixtures ----------------------------------------------------------------------------

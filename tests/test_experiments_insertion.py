@@ -67,6 +67,7 @@ def test_tool_touches_the_foam_and_the_force_opposes_the_push():
     assert run.series["x"][in_contact, 2].min() < 0.33  # below the plank's top face
 
 
+@pytest.mark.slow  # reads the whole `hlcmp run insertion` (insertion_run)
 def test_run_writes_the_contract(insertion_run):
     metrics = json.loads((insertion_run / "metrics.json").read_text())
     assert metrics["status"] == "ok" and list(metrics["controllers"]) == CONTROLLERS
@@ -104,6 +105,7 @@ def test_run_writes_the_contract(insertion_run):
     )
 
 
+@pytest.mark.slow  # reads the whole `hlcmp run insertion` (insertion_run)
 def test_run_metrics_agree_with_its_time_series(insertion_run):
     metrics = json.loads((insertion_run / "metrics.json").read_text())
     data = np.load(insertion_run / "timeseries.npz")
@@ -141,12 +143,14 @@ def test_build_insertion_diagram_by_hand(tmp_path):
         assert system in graph.read_text()
 
 
+@pytest.mark.slow  # reads the whole `hlcmp run insertion` (insertion_run)
 def test_the_tool_goes_through_the_plank_and_back_with_constant_stiffness(insertion_run):
     data = np.load(insertion_run / "timeseries.npz")
     z = data["const_2000/x"][:, 2]
     assert z.min() < 0.30 < 0.33 < z[-1]  # below the bottom face, and back above the top
 
 
+@pytest.mark.slow  # reads the whole `hlcmp run insertion` (insertion_run)
 def test_readme_results_come_from_this_run(insertion_run):
     from hlcmp_drake.present.report import results_markdown
 

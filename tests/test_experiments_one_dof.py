@@ -19,6 +19,7 @@ def run_dir(one_dof_run):
     return one_dof_run
 
 
+@pytest.mark.slow  # reads the whole `hlcmp run one_dof` (one_dof_run)
 def test_outputs_follow_the_contract(run_dir):
     metrics = json.loads((run_dir / "metrics.json").read_text())
     assert metrics["scenario"] == "one_dof" and metrics["status"] == "ok"
@@ -43,6 +44,7 @@ def test_outputs_follow_the_contract(run_dir):
     assert (run_dir / "figures" / "one_dof.png").read_bytes()[:4] == b"\x89PNG"
 
 
+@pytest.mark.slow  # reads the whole `hlcmp run one_dof` (one_dof_run)
 def test_metrics_agree_with_the_time_series(run_dir):
     metrics = json.loads((run_dir / "metrics.json").read_text())
     data = np.load(run_dir / "timeseries.npz")
@@ -60,6 +62,7 @@ def test_metrics_agree_with_the_time_series(run_dir):
         )
 
 
+@pytest.mark.slow  # reads the whole `hlcmp run one_dof` (one_dof_run)
 def test_physics_of_the_runs(run_dir):
     data = np.load(run_dir / "timeseries.npz")
     t = data["t"]
@@ -79,6 +82,7 @@ def test_physics_of_the_runs(run_dir):
         assert abs(data[f"{name}/x"][-1, 0]) < 0.005
 
 
+@pytest.mark.slow  # reads the whole `hlcmp run one_dof` (one_dof_run)
 def test_readme_results_come_from_this_run(run_dir):
     """The README's 1-DOF table is what scripts/update_readme.py makes of a fresh run."""
     metrics = json.loads((run_dir / "metrics.json").read_text())

@@ -30,6 +30,7 @@ def report(one_dof_run, insertion_run, cutting_run, tmp_path_factory):
     return page, sections
 
 
+@pytest.mark.slow  # reads the three bundled scenarios' whole runs
 def test_every_local_link_and_image_resolves(report):
     page, _ = report
     text = page.read_text()
@@ -43,6 +44,7 @@ def test_every_local_link_and_image_resolves(report):
         assert (page.parent / target).exists(), target
 
 
+@pytest.mark.slow  # reads the three bundled scenarios' whole runs
 def test_every_number_is_the_runs_own(report):
     page, sections = report
     text = page.read_text()
@@ -52,6 +54,7 @@ def test_every_number_is_the_runs_own(report):
             assert html.escape(claim["evidence"]) in text
 
 
+@pytest.mark.slow  # reads the three bundled scenarios' whole runs
 def test_the_page_renders_in_chromium_with_every_image(report, tmp_path):
     browser = shutil.which("chromium")
     if browser is None:
@@ -84,6 +87,7 @@ def test_the_page_renders_in_chromium_with_every_image(report, tmp_path):
     assert result.stdout.count("<h2 id=") == 3
 
 
+@pytest.mark.slow  # reads the three bundled scenarios' whole runs
 def test_readme_claims_summary_comes_from_the_runs(one_dof_run, insertion_run, cutting_run):
     from hlcmp_drake.present.report import claims_summary_table
     from hlcmp_drake.present.tables import to_markdown
