@@ -1,14 +1,44 @@
+"""What more than one test file shares: the checkout's paths, the bundled scenarios' whole
+runs (session fixtures, slow) and small helpers. Test files import the constants and
+helpers by name (`from conftest import REPO_ROOT`); pytest finds the fixtures itself."""
+
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
-# Tests that use a whole bundled scenario's run are slow (tens of seconds each).
+from hlcmp_drake.io.paths import DIAGRAMS_DIR
+
+# --- paths ---------------------------------------------------------------------------
+
+# The checkout: README.md, pyproject.toml, scripts/, .ci/.
+REPO_ROOT = Path(__file__).resolve().parents[1]
+# The bundled insertion demonstration.
+INSERTION_DEMO = DIAGRAMS_DIR / "demos" / "insertion_demo.csv"
+# A short 3-axis demonstration (20 samples, 0.1 s apart) as CSV text.
+DEMO_CSV = "t,x,y,z\n" + "".join(
+    f"{0.1 * k:.1f},{0.01 * k:.2f},0,{0.2 - 0.01 * k:.2f}\n" for k in range(20)
+)
+
+# --- the slow marker -------------------------------------------------------------------
+
+# Tests that use a whole bundled scenario's run are slow (tens of seconds each). Every slow
+# test says so itself with @pytest.mark.slow; one that uses these runs and forgets is
+# still deselected by -m "not slow", and collecting it warns.
 SCENARIO_RUNS = {"one_dof_run", "insertion_run", "cutting_run"}
 
 
 def pytest_collection_modifyitems(items):
     for item in items:
-        if SCENARIO_RUNS & set(getattr(item, "fixturenames", ())):
+        uses_a_run = SCENARIO_RUNS & set(getattr(item, "fixturenames", ()))
+        if uses_a_run and not item.get_closest_marker("slow"):
             item.add_marker(pytest.mark.slow)
+            item.warn(pytest.PytestWarning(f"{item.name} uses a whole run: mark it slow"))
+
+
+# --- fixtures ----------------------------------------------------------------------------
 
 
 def minimum_jerk(u):
@@ -54,3 +84,154 @@ def cutting_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("cutting")
     assert main(["run", "cutting", "--out", str(out), "--quiet"]) == 0
     return out
+
+
+@pytest.fixture(scope="session")
+def insertion():
+    """The insertion scenario and its ArmSetup (the fitted DMP, the start posture q0 and the
+    tool orientation), shared read-only by the arm's tests."""
+    from hlcmp_drake.config.loading import load_scenario
+    from hlcmp_drake.worlds.arm import prepare
+
+    scenario, _ = load_scenario("insertion")
+    return scenario, prepare(scenario)
+
+
+@pytest.fixture(scope="session")
+def arm():
+    """The iiwa of the insertion at rest in its start posture: the scenario, its ArmSetup,
+    a control-side plant, the tool frame, the task-space terms there and the state."""
+    import dataclasses as dc
+
+    from pydrake.multibody.parsing import ModelDirectives, Parser, ProcessModelDirectives
+    from pydrake.multibody.plant import MultibodyPlant
+
+    from hlcmp_drake.config.loading import load_scenario
+    from hlcmp_drake.io.paths import register_package
+    from hlcmp_drake.systems.task_space import TaskSpaceDynamics
+    from hlcmp_drake.worlds.arm import prepare as prepare_arm
+    from hlcmp_drake.worlds.models import scoped_frame
+
+    scenario, _ = load_scenario("insertion")
+    setup = prepare_arm(scenario)
+    plant = MultibodyPlant(0.0)
+    parser = Parser(plant)
+    register_package(parser.package_map())
+    ProcessModelDirectives(ModelDirectives(directives=scenario.directives), plant, parser)
+    plant.Finalize()
+    tip = scoped_frame(plant, scenario.task.tool_frame)
+    task_space = TaskSpaceDynamics(plant, tip)
+    context = task_space.CreateDefaultContext()
+    state = np.concatenate([setup.q0, np.zeros(7)])
+    task_space.plant_state.FixValue(context, state)
+    return dc.make_dataclass("Arm", ["scenario", "setup", "plant", "tip", "terms", "state"])(
+        scenario, setup, plant, tip, task_space.terms(context), state
+    )
+
+
+# --- helpers ---------------------------------------------------------------------------
+
+
+def run_cli(*args):
+    return subprocess.run(
+        [sys.executable, "-m", "hlcmp_drake.cli", *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+
+
+def one_line_error(result, code=2):
+    assert result.returncode == code, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in result.stderr, result.stderr
+    return lines[0]
+
+
+def short_one_dof(seconds=3.0):
+    """The `run` arguments of the 1-DOF scenario cut short."""
+    return ["one_dof", "--set", f"duration_s={seconds}"]
+
+
+# Fuzzing the loaders: whatever the bytes, a clean InputError (exit 2) or a valid result.
+def mutations(text, rng, count):
+    pieces = [
+        "",
+        ",",
+        "\n",
+        "nan",
+        "-",
+        "1e999",
+        "abc",
+        "t",
+        ":",
+        "[",
+        "]",
+        "{",
+        "!",
+        "#",
+        " ",
+        "\t",
+        "0",
+        "-1",
+        "\x00",
+        "é",
+        "'",
+        '"',
+        "x,y",
+    ]
+    for _ in range(count):
+        chars = list(text)
+        for _ in range(rng.randint(1, 4)):
+            where = rng.randrange(len(chars) + 1)
+            action = rng.random()
+            if action < 0.4 and chars:
+                del chars[min(where, len(chars) - 1)]
+            elif action < 0.8:
+                chars.insert(where, rng.choice(pieces))
+            else:
+                cut = rng.randrange(len(chars) + 1)
+                chars = chars[:cut]
+        yield "".join(chars)
+
+
+# Fixing a task-space controller's inputs (the port layout of systems.ports).
+def fix_inputs(system, context, m, x, xdot, xd, xd_dot, xd_ddot, s, inertia, coriolis, gravity):
+    values = dict(
+        position=x,
+        velocity=xdot,
+        desired_position=xd,
+        desired_velocity=xd_dot,
+        desired_acceleration=xd_ddot,
+        phase=[s],
+        task_inertia=np.ravel(inertia),
+        task_coriolis=np.ravel(coriolis),
+        task_gravity=gravity,
+    )
+    for name, value in values.items():
+        system.GetInputPort(name).FixValue(context, value)
+
+
+# Sweep files: TINY is a 2-task sweep of the 1-DOF scenario (pi = 1 and 5), 0.1 s each.
+TINY = """\
+scenario: one_dof
+set:
+  duration_s: {duration}
+grid:
+  controllers.hlcmp.pi: {values}
+controllers: [hlcmp]
+metrics:
+- {{label: "x final [mm]", series: hlcmp/x, reduce: final, scale: 1000.0, digits: 1}}
+- {{label: "max K_s [N/m]", series: hlcmp/Ks, reduce: max}}
+- {{label: "final x [m]", path: controllers.hlcmp.final_position_m, digits: 4}}
+"""
+
+
+def write_sweep(folder, text, name="sweep.yaml"):
+    path = Path(folder) / name
+    path.write_text(text)
+    return path
+
+
+def tiny(folder, duration=0.1, values="[1.0, 5.0]", name="sweep.yaml"):
+    return write_sweep(folder, TINY.format(duration=duration, values=values), name)

@@ -1,10 +1,19 @@
-"""The command line: fit/rollout work, and every bad input ends with exit 2 and one line."""
+"""hlcmp_drake.cli: fit/rollout work; every bad input ends with exit 2 and one line; output
+paths are refused before any work; the small conveniences (--version, --debug, the help's
+defaults and names, run --meshcat)."""
 
+import contextlib
+import gc
+import io
+import re
+import socket
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
+from conftest import DEMO_CSV
 
 from hlcmp_drake.io.demos import read_demonstration
 
@@ -208,3 +217,112 @@ def test_a_text_file_given_as_a_skill_gets_its_own_message(tmp_path):
         and "not a skill file" in result.stderr
         and "allow_pickle" not in result.stderr
     )
+
+
+def one_error_line(result):
+    assert result.returncode == 2, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("hlcmp: error: "), result.stderr
+    return lines[0]
+
+
+def test_run_refuses_an_existing_file_as_out_within_seconds(tmp_path):
+    blocker = tmp_path / "results"
+    blocker.write_text("keep me")
+    start = time.perf_counter()
+    line = one_error_line(hlcmp("run", "one_dof", "--out", blocker))
+    assert time.perf_counter() - start < 10
+    assert line == f"hlcmp: error: --out {blocker}: is a file, not a folder"
+    assert blocker.read_text() == "keep me"
+
+
+@pytest.mark.parametrize(
+    "command, default",
+    [
+        (["run", "one_dof"], "out/one_dof"),
+        (["probe", "insertion"], "out/probe_insertion"),
+        (["sweep", "tiny"], "out/sweeps/tiny"),
+    ],
+)
+def test_a_default_output_folder_is_checked_too(tmp_path, command, default):
+    (tmp_path / default).parent.mkdir(parents=True)
+    (tmp_path / default).write_text("not a folder")
+    line = one_error_line(hlcmp(*command, cwd=tmp_path))
+    assert line == f"hlcmp: error: output folder {default}: is a file, not a folder"
+
+
+def test_report_checks_each_scenario_folder(tmp_path):
+    (tmp_path / "one_dof").write_text("not a folder")
+    line = one_error_line(hlcmp("report", "--out", tmp_path, "--scenarios", "one_dof"))
+    assert line.endswith("one_dof: is a file, not a folder")
+
+
+def test_fit_and_rollout_refuse_bad_output_files(tmp_path):
+    demo = tmp_path / "demo.csv"
+    demo.write_text(DEMO_CSV)
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    assert "is a file, not a folder" in one_error_line(
+        hlcmp("fit", demo, "--out", blocker / "skill.npz")
+    )
+    assert hlcmp("fit", demo, "--out", tmp_path / "skill.npz").returncode == 0
+    assert "is a folder, not a file" in one_error_line(
+        hlcmp("rollout", tmp_path / "skill.npz", "--out", tmp_path)
+    )
+
+
+def test_a_dry_run_sweep_writes_nothing_so_needs_no_writable_folder(tmp_path):
+    assert hlcmp("sweep", "tiny", "--dry-run", "--out", "/proc/hlcmp_sweep").returncode == 0
+
+
+def test_the_cli_names_a_text_skill_in_one_line(tmp_path):
+    text = tmp_path / "demo.csv"
+    text.write_text(DEMO_CSV)
+    line = one_error_line(
+        hlcmp("reproduce", text, "--scenario", "insertion", "--out", tmp_path / "o")
+    )
+    assert line == (
+        f"hlcmp: error: {text}: not a skill file (a .npz written by hlcmp fit/learn); "
+        "this is a text file (a demonstration CSV becomes a skill with hlcmp fit)"
+    )
+    folder = one_error_line(hlcmp("rollout", tmp_path, "--out", tmp_path / "t.csv"))
+    assert "is a folder, not a skill file" in folder
+
+
+def test_version_debug_anywhere_bench_default_and_bundled_names_in_help(tmp_path):
+    assert re.fullmatch(r"hlcmp_drake \S+\n", hlcmp("--version").stdout)
+    late = hlcmp("fit", tmp_path / "missing.csv", "--out", tmp_path / "s.npz", "--debug")
+    assert "Traceback" in late.stderr and "no such file" in late.stderr
+    assert "default out/bench" in hlcmp("bench", "--help").stdout
+    run_help = " ".join(hlcmp("run", "--help").stdout.split())
+    assert "(cutting, insertion, one_dof)" in run_help
+
+
+@pytest.mark.slow  # a whole (short) one_dof run with its figures and recording: about 5 s
+def test_run_with_meshcat_prints_its_url_and_closes_the_port(tmp_path):
+    from hlcmp_drake.cli import main
+
+    stdout = io.StringIO()
+    gc.disable()  # as in a long test session where no collection happens to run before the probe
+    try:
+        with contextlib.redirect_stdout(stdout):
+            status = main(
+                [
+                    "run",
+                    "one_dof",
+                    "--meshcat",
+                    "--quiet",
+                    "--set",
+                    "duration_s=0.2",
+                    "--out",
+                    str(tmp_path),
+                ]
+            )
+        assert status == 0
+        url = re.search(r"^live view: (http://\S+)", stdout.getvalue(), re.M).group(1)
+        port = int(url.rsplit(":", 1)[1].strip("/"))
+        assert (tmp_path / "recording.html").exists()  # the offline recording as without the flag
+        with socket.socket() as probe, pytest.raises(ConnectionRefusedError):
+            probe.connect(("localhost", port))
+    finally:
+        gc.enable()

@@ -14,8 +14,8 @@ from pathlib import Path
 from xml.etree import ElementTree
 
 import pytest
+from conftest import REPO_ROOT
 
-REPO_ROOT = Path(__file__).resolve().parents[1]  # the checkout (pyproject.toml, models/, ...)
 DATA = "hlcmp_drake/data/"  # where a wheel puts the repository's data
 
 

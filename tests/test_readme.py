@@ -1,9 +1,9 @@
 """The README's promises that a test can check."""
 
 import re
-from pathlib import Path
 
-REPO_ROOT = Path(__file__).resolve().parents[1]  # the checkout (README.md, scripts/, .ci/)
+from conftest import REPO_ROOT
+
 README = (REPO_ROOT / "README.md").read_text()
 
 

@@ -1,18 +1,17 @@
 """The cutting experiment: its demonstration (the g ~ p0 case), the full run, its claims."""
 
 import json
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
+from conftest import REPO_ROOT
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.scenario import ArmTask, HlcmpConfig
 from hlcmp_drake.experiments import cutting
 from hlcmp_drake.present.report import results_markdown
 from hlcmp_drake.worlds.arm import fit_demonstration
-
-REPO_ROOT = Path(__file__).resolve().parents[1]  # the checkout (README.md, scripts/, .ci/)
 
 CONTROLLERS = ["hlcmp", "hlcmp_per_step", "const_500", "const_1000"]
 
@@ -37,6 +36,7 @@ def test_the_dmp_brings_z_back_to_the_start_height():
     np.testing.assert_allclose(p[-1], dmp.goal, atol=1e-3)
 
 
+@pytest.mark.slow  # reads the whole `hlcmp run cutting` (cutting_run)
 def test_run_writes_the_contract_and_its_metrics_agree(cutting_run):
     metrics = json.loads((cutting_run / "metrics.json").read_text())
     assert metrics["status"] == "ok" and list(metrics["controllers"]) == CONTROLLERS
@@ -63,6 +63,7 @@ def test_run_writes_the_contract_and_its_metrics_agree(cutting_run):
     assert (cutting_run / "recording.html").stat().st_size > 100_000
 
 
+@pytest.mark.slow  # reads the whole `hlcmp run cutting` (cutting_run)
 def test_the_blade_cuts_through_the_block(cutting_run):
     data = np.load(cutting_run / "timeseries.npz")
     t = data["t"]
@@ -74,6 +75,7 @@ def test_the_blade_cuts_through_the_block(cutting_run):
         assert np.all(f[cutting_phase, 2] > 0)  # and pushes the blade up
 
 
+@pytest.mark.slow  # reads the whole `hlcmp run cutting` (cutting_run)
 def test_readme_results_come_from_this_run(cutting_run):
     metrics = json.loads((cutting_run / "metrics.json").read_text())
     readme = (REPO_ROOT / "README.md").read_text()

@@ -4,13 +4,11 @@ import json
 
 import numpy as np
 import pytest
+from conftest import INSERTION_DEMO
 
 from hlcmp_drake.cli import main
 from hlcmp_drake.core.dmp import basis_centers_and_widths, normalized_basis, phase_at
-from hlcmp_drake.io.paths import DIAGRAMS_DIR
 from hlcmp_drake.io.skill import load_skill
-
-DEMO = DIAGRAMS_DIR / "demos" / "insertion_demo.csv"
 
 
 @pytest.fixture(scope="module")
@@ -23,7 +21,19 @@ def short_world():
 def learned(short_world, tmp_path_factory):
     out = tmp_path_factory.mktemp("learned")
     assert (
-        main(["learn", str(DEMO), *short_world, "--trials", "2", "--out", str(out), "--quiet"]) == 0
+        main(
+            [
+                "learn",
+                str(INSERTION_DEMO),
+                *short_world,
+                "--trials",
+                "2",
+                "--out",
+                str(out),
+                "--quiet",
+            ]
+        )
+        == 0
     )
     return out
 

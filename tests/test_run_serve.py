@@ -1,6 +1,6 @@
-"""hlcmp serve and hlcmp sim-driver: the iiwa driver's LCM protocol, the served controller
-against the simulated run (in one process over memq://, in two over udpm://), and the
-watchdogs."""
+"""hlcmp_drake.run.serve (hlcmp serve, with hlcmp sim-driver): the served controller against
+the simulated run (in one process over memq://, in two over udpm://), the watchdogs, and
+bad serve input."""
 
 import json
 import os
@@ -11,22 +11,17 @@ import time
 
 import numpy as np
 import pytest
+from conftest import INSERTION_DEMO
 from pydrake.lcm import DrakeLcm
 from pydrake.multibody.tree import JacobianWrtVariable
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.io.iiwa_lcm import (
     IiwaStatus,
-    ProtocolError,
-    decode_status,
-    decode_torque_command,
-    decode_wrench,
     encode_status,
-    encode_torque_command,
-    encode_wrench,
 )
 from hlcmp_drake.run.serve import STOPPED, UNSAFE, TorqueClient, serve, serve_scenario, write_served
-from hlcmp_drake.run.sim_driver import DriverAbort, SimulatedIiwaDriver
+from hlcmp_drake.run.sim_driver import SimulatedIiwaDriver
 from hlcmp_drake.worlds.arm import prepare
 
 # A served run evaluates the same functions on the same numbers as the simulated run
@@ -78,30 +73,6 @@ def assert_metrics_match(served, simulated):
         assert served == pytest.approx(simulated, rel=METRICS_RTOL, abs=1e-12)
     else:
         assert served == simulated
-
-
-def test_messages_round_trip_and_bad_ones_are_named():
-    rng = np.random.default_rng(0)
-    status = IiwaStatus(1234, *(rng.normal(size=7) for _ in range(5)))
-    back = decode_status(encode_status(status), 7)
-    assert back.utime == 1234
-    for field in ("position", "velocity", "torque_commanded", "torque_measured", "torque_external"):
-        np.testing.assert_array_equal(getattr(back, field), getattr(status, field))
-    utime, torque = decode_torque_command(
-        encode_torque_command(99, status.position, status.velocity), 7
-    )
-    assert utime == 99
-    np.testing.assert_array_equal(torque, status.velocity)
-    utime, force = decode_wrench(encode_wrench(5, [1.0, -2.0, 3.0]))
-    assert utime == 5 and force.tolist() == [1.0, -2.0, 3.0]
-    with pytest.raises(ProtocolError, match="for 7 joints, the arm has 6"):
-        decode_status(encode_status(status), 6)
-    with pytest.raises(ProtocolError, match="does not decode"):
-        decode_status(b"not a status", 7)
-    with pytest.raises(ProtocolError, match="non-finite torque"):
-        decode_torque_command(encode_torque_command(1, np.zeros(7), [np.nan] + [0.0] * 6), 7)
-    with pytest.raises(ProtocolError, match="torque-only mode needs 7"):
-        decode_torque_command(encode_torque_command(1, np.zeros(7), np.zeros(3)), 7)
 
 
 @pytest.fixture(scope="module")
@@ -297,18 +268,6 @@ def test_saturated_torques_stop_the_client_after_max_saturation_s():
     )  # saturated from the check at 0.01 s; the check after tick 260 stops the next
 
 
-def test_the_driver_aborts_on_a_command_within_its_start_guard():
-    scenario, _ = load_scenario("insertion", ["duration_s=1.0"])
-    lcm = DrakeLcm("memq://")
-    driver = SimulatedIiwaDriver(scenario, lcm)
-    driver.publish_status()
-    lcm.Publish(
-        scenario.iiwa_driver.command_channel, encode_torque_command(0, np.zeros(7), np.zeros(7))
-    )
-    with pytest.raises(DriverAbort, match="within 0.25 s of the driver's first status"):
-        lcm.HandleSubscriptions(0)
-
-
 @pytest.mark.parametrize(
     "args, message",
     [
@@ -356,13 +315,12 @@ def test_serve_in_one_process_from_the_command_line(tmp_path):
     """hlcmp serve --lcm memq:// runs the simulated driver in the same process; a frozen
     skill keeps its profiles (here the untrained ones: θ stays 0)."""
     from hlcmp_drake.cli import main
-    from hlcmp_drake.io.paths import DIAGRAMS_DIR
 
     assert (
         main(
             [
                 "fit",
-                str(DIAGRAMS_DIR / "demos" / "insertion_demo.csv"),
+                str(INSERTION_DEMO),
                 "--out",
                 str(tmp_path / "skill.npz"),
                 "--basis",

@@ -1,6 +1,11 @@
+"""hlcmp_drake.config.loading: a bundled scenario loads into typed configs; a bad scenario
+file (edited, a missing model, fuzzed bytes) is one error naming its file and line."""
+
+import random
 import re
 
 import pytest
+from conftest import INSERTION_DEMO, mutations, one_line_error, run_cli
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.scenario import HlcmpConfig, VariableImpedanceConfig
@@ -70,18 +75,35 @@ def test_unknown_key_points_at_its_line(tmp_path):
         load_scenario(path)
 
 
-def test_drake_models_variant_swaps_the_arm_and_the_flange_weld():
-    from hlcmp_drake.config.variants import DRAKE_MODELS_IIWA, use_drake_models_iiwa
-
-    scenario, _ = load_scenario("insertion")
-    variant = use_drake_models_iiwa(scenario)
-    files = [d.add_model.file for d in variant.directives if d.add_model is not None]
-    assert DRAKE_MODELS_IIWA in files and not any("hlcmp_drake/models/iiwa14" in f for f in files)
-    weld = next(
-        d.add_weld
-        for d in variant.directives
-        if d.add_weld is not None and d.add_weld.child == "insertion_tool::mount"
+def test_missing_model_file_names_the_line(tmp_path):
+    text = (
+        (DIAGRAMS_DIR / "insertion.yaml").read_text().replace("foam_plank.sdf", "no_such_plank.sdf")
     )
-    assert weld.parent == "iiwa::iiwa_link_7"
-    assert list(weld.X_PC.GetDeterministicValue().translation()) == [0.0, 0.0, 0.045]
-    assert len(variant.directives) == len(scenario.directives)
+    path = tmp_path / "s.yaml"
+    path.write_text(text.replace("file: demos/insertion_demo.csv", f"file: {INSERTION_DEMO}"))
+    line = one_line_error(run_cli("run", path, "--out", tmp_path / "o"))
+    number = next(n for n, row in enumerate(text.splitlines(), 1) if "no_such_plank" in row)
+    assert (
+        f"{path}:{number}: file: model file "
+        "'package://hlcmp_drake/models/no_such_plank.sdf' does not exist" in line
+    )
+
+
+def test_fuzzed_scenarios_never_crash(tmp_path):
+    rng = random.Random(4321)
+    good = (DIAGRAMS_DIR / "one_dof.yaml").read_text()
+    path = tmp_path / "scenario.yaml"
+    outcomes = {"ok": 0, "error": 0}
+    for text in mutations(good, rng, 150):
+        data = text.encode()
+        if rng.random() < 0.1:
+            cut = rng.randrange(len(data) + 1)
+            data = data[:cut] + b"\xff" + data[cut:]
+        path.write_bytes(data)
+        try:
+            load_scenario(path)
+            outcomes["ok"] += 1
+        except InputError as error:
+            assert "\n" not in str(error) and str(error).startswith(str(path))
+            outcomes["error"] += 1
+    assert outcomes["ok"] > 0 and outcomes["error"] > 0

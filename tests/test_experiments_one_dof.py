@@ -1,17 +1,15 @@
 """End to end: `hlcmp run one_dof` (the full 20 s scenario, about 25 s of wall time)."""
 
 import json
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from conftest import REPO_ROOT
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.experiments import one_dof
 from hlcmp_drake.present.report import results_markdown
-
-REPO_ROOT = Path(__file__).resolve().parents[1]  # the checkout (README.md, scripts/, .ci/)
 
 CONTROLLERS = ["hlcmp", "hlcmp_per_step", "vic_fd_0.5", "vic_fd_1.5", "vic_fd_5.0"]
 
@@ -21,6 +19,7 @@ def run_dir(one_dof_run):
     return one_dof_run
 
 
+@pytest.mark.slow  # reads the whole `hlcmp run one_dof` (one_dof_run)
 def test_outputs_follow_the_contract(run_dir):
     metrics = json.loads((run_dir / "metrics.json").read_text())
     assert metrics["scenario"] == "one_dof" and metrics["status"] == "ok"
@@ -45,6 +44,7 @@ def test_outputs_follow_the_contract(run_dir):
     assert (run_dir / "figures" / "one_dof.png").read_bytes()[:4] == b"\x89PNG"
 
 
+@pytest.mark.slow  # reads the whole `hlcmp run one_dof` (one_dof_run)
 def test_metrics_agree_with_the_time_series(run_dir):
     metrics = json.loads((run_dir / "metrics.json").read_text())
     data = np.load(run_dir / "timeseries.npz")
@@ -62,6 +62,7 @@ def test_metrics_agree_with_the_time_series(run_dir):
         )
 
 
+@pytest.mark.slow  # reads the whole `hlcmp run one_dof` (one_dof_run)
 def test_physics_of_the_runs(run_dir):
     data = np.load(run_dir / "timeseries.npz")
     t = data["t"]
@@ -81,6 +82,7 @@ def test_physics_of_the_runs(run_dir):
         assert abs(data[f"{name}/x"][-1, 0]) < 0.005
 
 
+@pytest.mark.slow  # reads the whole `hlcmp run one_dof` (one_dof_run)
 def test_readme_results_come_from_this_run(run_dir):
     """The README's 1-DOF table is what scripts/update_readme.py makes of a fresh run."""
     metrics = json.loads((run_dir / "metrics.json").read_text())

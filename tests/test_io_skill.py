@@ -1,5 +1,9 @@
+"""hlcmp_drake.io.skill: a skill file round trips; a bad, truncated, missing or non-skill
+file is one clear error."""
+
 import numpy as np
 import pytest
+from conftest import DEMO_CSV
 
 from hlcmp_drake.core.dmp import Dmp
 from hlcmp_drake.io.errors import InputError
@@ -61,3 +65,29 @@ def test_truncated_and_missing_files(tmp_path, skill):
         load_skill(path)
     with pytest.raises(InputError, match="no such file"):
         load_skill(tmp_path / "none.npz")
+
+
+@pytest.mark.parametrize(
+    "content, extra",
+    [
+        (
+            DEMO_CSV.encode(),
+            "; this is a text file (a demonstration CSV becomes a skill with hlcmp fit)",
+        ),
+        (b"\x93NUMPY\x01\x00" + b"\x00" * 40, ""),  # a .npy, not a .npz
+        (b"", ""),
+    ],
+)
+def test_a_non_skill_file_gets_its_own_message(tmp_path, content, extra):
+    path = tmp_path / "skill.npz"
+    path.write_bytes(content)
+    with pytest.raises(InputError) as error:
+        load_skill(path)
+    message = str(error.value)
+    assert message == (
+        f"{path}: "
+        + ("the file is empty, " if not content else "")
+        + "not a skill file (a .npz written by hlcmp fit/learn)"
+        + extra
+    )
+    assert "pickle" not in message

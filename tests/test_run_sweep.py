@@ -1,6 +1,6 @@
-"""`hlcmp sweep`: sweep files load with file:line errors, tasks get stable ids and carry
-their scenario as YAML text, the local engine runs a tiny sweep and writes its table and
-plots, and a re-run does only what is missing (after a deleted result or a kill)."""
+"""hlcmp_drake.run.sweep (`hlcmp sweep`): a task's state and values, the local engine runs a
+tiny sweep and writes its table and plots, a re-run does only what is missing (after a
+deleted result or a kill), the Ray engine, and the command line."""
 
 import csv
 import json
@@ -12,36 +12,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import tiny
 
 from hlcmp_drake.config.loading import load_scenario_text
-from hlcmp_drake.config.sweep import SWEEPS_DIR, load_sweep, plan_tasks, task_id
-from hlcmp_drake.io.errors import InputError
-from hlcmp_drake.present.sweep import parameter_number, parameter_text, sweep_table
-from hlcmp_drake.present.tables import to_markdown
+from hlcmp_drake.config.sweep import load_sweep, plan_tasks
 from hlcmp_drake.run.sweep import plan_sweep, run_sweep, task_state, task_values
-
-TINY = """\
-scenario: one_dof
-set:
-  duration_s: {duration}
-grid:
-  controllers.hlcmp.pi: {values}
-controllers: [hlcmp]
-metrics:
-- {{label: "x final [mm]", series: hlcmp/x, reduce: final, scale: 1000.0, digits: 1}}
-- {{label: "max K_s [N/m]", series: hlcmp/Ks, reduce: max}}
-- {{label: "final x [m]", path: controllers.hlcmp.final_position_m, digits: 4}}
-"""
-
-
-def write_sweep(folder, text, name="sweep.yaml"):
-    path = Path(folder) / name
-    path.write_text(text)
-    return path
-
-
-def tiny(folder, duration=0.1, values="[1.0, 5.0]", name="sweep.yaml"):
-    return write_sweep(folder, TINY.format(duration=duration, values=values), name)
 
 
 def hlcmp(*args, **kwargs):
@@ -57,151 +32,7 @@ def hlcmp(*args, **kwargs):
 # --- loading -------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize(
-    "text, expected",
-    [
-        (
-            "scenario: one_dof\ngrid:\n  dmp.n_basis: [2, 3]\nrepetition: 2\n",
-            ":4: The fields ['repetition'] were unknown",
-        ),
-        ("scenario: one_dof\ngrid:\n  dmp.n_basis: [2, 3\n", ":4:"),
-        (
-            "scenario: one_dof\nrepetitions: 1.5\n",
-            ":2: Expected a <class 'int'> value for 'repetitions'",
-        ),
-        ("scenario: one_dof\nrepetitions: 0\n", ":2: repetitions: must be between 1 and 1000"),
-        ("scenario: nowhere\n", ":1: scenario: nowhere: not a bundled scenario"),
-        ("scenario: missing.yaml\n", ":1: scenario: "),
-        ("grid:\n  dmp.n_basis: [2]\n", "scenario: must be given"),
-        (
-            "scenario: one_dof\nset:\n  dmp.n_basis: 3\ngrid:\n  dmp.n_basis: [2, 4]\n",
-            ":5: grid: 'dmp.n_basis' is also in set",
-        ),
-        (
-            "scenario: one_dof\ngrid:\n  dmp.n_basis: 2\n",
-            ":3: grid: 'dmp.n_basis' needs a non-empty list",
-        ),
-        (
-            "scenario: one_dof\ngrid:\n  dmp.n_basis: [2, 2]\n",
-            ":3: grid: 'dmp.n_basis' lists a value twice",
-        ),
-        (
-            "scenario: one_dof\ncases:\n- {label: a}\n- {label: a}\n",
-            ":2: cases: two cases share a label",
-        ),
-        (
-            "scenario: one_dof\nlabels: {dmp.n_basis: N}\n",
-            ":2: labels: 'dmp.n_basis' is not a swept parameter",
-        ),
-        (
-            "scenario: one_dof\nmetrics:\n- label: k\n  series: hlcmp/Ks\n  reduce: median\n",
-            ":5: metrics: entry 1: reduce must be one of max, min",
-        ),
-        ("scenario: one_dof\nmetrics:\n- {label: k}\n", ":2: metrics: entry 1: give either `path`"),
-        ("scenario: one_dof\nmetrics:\n- {series: Ks}\n", "series is CONTROLLER/NAME"),
-    ],
-)
-def test_a_bad_sweep_file_is_one_error_naming_its_line(tmp_path, text, expected):
-    path = write_sweep(tmp_path, text)
-    with pytest.raises(InputError) as error:
-        load_sweep(path)
-    assert str(error.value).startswith(str(path)), error.value
-    assert expected in str(error.value), error.value
-
-
-def test_a_bad_override_or_controller_is_found_before_anything_runs(tmp_path):
-    path = write_sweep(tmp_path, "scenario: one_dof\ngrid:\n  controllers.hlcmp.pi: [1.0, -2.0]\n")
-    with pytest.raises(
-        InputError,
-        match=r":3: override 'controllers.hlcmp.pi=-2.0': pi: .*pi must be > 0.*"
-        r"\(task controllers.hlcmp.pi=-2.0\)",
-    ):
-        plan_tasks(load_sweep(path), tmp_path / "out")
-    path = write_sweep(tmp_path, "scenario: one_dof\ngrid:\n  controllers.hlcmp.nope: [1]\n")
-    with pytest.raises(InputError, match=r":3: override .*no field 'nope'"):
-        plan_tasks(load_sweep(path), tmp_path / "out")
-    path = write_sweep(tmp_path, "scenario: one_dof\n\ncontrollers: [hlcmp, pid]\n")
-    with pytest.raises(InputError, match=r":3: controllers: pid not in the scenario"):
-        plan_tasks(load_sweep(path), tmp_path / "out")
-    assert not (tmp_path / "out").exists()
-
-
-def test_values_are_yaml_written_plainly_or_as_text(tmp_path):
-    path = write_sweep(
-        tmp_path,
-        "scenario: one_dof\ngrid:\n  controllers.hlcmp.gain_l: [[1.0], '[10.0]']\n"
-        "  dmp.n_basis: [2]\n",
-    )
-    sweep = load_sweep(path)
-    assert sweep.config.grid == {
-        "controllers.hlcmp.gain_l": ["[1.0]", "[10.0]"],
-        "dmp.n_basis": ["2"],
-    }
-    tasks = plan_tasks(sweep, tmp_path / "out")
-    gains = [
-        load_scenario_text(t.scenario_yaml, t.scenario_path).controllers["hlcmp"].gain_l
-        for t in tasks
-    ]
-    assert gains == [[1.0], [10.0]]
-
-
-def test_a_relative_scenario_path_is_read_beside_the_sweep_file(tmp_path):
-    scenario = (
-        (SWEEPS_DIR.parent / "one_dof.yaml").read_text().replace("name: one_dof", "name: mine")
-    )
-    (tmp_path / "worlds").mkdir()
-    (tmp_path / "worlds" / "mine.yaml").write_text(scenario)
-    (tmp_path / "sweeps").mkdir()
-    path = write_sweep(
-        tmp_path / "sweeps", "scenario: ../worlds/mine.yaml\ngrid:\n  dmp.n_basis: [3]\n"
-    )
-    (task,) = plan_tasks(load_sweep(path), tmp_path / "out")
-    assert load_scenario_text(task.scenario_yaml, task.scenario_path).name == "mine"
-
-
 # --- tasks ---------------------------------------------------------------------------
-
-
-def test_task_ids_are_readable_and_depend_only_on_the_swept_values():
-    assert (
-        task_id({"dmp.n_basis": "2", "controllers.hlcmp.gain_l": "[1.0]"}) == "n_basis=2,gain_l=1.0"
-    )
-    assert task_id({"case": "x10"}, 2, 3) == "case=x10,rep=2"
-    assert task_id({}) == "run"
-    # Two keys ending alike keep their whole names; odd characters never reach the folder name.
-    assert (
-        task_id({"controllers.a.pi": "1", "controllers.b.pi": "[1, 2]"})
-        == "controllers.a.pi=1,controllers.b.pi=1_2"
-    )
-    assert task_id({"a": "!Tag {k: v}"}) == "a=-Tagk-v"
-    long = task_id({"controllers.hlcmp.q_k": "[" + ", ".join(["3000000.0"] * 12) + "]"})
-    assert len(long) == 91 and long == task_id(
-        {"controllers.hlcmp.q_k": "[" + ", ".join(["3000000.0"] * 12) + "]"}
-    )
-
-
-def test_the_same_sweep_plans_the_same_tasks_and_a_new_value_keeps_the_others(tmp_path):
-    first = [
-        (t.id, t.scenario_yaml) for t in plan_tasks(load_sweep(tiny(tmp_path)), tmp_path / "out")
-    ]
-    again = [
-        (t.id, t.scenario_yaml) for t in plan_tasks(load_sweep(tiny(tmp_path)), tmp_path / "out")
-    ]
-    assert first == again and [i for i, _ in first] == ["pi=1.0", "pi=5.0"]
-    more = plan_tasks(load_sweep(tiny(tmp_path, values="[1.0, 5.0, 20.0]")), tmp_path / "out")
-    assert [(t.id, t.scenario_yaml) for t in more][:2] == first
-
-
-def test_a_task_carries_its_whole_scenario_as_yaml_text(tmp_path):
-    tasks = plan_tasks(load_sweep(tiny(tmp_path)), tmp_path / "out")
-    for task, pi in zip(tasks, (1.0, 5.0)):
-        assert isinstance(task.scenario_yaml, str) and task.run_dir == str(
-            tmp_path / "out" / "tasks" / task.id
-        )
-        scenario = load_scenario_text(task.scenario_yaml, task.scenario_path)
-        assert list(scenario.controllers) == ["hlcmp"] == task.controllers and not task.claims
-        assert scenario.controllers["hlcmp"].pi == pi and scenario.duration_s == 0.1
-        assert task.overrides == ["duration_s=0.1", f"controllers.hlcmp.pi={pi}"]
 
 
 @pytest.mark.parametrize(
@@ -289,44 +120,6 @@ def test_metric_values_come_from_metrics_json_and_the_time_series(tmp_path):
         "no series": None,
     }
     assert missing == ["typo", "a dict", "no series"]
-
-
-def test_the_table_shows_values_as_the_readme_does():
-    summary = {
-        "repetitions": 1,
-        "parameters": [
-            {"key": "dmp.n_basis", "label": "N"},
-            {"key": "controllers.hlcmp.gain_l", "label": "L"},
-        ],
-        "metrics": [
-            {"label": "x [m]", "digits": 4, "missing": "n/a", "yes_no": False},
-            {"label": "reach [s]", "digits": 2, "missing": "never", "yes_no": False},
-            {"label": "C4", "digits": 2, "missing": "n/a", "yes_no": False},
-        ],
-        "tasks": [
-            {
-                "id": "a",
-                "parameters": {"dmp.n_basis": "2", "controllers.hlcmp.gain_l": "[10.0]"},
-                "repetition": 1,
-                "status": "ok",
-                "values": {"x [m]": -0.11163, "reach [s]": None, "C4": True},
-            },
-            {
-                "id": "b",
-                "parameters": {"dmp.n_basis": "30", "controllers.hlcmp.gain_l": "[1.0]"},
-                "repetition": 1,
-                "status": "pending",
-                "values": {},
-            },
-        ],
-    }
-    assert to_markdown(sweep_table(summary), code_first_column=False) == (
-        "| N | L | x [m] | reach [s] | C4 |\n|---|---|---|---|---|\n| 2 | 10 | -0.1116 | never | yes |\n"
-    )
-    summary["tasks"][1].update(status="unstable", values={"x [m]": 3.0})
-    assert sweep_table(summary).rows[1] == ["30", "1", "3.0000", "never", "n/a", "unstable"]
-    assert parameter_number("[3.0, 3.0]") == 3.0 and parameter_number("[1, 2]") is None
-    assert parameter_text("abc") == "abc" and parameter_text("1.0e-3") == "0.001"
 
 
 # --- engines -------------------------------------------------------------------------

@@ -1,3 +1,6 @@
+"""hlcmp_drake.core.dmp: the DMP's basis, fit and rollout (goal, temporal scaling, the
+substitute amplitude of a flat axis, noisy and tremor demonstrations)."""
+
 import numpy as np
 import pytest
 

@@ -1,18 +1,17 @@
-"""The report page: generated from the runs' own metrics, offline, every image and link local."""
+"""hlcmp_drake.present.report: the report page, generated from the runs' own metrics,
+offline, every image and link local, and the README's claims summary."""
 
 import html
 import json
 import re
 import shutil
 import subprocess
-from pathlib import Path
 
 import pytest
+from conftest import REPO_ROOT
 
 from hlcmp_drake.experiments import EXPERIMENTS
 from hlcmp_drake.present.report import ReportSection, report_page
-
-REPO_ROOT = Path(__file__).resolve().parents[1]  # the checkout (README.md, scripts/, .ci/)
 
 
 @pytest.fixture(scope="session")
@@ -31,6 +30,7 @@ def report(one_dof_run, insertion_run, cutting_run, tmp_path_factory):
     return page, sections
 
 
+@pytest.mark.slow  # reads the three bundled scenarios' whole runs
 def test_every_local_link_and_image_resolves(report):
     page, _ = report
     text = page.read_text()
@@ -44,6 +44,7 @@ def test_every_local_link_and_image_resolves(report):
         assert (page.parent / target).exists(), target
 
 
+@pytest.mark.slow  # reads the three bundled scenarios' whole runs
 def test_every_number_is_the_runs_own(report):
     page, sections = report
     text = page.read_text()
@@ -53,6 +54,7 @@ def test_every_number_is_the_runs_own(report):
             assert html.escape(claim["evidence"]) in text
 
 
+@pytest.mark.slow  # reads the three bundled scenarios' whole runs
 def test_the_page_renders_in_chromium_with_every_image(report, tmp_path):
     browser = shutil.which("chromium")
     if browser is None:
@@ -85,15 +87,7 @@ def test_the_page_renders_in_chromium_with_every_image(report, tmp_path):
     assert result.stdout.count("<h2 id=") == 3
 
 
-@pytest.mark.slow
-def test_report_command_runs_the_scenarios(tmp_path):
-    from hlcmp_drake.cli import main
-
-    assert main(["report", "--out", str(tmp_path), "--scenarios", "one_dof", "--quiet"]) == 0
-    text = (tmp_path / "index.html").read_text()
-    assert "one_dof/recording.html" in text and (tmp_path / "one_dof" / "metrics.json").exists()
-
-
+@pytest.mark.slow  # reads the three bundled scenarios' whole runs
 def test_readme_claims_summary_comes_from_the_runs(one_dof_run, insertion_run, cutting_run):
     from hlcmp_drake.present.report import claims_summary_table
     from hlcmp_drake.present.tables import to_markdown

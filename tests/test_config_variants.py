@@ -1,0 +1,20 @@
+"""hlcmp_drake.config.variants: the drake_models iiwa variant swaps the arm and the flange weld."""
+
+from hlcmp_drake.config.loading import load_scenario
+
+
+def test_drake_models_variant_swaps_the_arm_and_the_flange_weld():
+    from hlcmp_drake.config.variants import DRAKE_MODELS_IIWA, use_drake_models_iiwa
+
+    scenario, _ = load_scenario("insertion")
+    variant = use_drake_models_iiwa(scenario)
+    files = [d.add_model.file for d in variant.directives if d.add_model is not None]
+    assert DRAKE_MODELS_IIWA in files and not any("hlcmp_drake/models/iiwa14" in f for f in files)
+    weld = next(
+        d.add_weld
+        for d in variant.directives
+        if d.add_weld is not None and d.add_weld.child == "insertion_tool::mount"
+    )
+    assert weld.parent == "iiwa::iiwa_link_7"
+    assert list(weld.X_PC.GetDeterministicValue().translation()) == [0.0, 0.0, 0.045]
+    assert len(variant.directives) == len(scenario.directives)

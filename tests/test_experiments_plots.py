@@ -1,0 +1,13 @@
+"""hlcmp_drake.experiments.plots: figures made without pyplot and saved as PNG."""
+
+from hlcmp_drake.experiments.plots import bar_chart, new_figure
+from hlcmp_drake.io import outputs
+
+
+def test_figures_are_made_without_pyplot_and_saved_as_png(tmp_path):
+    figure, axes = new_figure(2, 3, size=(6, 4))
+    assert len(axes) == 6
+    chart = bar_chart({"a": [1, 2, 3], "b": [3, 2, 1]}, ("x", "y", "z"), "value")
+    assert [t.get_text() for t in chart.axes[0].get_xticklabels()] == ["x axis", "y axis", "z axis"]
+    path = outputs.save_figure(tmp_path / "figures" / "chart.png", chart)
+    assert path.read_bytes()[:4] == b"\x89PNG"

@@ -1,0 +1,74 @@
+"""hlcmp_drake.run.runner (`hlcmp run`): an unstable run keeps its logs, the same command
+gives the same metrics, an interrupt writes nothing, a live Meshcat shows the runs."""
+
+import json
+
+import numpy as np
+import pytest
+from conftest import run_cli, short_one_dof
+from pydrake.geometry import Meshcat
+
+from hlcmp_drake.cli import main
+
+
+@pytest.mark.slow
+def test_absurd_gains_end_unstable_with_logs_kept(tmp_path):
+    result = run_cli(
+        "run",
+        "insertion",
+        "--set",
+        "duration_s=1.0",
+        "--set",
+        "controllers.hlcmp.gain_l=[1.0e7, 1.0e7, 1.0e7]",
+        "--out",
+        tmp_path / "o",
+        "--quiet",
+    )
+    assert result.returncode == 3, result.stderr
+    metrics = json.loads((tmp_path / "o" / "metrics.json").read_text())
+    assert metrics["status"] == "unstable"
+    problem = metrics["instability"]["hlcmp"]
+    assert "saturated" in problem["reason"] and 0 < problem["time_s"] < 1.0
+    data = np.load(tmp_path / "o" / "timeseries.npz")
+    stopped = np.isnan(data["hlcmp/x"][:, 0])
+    assert (
+        stopped.any() and not stopped[: int(problem["time_s"] / 0.01)].any()
+    )  # logs up to the stop
+    assert not np.isnan(data["const_1000/x"]).any()  # the others ran on
+    assert "UNSTABLE hlcmp" in result.stdout
+
+
+@pytest.mark.slow
+def test_same_command_twice_gives_identical_metrics(tmp_path):
+    for out in ("a", "b"):
+        assert main(["run", *short_one_dof(), "--out", str(tmp_path / out), "--quiet"]) == 0
+    assert (tmp_path / "a" / "metrics.json").read_bytes() == (
+        tmp_path / "b" / "metrics.json"
+    ).read_bytes()
+
+
+def test_interrupt_leaves_previous_results(tmp_path, monkeypatch, capsys):
+    import hlcmp_drake.run.runner as runner
+
+    out = tmp_path / "o"
+    out.mkdir()
+    (out / "metrics.json").write_text('{"previous": true}')
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(runner, "simulate", interrupted)
+    assert main(["run", *short_one_dof(), "--out", str(out)]) == 130
+    assert (out / "metrics.json").read_text() == '{"previous": true}'
+    assert sorted(p.name for p in out.iterdir()) == ["metrics.json"]
+    assert "interrupted; nothing was written" in capsys.readouterr().err
+
+
+def test_a_live_meshcat_shows_each_run_while_it_simulates(tmp_path):
+    from hlcmp_drake.run.runner import run_scenario
+
+    meshcat = Meshcat()
+    run_scenario("one_dof", tmp_path, overrides=["duration_s=0.3"], meshcat=meshcat)
+    for label in ("hlcmp", "hlcmp_per_step", "vic_fd_0.5"):
+        assert meshcat.HasPath(f"/drake/runs/{label}")
+    assert (tmp_path / "recording.html").exists()  # the offline recording is still written
