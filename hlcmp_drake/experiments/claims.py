@@ -1,11 +1,163 @@
-"""What the experiments' claims share: finding the controllers by kind, the smoother-force
-claim C2 (insertion and cutting), and the claims as a Table."""
+"""What the experiments' claims share: a claim as a small unit (`Claim`: its name, the
+paper's sentence, the function that judges it), what a judge returns (`Verdict`) and is
+given (`ClaimInputs`), `judge_claims` that makes metrics.json's entries of a list of claims,
+finding the controllers by kind, the smoother-force measure of C2 (insertion and cutting),
+and the claims as a Table."""
 
 from __future__ import annotations
+
+import dataclasses as dc
+from typing import Callable, Sequence
 
 from hlcmp_drake.config.scenario import Scenario
 from hlcmp_drake.experiments.table import Table
 from hlcmp_drake.worlds.controllers import CONSTANT_IMPEDANCE, labels_with_role, learners
+
+
+@dc.dataclass(frozen=True)
+class ClaimInputs:
+    """What a claim is judged on: one learner's run against the scenario's other controllers.
+
+    Attributes
+    ----------
+    metrics : dict
+        Every controller's metrics, by label.
+    scenario : Scenario
+        Whose configs say which label plays which role (found by the controller registry).
+    runs : dict of str to RunResult or None
+        The runs, by label, for a claim that reads series over time (None: not given).
+    learner : str or None
+        The label of the learner judged (None: the scenario has none).
+    """
+
+    metrics: dict
+    scenario: Scenario
+    runs: dict | None
+    learner: str | None
+
+    @property
+    def learner_metrics(self) -> dict | None:
+        """The judged learner's metrics, or None without a learner or without its metrics.
+
+        Returns
+        -------
+        dict or None
+        """
+        return self.metrics.get(self.learner)
+
+
+@dc.dataclass(frozen=True)
+class Verdict:
+    """What a claim's judge found.
+
+    Attributes
+    ----------
+    holds : bool
+        Whether the claim is reproduced.
+    evidence : str
+        What was measured, in a sentence or a few.
+    parts : dict of str to bool, optional
+        The sub-claims `holds` is the conjunction of, when it has parts.
+    details : dict, optional
+        Further measured values kept in metrics.json (e.g. C4's phases), by key.
+    """
+
+    holds: bool
+    evidence: str
+    parts: dict | None = None
+    details: dict = dc.field(default_factory=dict)
+
+
+# The order of a claim's entry in metrics.json: "details" stands for its keys, "parts" is
+# left out when the verdict has none.
+ENTRY_KEYS = ("holds", "parts", "evidence", "details", "paper_says")
+
+
+@dc.dataclass(frozen=True)
+class Claim:
+    """One of the paper's claims as tested here.
+
+    Attributes
+    ----------
+    name : str
+        Its key in metrics.json's `claims`, e.g. "C1".
+    paper_says : str
+        The paper's sentence the claim tests, quoted, with its figure.
+    judge : callable(ClaimInputs) -> Verdict or None
+        Judges the claim; None when it cannot be judged on these inputs (e.g. without a
+        learner), and the claim is then left out.
+    keys : tuple of str
+        The order of the claim's entry in metrics.json (see ENTRY_KEYS).
+    """
+
+    name: str
+    paper_says: str
+    judge: Callable
+    keys: tuple = ENTRY_KEYS
+
+    def entry(self, verdict: Verdict) -> dict:
+        """The claim's entry of metrics.json for `verdict`: {"holds", "evidence",
+        "paper_says", and "parts" and the details when the verdict has them}.
+
+        Parameters
+        ----------
+        verdict : Verdict
+
+        Returns
+        -------
+        dict
+        """
+        entry = {}
+        for key in self.keys:
+            if key == "holds":
+                entry["holds"] = verdict.holds
+            elif key == "parts":
+                if verdict.parts is not None:
+                    entry["parts"] = verdict.parts
+            elif key == "evidence":
+                entry["evidence"] = verdict.evidence
+            elif key == "details":
+                entry.update(verdict.details)
+            elif key == "paper_says":
+                entry["paper_says"] = self.paper_says
+            else:
+                raise ValueError(f"claim {self.name}: unknown entry key '{key}'")
+        return entry
+
+
+def judge_claims(
+    claims: Sequence[Claim],
+    metrics: dict,
+    scenario: Scenario,
+    runs: dict | None = None,
+    learner_name: str | None = None,
+) -> dict:
+    """Judge each claim in turn for one learner: metrics.json's `claims` entry of it.
+
+    Parameters
+    ----------
+    claims : sequence of Claim
+        In the order metrics.json lists them.
+    metrics : dict
+        Every controller's metrics, by label.
+    scenario : Scenario
+    runs : dict of str to RunResult, optional
+        For the claims that read series over time.
+    learner_name : str, optional
+        The learner to judge (default the scenario's first).
+
+    Returns
+    -------
+    dict
+        {claim name: its entry (see `Claim.entry`)}, without the claims not judged.
+    """
+    given = ClaimInputs(metrics, scenario, runs, learner_name or learner(scenario))
+    result = {}
+    for claim in claims:
+        verdict = claim.judge(given)
+        if verdict is not None:
+            result[claim.name] = claim.entry(verdict)
+    return result
 
 
 def learner(scenario: Scenario) -> str | None:
@@ -43,9 +195,7 @@ def constant_impedances(scenario: Scenario) -> list[str]:
     )
 
 
-def smoother_force(
-    metrics: dict, learner_name: str, constants: list[str], label: str, paper_says: str
-) -> dict:
+def smoother_force(metrics: dict, learner_name: str, constants: list[str], label: str) -> Verdict:
     """C2: the Hl-CMP's contact force in z is smoother (smaller sum of |second
     difference|, Figs. 8 and 12b) than every constant impedance's.
 
@@ -58,15 +208,16 @@ def smoother_force(
         The constant-impedance labels to compare with.
     label : str
         How the evidence names the measure.
-    paper_says : str
-        The paper's sentence the claim tests.
+
+    Returns
+    -------
+    Verdict
     """
     smooth = {n: metrics[n]["force_smoothness_N"]["z"] for n in [learner_name, *constants]}
-    return {
-        "holds": all(smooth[learner_name] < smooth[n] for n in constants),
-        "evidence": f"{label}: " + ", ".join(f"{n} {v:.2f} N" for n, v in smooth.items()) + ".",
-        "paper_says": paper_says,
-    }
+    return Verdict(
+        holds=all(smooth[learner_name] < smooth[n] for n in constants),
+        evidence=f"{label}: " + ", ".join(f"{n} {v:.2f} N" for n, v in smooth.items()) + ".",
+    )
 
 
 # How each reading of Q (HlcmpConfig.q_units) is named in tables.

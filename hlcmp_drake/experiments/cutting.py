@@ -3,18 +3,100 @@
 The per-axis metrics are the insertion's (Figs. 6-8 there, Fig. 12b here)."""
 
 from hlcmp_drake.config.scenario import ArmTask, Scenario
-from hlcmp_drake.experiments.claims import constant_impedances, learner, smoother_force
+from hlcmp_drake.experiments.claims import (
+    Claim,
+    ClaimInputs,
+    Verdict,
+    constant_impedances,
+    judge_claims,
+    learner,
+    smoother_force,
+)
 from hlcmp_drake.experiments.experiment import Experiment
 from hlcmp_drake.experiments.insertion import AXES, controller_metrics, table
 from hlcmp_drake.experiments.plots import new_figure
 
-# The paper's sentences each claim tests (Sec. V-E).
-PAPER_SAYS = {
-    "C2": '"Compared with the constant stiffness impedance control, our approach enables a more compliant '
-    'cutting behaviour which is illustrated by a more smooth force profile." (Fig. 12b)',
-    "C3": '"the compliant profiles in x and z directions do not adapt as obviously as in y direction. This '
-    'may be explained by the fact that the task dynamics in y axis is more difficult" (Fig. 11)',
-}
+# --- the claims (Sec. V-E): each the paper's sentence, its judge and its evidence -----
+
+
+def smoother_cutting_force(given: ClaimInputs) -> Verdict | None:
+    """C2 for cutting: the Hl-CMP's z force is smoother than every constant impedance's
+    (Fig. 12b; see `claims.smoother_force`).
+
+    Parameters
+    ----------
+    given : ClaimInputs
+
+    Returns
+    -------
+    Verdict or None
+        None without a learner.
+    """
+    if given.learner is None:
+        return None
+    return smoother_force(
+        given.metrics,
+        given.learner,
+        constant_impedances(given.scenario),
+        "sum |second difference of f_z| (Fig. 12b)",
+    )
+
+
+C2 = Claim(
+    name="C2",
+    paper_says=(
+        '"Compared with the constant stiffness impedance control, our approach enables a '
+        "more compliant cutting behaviour which is illustrated by a more smooth force "
+        'profile." (Fig. 12b)'
+    ),
+    judge=smoother_cutting_force,
+)
+
+
+def adapts_most_where_hardest(given: ClaimInputs) -> Verdict | None:
+    """C3 for cutting: the profiles adapt most on the axis where the task pushes back most
+    (Fig. 11): the peak learned stiffness and the peak |feed-forward| are largest on the
+    axis of the largest mean |f|.
+
+    Parameters
+    ----------
+    given : ClaimInputs
+
+    Returns
+    -------
+    Verdict or None
+        None without a learner.
+    """
+    if given.learner is None:
+        return None
+    hl = given.metrics[given.learner]
+    force = hl["mean_abs_force_N"]
+    hardest = max(AXES, key=force.get)
+    k, v = hl["max_stiffness_N_per_m"], hl["max_abs_feedforward_N"]
+    most_k, most_v = max(AXES, key=k.get), max(AXES, key=v.get)
+    return Verdict(
+        holds=most_k == hardest and most_v == hardest,
+        evidence=(
+            f"mean |f| x/y/z {force['x']:.2f}/{force['y']:.2f}/{force['z']:.2f} N "
+            f"(hardest: {hardest}); "
+            f"peak learned stiffness x/y/z {k['x']:.1f}/{k['y']:.1f}/{k['z']:.1f} N/m "
+            f"(most: {most_k}); "
+            f"peak |feed-forward| x/y/z {v['x']:.2f}/{v['y']:.2f}/{v['z']:.2f} N (most: {most_v})."
+        ),
+    )
+
+
+C3 = Claim(
+    name="C3",
+    paper_says=(
+        '"the compliant profiles in x and z directions do not adapt as obviously as in y '
+        "direction. This may be explained by the fact that the task dynamics in y axis is "
+        'more difficult" (Fig. 11)'
+    ),
+    judge=adapts_most_where_hardest,
+)
+
+CLAIMS = (C2, C3)
 
 
 def claims(
@@ -38,35 +120,7 @@ def claims(
     dict
         {"C2": ..., "C3": ...}, each {"holds", "evidence", "paper_says"}.
     """
-    name = learner_name or learner(scenario)
-    if name is None:
-        return {}
-    hl = metrics[name]
-    result = {
-        "C2": smoother_force(
-            metrics,
-            name,
-            constant_impedances(scenario),
-            "sum |second difference of f_z| (Fig. 12b)",
-            PAPER_SAYS["C2"],
-        )
-    }
-    # C3 for cutting: the profiles adapt most on the axis where the task pushes back most.
-    force = hl["mean_abs_force_N"]
-    hardest = max(AXES, key=force.get)
-    k, v = hl["max_stiffness_N_per_m"], hl["max_abs_feedforward_N"]
-    most_k, most_v = max(AXES, key=k.get), max(AXES, key=v.get)
-    result["C3"] = {
-        "holds": most_k == hardest and most_v == hardest,
-        "evidence": (
-            f"mean |f| x/y/z {force['x']:.2f}/{force['y']:.2f}/{force['z']:.2f} N (hardest: {hardest}); "
-            f"peak learned stiffness x/y/z {k['x']:.1f}/{k['y']:.1f}/{k['z']:.1f} N/m (most: {most_k}); "
-            f"peak |feed-forward| x/y/z {v['x']:.2f}/{v['y']:.2f}/{v['z']:.2f} N (most: {most_v})."
-        ),
-    }
-    for claim_name, claim in result.items():
-        claim["paper_says"] = PAPER_SAYS[claim_name]
-    return result
+    return judge_claims(CLAIMS, metrics, scenario, runs, learner_name)
 
 
 def figures(runs: dict, scenario: Scenario) -> dict:

@@ -9,7 +9,14 @@ from hlcmp_drake.core.metrics import (
     mean_abs_force,
     mean_abs_position_error,
 )
-from hlcmp_drake.experiments.claims import constant_impedances, learner, smoother_force
+from hlcmp_drake.experiments.claims import (
+    Claim,
+    ClaimInputs,
+    Verdict,
+    constant_impedances,
+    judge_claims,
+    smoother_force,
+)
 from hlcmp_drake.experiments.experiment import Experiment
 from hlcmp_drake.experiments.plots import bar_chart, new_figure
 from hlcmp_drake.experiments.table import Table, number, per_axis
@@ -22,20 +29,6 @@ SELECTIVE_FRACTION = 0.2  # C3: "almost zero" in x/y = within 20 % of z
 CHANGE_FRACTION = 0.2  # C4: a rise or fall counts when it is 20 % of the profile's peak
 SMOOTHING_S = 0.25  # C4: profiles are judged after a centred moving average this long
 PIERCE_LAG_S = 0.5  # C4: the profiles may peak up to this long after the pierce
-# The paper's sentences each claim tests (Sec. V-D).
-PAPER_SAYS = {
-    "C1": '"We can see that larger stiffness would result in a better performance of position '
-    'tracking." (Fig. 6)',
-    "C2": '"Our approach ... can allow the robot to learn compliant behaviours resulting in more smooth '
-    'force profiles" (Fig. 8)',
-    "C3": '"the force profiles are almost kept zero in x and y axes, which means the proposed Hl-CMPs '
-    "model can automatically decouple the dynamics profiles in different axes and then selectively "
-    'adapt the task-related ones, but the fixed impedance mode could not do so." (Figs. 4, 5)',
-    "C4": '"they slowly increase during the insertion phase ... After the tool piercing the foam plank, '
-    "during the third phase the force and the impedance start to decrease since the external "
-    "resistance becomes smaller ... the value of the feedforward force at each time step is almost "
-    'half of that of the command force" (Fig. 4)',
-}
 
 
 def _per_axis(values):
@@ -187,6 +180,199 @@ def _mean_force(metrics: dict, name: str) -> dict:
     return metrics[name]["mean_abs_force_N"]
 
 
+# --- the claims (Sec. V-D): each the paper's sentence, its judge and its evidence -----
+
+
+def stiffer_tracks_better(given: ClaimInputs) -> Verdict:
+    """C1: a stiffer constant impedance tracks better (Fig. 6): the mean |x - x_d| summed
+    over x, y, z falls from each constant impedance to the next stiffer one.
+
+    Parameters
+    ----------
+    given : ClaimInputs
+        The constant impedances are found by config kind, ordered by their configured
+        stiffness; no learner is needed.
+
+    Returns
+    -------
+    Verdict
+    """
+    constants = constant_impedances(given.scenario)
+    errors = [sum(given.metrics[n]["mean_abs_position_error_m"].values()) for n in constants]
+    return Verdict(
+        holds=all(a > b for a, b in zip(errors, errors[1:])),
+        evidence="mean |x - x_d| summed over x, y, z: "
+        + ", ".join(f"{n} {e * 1000:.2f} mm" for n, e in zip(constants, errors))
+        + ".",
+    )
+
+
+C1 = Claim(
+    name="C1",
+    paper_says=(
+        '"We can see that larger stiffness would result in a better performance of position '
+        'tracking." (Fig. 6)'
+    ),
+    judge=stiffer_tracks_better,
+)
+
+
+def smoother_contact_force(given: ClaimInputs) -> Verdict | None:
+    """C2: the Hl-CMP's contact force is smoother than every constant impedance's (z axis,
+    Fig. 8; see `claims.smoother_force`).
+
+    Parameters
+    ----------
+    given : ClaimInputs
+
+    Returns
+    -------
+    Verdict or None
+        None without the learner's metrics.
+    """
+    if given.learner_metrics is None:
+        return None
+    return smoother_force(
+        given.metrics,
+        given.learner,
+        constant_impedances(given.scenario),
+        "sum |second difference of f_z|",
+    )
+
+
+C2 = Claim(
+    name="C2",
+    paper_says=(
+        '"Our approach ... can allow the robot to learn compliant behaviours resulting in '
+        'more smooth force profiles" (Fig. 8)'
+    ),
+    judge=smoother_contact_force,
+)
+
+
+def _small_in_xy(values: dict) -> bool:
+    """x and y within SELECTIVE_FRACTION of z ("almost zero")."""
+    return all(abs(values[a]) <= SELECTIVE_FRACTION * abs(values["z"]) for a in ("x", "y"))
+
+
+def selective_adaptation(given: ClaimInputs) -> Verdict | None:
+    """C3, as the paper judges it: the Hl-CMP's measured x/y force almost zero (and its
+    learned x/y profiles small against z), while the constant impedances' is not.
+
+    Parameters
+    ----------
+    given : ClaimInputs
+
+    Returns
+    -------
+    Verdict or None
+        With its three parts; None without the learner's metrics.
+    """
+    hl = given.learner_metrics
+    if hl is None:
+        return None
+    metrics, name = given.metrics, given.learner
+    constants = constant_impedances(given.scenario)
+    f, k, v = _mean_force(metrics, name), hl["max_stiffness_N_per_m"], hl["max_abs_feedforward_N"]
+    parts = {
+        "hlcmp_xy_force_near_zero": _small_in_xy(f),
+        "hlcmp_xy_profiles_small": _small_in_xy(k) and _small_in_xy(v) and k["z"] > 0,
+        "constant_xy_force_not_near_zero": all(
+            not _small_in_xy(_mean_force(metrics, n)) for n in constants
+        ),
+    }
+    return Verdict(
+        holds=all(parts.values()),
+        parts=parts,
+        evidence=(
+            f"mean |f| x/y/z: {name} "
+            + "/".join(f"{f[a]:.2f}" for a in AXES)
+            + " N; "
+            + "; ".join(
+                f"{n} " + "/".join(f"{_mean_force(metrics, n)[a]:.2f}" for a in AXES)
+                for n in constants
+            )
+            + f" N. Learned peaks x/y/z: K_s {k['x']:.1f}/{k['y']:.1f}/{k['z']:.1f} N/m, |v| "
+            f"{v['x']:.2f}/{v['y']:.2f}/{v['z']:.2f} N "
+            f"(near zero: within {SELECTIVE_FRACTION:.0%} of z). Parts: "
+            + ", ".join(f"{p} = {'yes' if ok else 'no'}" for p, ok in parts.items())
+            + "."
+        ),
+    )
+
+
+C3 = Claim(
+    name="C3",
+    paper_says=(
+        '"the force profiles are almost kept zero in x and y axes, which means the proposed '
+        "Hl-CMPs model can automatically decouple the dynamics profiles in different axes "
+        "and then selectively adapt the task-related ones, but the fixed impedance mode "
+        'could not do so." (Figs. 4, 5)'
+    ),
+    judge=selective_adaptation,
+)
+
+
+def _yes_no(value: bool) -> str:
+    return "yes" if value else "no"
+
+
+def rises_then_falls(given: ClaimInputs) -> Verdict | None:
+    """C4: on the contact phase, smoothed, stiffness and feed-forward rise while pushing in
+    and fall after the pierce (see `rise_and_fall`); v / (u + v) beside the lag that sets
+    it (see `feedforward_share`).
+
+    Parameters
+    ----------
+    given : ClaimInputs
+        Its runs must hold the learner's; without runs, no contact phase is found.
+
+    Returns
+    -------
+    Verdict or None
+        With the phases and the feed-forward share as details; None without the
+        learner's metrics.
+    """
+    if given.learner_metrics is None:
+        return None
+    runs, name = given.runs, given.learner
+    phases = rise_and_fall(runs[name]) if runs else None
+    if phases is None:
+        return Verdict(holds=False, evidence="no contact phase found in the Hl-CMP run.")
+    ks, ff = phases["stiffness"], phases["feedforward"]
+    share = feedforward_share(runs[name], given.scenario.controllers[name])
+    measured = "n/a" if share["measured"] is None else f"{share['measured']:.2f}"
+    return Verdict(
+        holds=ks["rises"] and ks["falls"] and ff["rises"] and ff["falls"],
+        evidence=(
+            f"contact {phases['onset_s']:.2f}-{phases['contact_end_s']:.2f} s, pierce "
+            f"{phases['pierce_s']:.2f} s; smoothed K_s,z {ks['at_onset']:.1f} -> peak "
+            f"{ks['peak']:.1f} at {ks['peak_s']:.2f} s -> {ks['at_contact_end']:.1f} N/m "
+            f"(rises: {_yes_no(ks['rises'])}, falls after the pierce: {_yes_no(ks['falls'])}); "
+            f"v_z {ff['at_onset']:.2f} -> peak {ff['peak']:.2f} at {ff['peak_s']:.2f} s -> "
+            f"{ff['at_contact_end']:.2f} N (rises: {_yes_no(ff['rises'])}, falls: "
+            f"{_yes_no(ff['falls'])}). v/(u+v) in z over the contact: {measured} (paper: "
+            f"about 0.5) with a mean lag |e_z| of {1000 * share['mean_lag_m']:.1f} mm, for "
+            f"which Eq. 31 predicts {share['predicted']:.2f}."
+        ),
+        details={"phases": phases, "feedforward_share": share},
+    )
+
+
+C4 = Claim(
+    name="C4",
+    paper_says=(
+        '"they slowly increase during the insertion phase ... After the tool piercing the '
+        "foam plank, during the third phase the force and the impedance start to decrease "
+        "since the external resistance becomes smaller ... the value of the feedforward "
+        'force at each time step is almost half of that of the command force" (Fig. 4)'
+    ),
+    judge=rises_then_falls,
+)
+
+CLAIMS = (C1, C2, C3, C4)
+
+
 def claims(
     metrics: dict, scenario: Scenario, runs: dict | None = None, learner_name: str | None = None
 ) -> dict:
@@ -210,84 +396,7 @@ def claims(
     dict
         C1 (always), and C2-C4 when there is a learner: {"holds", "evidence", "paper_says"}.
     """
-    constants = constant_impedances(scenario)
-    name = learner_name or learner(scenario)
-    hl = metrics.get(name)
-    result = {}
-    # C1: a stiffer constant impedance tracks better.
-    errors = [sum(metrics[n]["mean_abs_position_error_m"].values()) for n in constants]
-    result["C1"] = {
-        "holds": all(a > b for a, b in zip(errors, errors[1:])),
-        "evidence": "mean |x - x_d| summed over x, y, z: "
-        + ", ".join(f"{n} {e * 1000:.2f} mm" for n, e in zip(constants, errors))
-        + ".",
-    }
-    if hl is None:
-        result["C1"]["paper_says"] = PAPER_SAYS["C1"]
-        return result
-    # C2: the Hl-CMP's contact force is smoother than every constant impedance's (z axis).
-    result["C2"] = smoother_force(
-        metrics, name, constants, "sum |second difference of f_z|", PAPER_SAYS["C2"]
-    )
-    # C3, as the paper judges it: the Hl-CMP's measured x/y force almost zero (and its
-    # learned x/y profiles small against z), while the constant impedances' is not.
-    f, k, v = _mean_force(metrics, name), hl["max_stiffness_N_per_m"], hl["max_abs_feedforward_N"]
-
-    def small(values):
-        return all(abs(values[a]) <= SELECTIVE_FRACTION * abs(values["z"]) for a in ("x", "y"))
-
-    parts = {
-        "hlcmp_xy_force_near_zero": small(f),
-        "hlcmp_xy_profiles_small": small(k) and small(v) and k["z"] > 0,
-        "constant_xy_force_not_near_zero": all(
-            not small(_mean_force(metrics, n)) for n in constants
-        ),
-    }
-    result["C3"] = {
-        "holds": all(parts.values()),
-        "parts": parts,
-        "evidence": (
-            f"mean |f| x/y/z: {name} "
-            + "/".join(f"{f[a]:.2f}" for a in AXES)
-            + " N; "
-            + "; ".join(
-                f"{n} " + "/".join(f"{_mean_force(metrics, n)[a]:.2f}" for a in AXES)
-                for n in constants
-            )
-            + f" N. Learned peaks x/y/z: K_s {k['x']:.1f}/{k['y']:.1f}/{k['z']:.1f} N/m, |v| "
-            f"{v['x']:.2f}/{v['y']:.2f}/{v['z']:.2f} N (near zero: within {SELECTIVE_FRACTION:.0%} of z). Parts: "
-            + ", ".join(f"{p} = {'yes' if ok else 'no'}" for p, ok in parts.items())
-            + "."
-        ),
-    }
-    # C4: on the contact phase, smoothed, stiffness and feed-forward rise while pushing in
-    # and fall after the pierce; v / (u + v) beside the lag that sets it.
-    phases = rise_and_fall(runs[name]) if runs else None
-    if phases is None:
-        result["C4"] = {"holds": False, "evidence": "no contact phase found in the Hl-CMP run."}
-    else:
-        ks, ff = phases["stiffness"], phases["feedforward"]
-        share = feedforward_share(runs[name], scenario.controllers[name])
-        measured = "n/a" if share["measured"] is None else f"{share['measured']:.2f}"
-        result["C4"] = {
-            "holds": ks["rises"] and ks["falls"] and ff["rises"] and ff["falls"],
-            "evidence": (
-                f"contact {phases['onset_s']:.2f}-{phases['contact_end_s']:.2f} s, pierce "
-                f"{phases['pierce_s']:.2f} s; smoothed K_s,z {ks['at_onset']:.1f} -> peak {ks['peak']:.1f} "
-                f"at {ks['peak_s']:.2f} s -> {ks['at_contact_end']:.1f} N/m (rises: "
-                f"{'yes' if ks['rises'] else 'no'}, falls after the pierce: {'yes' if ks['falls'] else 'no'}); "
-                f"v_z {ff['at_onset']:.2f} -> peak {ff['peak']:.2f} at {ff['peak_s']:.2f} s -> "
-                f"{ff['at_contact_end']:.2f} N (rises: {'yes' if ff['rises'] else 'no'}, falls: "
-                f"{'yes' if ff['falls'] else 'no'}). v/(u+v) in z over the contact: {measured} (paper: "
-                f"about 0.5) with a mean lag |e_z| of {1000 * share['mean_lag_m']:.1f} mm, for which "
-                f"Eq. 31 predicts {share['predicted']:.2f}."
-            ),
-            "phases": phases,
-            "feedforward_share": share,
-        }
-    for claim_name, claim in result.items():
-        claim["paper_says"] = PAPER_SAYS[claim_name]
-    return result
+    return judge_claims(CLAIMS, metrics, scenario, runs, learner_name)
 
 
 def table(metrics: dict) -> Table:

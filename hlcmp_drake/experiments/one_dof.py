@@ -2,7 +2,7 @@
 
 from hlcmp_drake.config.scenario import ControllerConfig, Scenario, SliderTask
 from hlcmp_drake.core.metrics import settle_time, value_at
-from hlcmp_drake.experiments.claims import learner
+from hlcmp_drake.experiments.claims import Claim, ClaimInputs, Verdict, judge_claims, learner
 from hlcmp_drake.experiments.experiment import Experiment
 from hlcmp_drake.experiments.plots import new_figure
 from hlcmp_drake.experiments.table import Table, number
@@ -10,13 +10,6 @@ from hlcmp_drake.io.runs import RunResult
 from hlcmp_drake.worlds.controllers import FORCE_TRACKING, labels_with_role
 
 DEPTH_TOLERANCE_M = 0.005
-# The paper's sentences the claim tests (Sec. V-B).
-PAPER_SAYS = {
-    "C5": '"the predefined desired force fd has a large influence on the control performance and an '
-    "improper value may result in the failures of tracking of the desired position. Even with an "
-    "proper fd that allows the desired cutting depth, it cannot achieve a fast response compared "
-    'to our approach." (Fig. 13)'
-}
 
 
 def _segments(scenario):
@@ -66,35 +59,33 @@ def _faster(a, b):
     return a is not None and (b is None or a < b)
 
 
-def claims(
-    metrics: dict, scenario: Scenario, runs: dict | None = None, learner_name: str | None = None
-) -> dict:
-    """C5: Hl-CMPs reach the desired depth and return faster than [21]; [21] with an
+# --- the claim (Sec. V-B): the paper's sentence, its judge and its evidence ----------
+
+
+def faster_than_force_tracking(given: ClaimInputs) -> Verdict | None:
+    """C5: the Hl-CMP reaches the desired depth and returns faster than [21]; [21] with an
     improper f_d fails to reach the depth (0.5 N too shallow, 5 N too deep).
 
-    The Hl-CMP and the [21] runs are found by their config kind; the [21] run with the
-    smallest desired force must stop too shallow, the one with the largest too deep.
+    The [21] runs are found by their config kind; the one with the smallest desired force
+    must stop too shallow, the one with the largest too deep, and the Hl-CMP is compared
+    with the one that stops nearest the depth.
 
     Parameters
     ----------
-    metrics : dict
-        Reach and return times and x(10 s) of every controller, by label.
-    scenario : Scenario
-        Its step reference sets the depth; its configs tell the Hl-CMP from the [21] runs.
-    runs : dict, optional
-        Not needed: C5 reads the metrics only.
-    learner_name : str, optional
-        The Hl-CMP to judge (default the scenario's first).
+    given : ClaimInputs
+        Reach and return times and x(10 s) of every controller; the scenario's step
+        reference sets the depth.
 
     Returns
     -------
-    dict
-        {"C5": {"holds", "paper_says", "parts", "evidence"}}.
+    Verdict or None
+        With its six parts; None when a run ends before the return command at 10 s.
     """
+    metrics, scenario = given.metrics, given.scenario
     depth = _segments(scenario)[0]
-    hl = metrics[learner_name or learner(scenario)]
+    hl = metrics[given.learner]
     if any(m["position_at_10s_m"] is None for m in metrics.values()):
-        return {}  # a run shorter than the return command at 10 s: C5 cannot be judged
+        return None  # a run shorter than the return command at 10 s: C5 cannot be judged
     vic = {name: metrics[name] for name in labels_with_role(scenario, FORCE_TRACKING)}
     by_force = sorted(vic, key=lambda n: sum(scenario.controllers[n].desired_force_N))
     weakest, strongest = by_force[0], by_force[-1]
@@ -125,14 +116,46 @@ def claims(
         + ", ".join(f"{k} = {'yes' if v else 'no'}" for k, v in parts.items())
         + "."
     )
-    return {
-        "C5": {
-            "holds": all(parts.values()),
-            "paper_says": PAPER_SAYS["C5"],
-            "parts": parts,
-            "evidence": " ".join(lines),
-        }
-    }
+    return Verdict(holds=all(parts.values()), parts=parts, evidence=" ".join(lines))
+
+
+C5 = Claim(
+    name="C5",
+    paper_says=(
+        '"the predefined desired force fd has a large influence on the control performance '
+        "and an improper value may result in the failures of tracking of the desired "
+        "position. Even with an proper fd that allows the desired cutting depth, it cannot "
+        'achieve a fast response compared to our approach." (Fig. 13)'
+    ),
+    judge=faster_than_force_tracking,
+    keys=("holds", "paper_says", "parts", "evidence"),  # C5's order in metrics.json
+)
+
+CLAIMS = (C5,)
+
+
+def claims(
+    metrics: dict, scenario: Scenario, runs: dict | None = None, learner_name: str | None = None
+) -> dict:
+    """C5 (see `faster_than_force_tracking`); not judged when a run ends before 10 s.
+
+    Parameters
+    ----------
+    metrics : dict
+        Reach and return times and x(10 s) of every controller, by label.
+    scenario : Scenario
+        Its step reference sets the depth; its configs tell the Hl-CMP from the [21] runs.
+    runs : dict, optional
+        Not needed: C5 reads the metrics only.
+    learner_name : str, optional
+        The Hl-CMP to judge (default the scenario's first).
+
+    Returns
+    -------
+    dict
+        {"C5": {"holds", "paper_says", "parts", "evidence"}}, or {} when not judged.
+    """
+    return judge_claims(CLAIMS, metrics, scenario, runs, learner_name)
 
 
 def table(metrics: dict) -> Table:

@@ -1,0 +1,161 @@
+"""The engines a sweep's tasks run on: `local`, a spawn-started process pool whose workers
+end with the sweep's process (PR_SET_PDEATHSIG), and `ray`, a Ray task per sweep task.
+Each hands every finished task to an `on_done` callback as it comes."""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import logging
+import multiprocessing
+import os
+import signal
+import sys
+import threading
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
+from typing import Callable
+
+from hlcmp_drake.config.sweep import SweepTask
+from hlcmp_drake.io.errors import InputError
+from hlcmp_drake.run.sweep.tasks import (
+    _quiet_drake,
+    run_task,
+    run_task_returning_files,
+    store_files,
+)
+
+ENGINES = ("local", "ray")
+
+
+def _local_worker_init(parent: int) -> None:
+    """In each local worker: Ctrl-C is the parent's to handle (it stops the workers); and
+    the worker ends with the sweep's process `parent`, even one killed outright, so no
+    orphan goes on running tasks that a re-run would start again."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _end_with_parent(parent)
+    _quiet_drake()
+
+
+def _end_with_parent(parent: int) -> None:
+    """Linux: ask the kernel for SIGTERM when the parent dies (prctl PR_SET_PDEATHSIG), then
+    make sure it had not died already. Elsewhere, nothing: an orphan finishes its tasks."""
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, signal.SIGTERM)  # 1: PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        return
+    if os.getppid() != parent:
+        os._exit(1)
+
+
+Done = Callable[[SweepTask, "dict | None", "str | None"], None]
+
+
+def _run_local(tasks: list, workers: int, on_done: Done) -> None:
+    """A spawn-started process pool; each result is handed to `on_done` as it finishes.
+    An interrupt cancels the queue and terminates the workers (their tasks are not
+    finished, so a re-run does them)."""
+    executor = ProcessPoolExecutor(
+        max_workers=workers,
+        mp_context=multiprocessing.get_context("spawn"),
+        initializer=_local_worker_init,
+        initargs=(os.getpid(),),
+    )
+    try:
+        futures = {executor.submit(run_task, task): task for task in tasks}
+        for future in as_completed(futures):
+            try:
+                info, error = future.result(), None
+            except (
+                BrokenProcessPool
+            ) as failure:  # a worker died (killed, out of memory): so did the pool
+                info, error = None, f"a worker process died ({failure})"
+            except Exception as failure:  # the task's own error: record it, go on
+                info, error = None, f"{type(failure).__name__}: {failure}"
+            on_done(futures[future], info, error)
+    except BaseException:
+        _stop_pool(executor)
+        raise
+    executor.shutdown()
+
+
+def _stop_pool(executor: ProcessPoolExecutor) -> None:
+    processes = list((getattr(executor, "_processes", None) or {}).values())
+    executor.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        process.terminate()
+    for process in processes:
+        process.join(timeout=5)
+
+
+def _import_ray():
+    try:
+        import ray
+    except ImportError:
+        raise InputError(
+            "--engine ray needs Ray, which is not installed: pip install -e '.[ray]'"
+        ) from None
+    return ray
+
+
+def _run_ray(tasks: list, workers: int | None, address: str | None, on_done: Done) -> None:
+    """One Ray task per sweep task (one CPU each), at most `workers` in flight."""
+    ray = _import_ray()
+    started = not ray.is_initialized()
+    if started:
+        options = (
+            {"address": address}
+            if address
+            else {"num_cpus": workers or os.cpu_count() or 1, "include_dashboard": False}
+        )
+        try:
+            ray.init(logging_level=logging.WARNING, **options)
+        except ConnectionError as error:
+            raise InputError(
+                f"--address {address}: cannot join a Ray cluster there ({error})"
+            ) from None
+    remote = ray.remote(num_cpus=1)(run_task_returning_files)
+    queue, in_flight = list(tasks), {}
+    limit = workers or len(tasks)
+    try:
+        while queue or in_flight:
+            while queue and len(in_flight) < limit:
+                task = queue.pop(0)
+                in_flight[remote.remote(task)] = task
+            (ref,), _ = ray.wait(list(in_flight), num_returns=1)
+            task = in_flight.pop(ref)
+            try:
+                info, files = ray.get(ref)
+            except Exception as failure:  # RayTaskError wraps the task's own error
+                on_done(task, None, " ".join(str(failure).split())[-400:])
+                continue
+            store_files(task.run_dir, files)
+            on_done(task, info, None)
+    except BaseException:
+        for ref in in_flight:
+            ray.cancel(ref, force=True)
+        raise
+    finally:
+        if started:
+            ray.shutdown()
+
+
+@contextlib.contextmanager
+def _terminate_is_interrupt():
+    """While the sweep runs, SIGTERM (`kill`) stops it like Ctrl-C: the workers are
+    stopped and every finished task is kept."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)

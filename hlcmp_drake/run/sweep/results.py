@@ -1,0 +1,216 @@
+"""A sweep's results: each finished task's metric values (read from its run folder),
+sweep.json's summary of every task, and sweep.csv."""
+
+from __future__ import annotations
+
+import csv
+import dataclasses as dc
+import io
+import json
+from pathlib import Path
+
+import numpy as np
+
+from hlcmp_drake.config.sweep import CASE, SweepMetric
+from hlcmp_drake.experiments.table import Table
+from hlcmp_drake.io import outputs
+from hlcmp_drake.run.sweep.planning import SweepPlan
+
+FINISHED = ("ok", "unstable")
+
+
+@dc.dataclass
+class SweepResult:
+    """What `run_sweep` returns.
+
+    Attributes
+    ----------
+    summary : dict
+        The sweep.json content.
+    out_dir : Path
+    table : Table
+        The finished tasks (see `present.sweep.sweep_table`).
+    already_done : int
+        Tasks that were finished before this call (skipped).
+    stale : int
+        Tasks whose earlier result was for another scenario text (run again).
+    ran : list of str
+        The ids run by this call (failed ones included).
+    failed : dict of str to str
+        Id -> error message, for tasks that raised (not finished: a re-run retries them).
+    unstable : list of str
+        Ids whose runs went unstable (finished; metrics.json says where and why).
+    missing : list of str
+        Metrics not found in an ok task's output ("LABEL (PATH): task ID").
+    wall_s : float
+    files : list of Path
+        sweep.csv, sweep.json and the plots.
+    """
+
+    summary: dict
+    out_dir: Path
+    table: Table
+    already_done: int
+    stale: int
+    ran: list
+    failed: dict
+    unstable: list
+    missing: list
+    wall_s: float
+    files: list
+
+
+def _lookup(data: object, dotted: str) -> tuple[bool, object]:
+    """(found, value) of a dotted path into nested dicts; a key may hold dots."""
+    parts, node, i = dotted.split("."), data, 0
+    while i < len(parts):
+        if not isinstance(node, dict):
+            return False, None
+        for j in range(len(parts), i, -1):
+            if ".".join(parts[i:j]) in node:
+                node, i = node[".".join(parts[i:j])], j
+                break
+        else:
+            return False, None
+    return not isinstance(node, (dict, list)), node
+
+
+def _reduce(arrays: object, metric: SweepMetric) -> tuple[bool, object]:
+    if metric.series not in arrays.files:
+        return False, None
+    values = np.asarray(arrays[metric.series], dtype=float)
+    values = values[:, None] if values.ndim == 1 else values
+    if metric.column >= values.shape[1]:
+        return False, None
+    t, x = np.asarray(arrays["t"]), values[:, metric.column]
+    keep = np.isfinite(x)
+    if metric.window_s:
+        keep &= (t >= metric.window_s[0]) & (t <= metric.window_s[1])
+    if not keep.any():
+        return True, None
+    x = x[keep]
+    reduce = {
+        "max": np.max,
+        "min": np.min,
+        "max_abs": lambda v: np.max(np.abs(v)),
+        "mean": np.mean,
+        "final": lambda v: v[-1],
+    }[metric.reduce]
+    return True, float(reduce(x))
+
+
+def _finish(value: object, metric: SweepMetric) -> object:
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        value = float(value) * metric.scale
+        return bool(value < metric.below) if metric.below is not None else value
+    return value
+
+
+def task_values(run_dir: str | Path, metrics: list) -> tuple[dict, list]:
+    """A finished task's metric values, read from its run folder.
+
+    Parameters
+    ----------
+    run_dir : str or Path
+        Holds metrics.json and timeseries.npz.
+    metrics : list of SweepMetric
+
+    Returns
+    -------
+    (dict, list of str)
+        {label: value (scaled; yes/no where `below` is set; None when null)}, and the
+        labels of the metrics that were not found there.
+    """
+    run_dir = Path(run_dir)
+    data = json.loads((run_dir / "metrics.json").read_text())
+    values, missing = {}, []
+    arrays = np.load(run_dir / "timeseries.npz") if any(m.series for m in metrics) else None
+    try:
+        for metric in metrics:
+            found, value = _lookup(data, metric.path) if metric.path else _reduce(arrays, metric)
+            if not found:
+                missing.append(metric.label)
+            values[metric.label] = _finish(value, metric) if found else None
+    finally:
+        if arrays is not None:
+            arrays.close()
+    return values, missing
+
+
+def _wall_s(run_dir: Path) -> float | None:
+    try:
+        return json.loads((run_dir / "sweep_task.json").read_text()).get("wall_s")
+    except (OSError, ValueError):
+        return None
+
+
+def _summary(plan: SweepPlan, rows: dict) -> dict:
+    sweep, config = plan.sweep, plan.sweep.config
+    labels = {CASE: "case", **config.labels}
+    counts = {
+        state: sum(1 for t in plan.tasks if rows[t.id]["status"] == state)
+        for state in ("ok", "unstable", "error", "pending")
+    }
+    return {
+        "name": sweep.path.stem,
+        "sweep": str(sweep.path),
+        "scenario": str(sweep.scenario_path),
+        "repetitions": config.repetitions,
+        "controllers": plan.tasks[0].controllers if plan.tasks else [],
+        "parameters": [{"key": key, "label": labels.get(key, key)} for key in sweep.parameters],
+        "metrics": [
+            {
+                "label": m.label,
+                "path": m.path,
+                "series": m.series,
+                "digits": m.digits,
+                "missing": m.missing,
+                "yes_no": m.below is not None,
+            }
+            for m in config.metrics
+        ],
+        "tasks": [
+            {
+                "id": t.id,
+                "parameters": t.parameters,
+                "repetition": t.repetition,
+                **rows[t.id],
+                "run_dir": str(Path("tasks") / t.id),
+            }
+            for t in plan.tasks
+        ],
+        "counts": {"tasks": len(plan.tasks), **counts},
+    }
+
+
+def _csv(summary: dict) -> str:
+    keys = [p["key"] for p in summary["parameters"]]
+    labels = [m["label"] for m in summary["metrics"]]
+    stream = io.StringIO()
+    writer = csv.writer(stream, lineterminator="\n")
+    writer.writerow(["id", *keys, "repetition", "status", *labels, "wall_s"])
+
+    def text(value):
+        if value is None:
+            return ""
+        return str(value).lower() if isinstance(value, bool) else value
+
+    for task in summary["tasks"]:
+        writer.writerow(
+            [
+                task["id"],
+                *(task["parameters"][k] for k in keys),
+                task["repetition"],
+                task["status"],
+                *(text(task["values"].get(label)) for label in labels),
+                text(task["wall_s"]),
+            ]
+        )
+    return stream.getvalue()
+
+
+def _write_tables(out_dir: Path, summary: dict) -> list:
+    return [
+        outputs.write_text(out_dir / "sweep.csv", _csv(summary)),
+        outputs.write_json(out_dir / "sweep.json", summary),
+    ]
