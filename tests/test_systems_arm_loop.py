@@ -1,14 +1,18 @@
 """hlcmp_drake.systems.arm_loop: ArmControlLoop, the arm's controller in one Python evaluation
-per plant step, against the modular systems and ArmTick."""
+per plant step: one tick against the modular systems, its documented ports, and its torque,
+θ's rate and logs against ArmTick.evaluate on the same inputs (held between ticks)."""
 
 import numpy as np
+import pytest
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
 from hlcmp_drake.core.laws import TaskSpaceInstant
 from hlcmp_drake.systems.arm import BelowTaskImpedance, NullSpaceImpedance
 from hlcmp_drake.systems.arm_loop import ArmControlLoop, ArmTick
+from hlcmp_drake.systems.ports import REFERENCE_PORTS
 from hlcmp_drake.systems.task_space import TaskSpaceDynamics, TaskSpaceModel
+from hlcmp_drake.worlds.arm import arm_tick
 from hlcmp_drake.worlds.controllers import hlcmp_law, modular_system
 from hlcmp_drake.worlds.models import add_plant, scoped_frame
 
@@ -87,3 +91,136 @@ def test_one_tick_gives_the_modular_systems_torque(insertion):
         scenario.controllers["hlcmp"], scenario, np.zeros(3), law.unflatten(theta)
     )
     assert controller.num_continuous_states() == law.theta_size
+
+
+# --- the loop against ArmTick.evaluate on the same inputs --------------------------------
+
+
+@pytest.fixture(scope="module")
+def arm_ticks(insertion):
+    """For the Hl-CMP and a constant impedance of the insertion: two ArmTicks each, built
+    alike on one plant, one for the loop and one to evaluate the same inputs by hand."""
+    scenario, setup = insertion
+    plant, _ = add_plant(DiagramBuilder(), scenario)
+    return plant, {
+        name: (arm_tick(scenario, name, plant, setup), arm_tick(scenario, name, plant, setup))
+        for name in ("hlcmp", "const_500")
+    }
+
+
+def _inputs(setup, law, seed):
+    """A plant state near the start posture, moving, a reference a little below the DMP's
+    start, and θ: (state, (x_d, x_d', x_d'', s), θ or None)."""
+    rng = np.random.default_rng(seed)
+    state = np.concatenate([setup.q0 + rng.normal(0, 0.02, 7), rng.normal(0, 0.2, 7)])
+    reference = (
+        setup.dmp.start + rng.normal(0, 0.01, 3),
+        rng.normal(0, 0.03, 3),
+        rng.normal(0, 0.02, 3),
+        np.array([rng.uniform(0.2, 0.8)]),
+    )
+    theta = rng.uniform(0, 300, law.theta_size) if law.learns else None
+    return state, reference, theta
+
+
+def _fix(loop, context, state, reference, theta):
+    loop.plant_state.FixValue(context, state)
+    for name, value in zip(REFERENCE_PORTS, reference):
+        loop.GetInputPort(name).FixValue(context, value)
+    if theta is not None:
+        loop.GetInputPort("theta").FixValue(context, theta)
+
+
+@pytest.mark.parametrize("name", ["hlcmp", "const_500"])
+def test_the_loop_has_the_documented_ports(arm_ticks, insertion, name):
+    plant, ticks = arm_ticks
+    tick = ticks[name][0]
+    loop = ArmControlLoop(tick, plant.time_step())
+    law, m = tick.law, len(insertion[0].task.axes)  # M: the task's axes
+    nq, nv = plant.num_positions(), plant.num_velocities()
+    inputs = [loop.get_input_port(i) for i in range(loop.num_input_ports())]
+    outputs = [loop.get_output_port(i) for i in range(loop.num_output_ports())]
+    expected_inputs = [
+        ("plant_state", nq + nv),
+        ("desired_position", m),
+        ("desired_velocity", m),
+        ("desired_acceleration", m),
+        ("phase", 1),
+    ]
+    expected_outputs = [("joint_torque", nv)]
+    if law.learns:  # the Hl-CMP: theta in, its rate out (3 M N weights)
+        assert law.theta_size == 3 * m * len(law.centers) > 0
+        expected_inputs.append(("theta", law.theta_size))
+        expected_outputs.append(("theta_rate", law.theta_size))
+    else:
+        assert loop.theta is None
+    expected_outputs.append(("logs", 2 * m + 1 + m * len(law.log_fields)))
+    assert [(p.get_name(), p.size()) for p in inputs] == expected_inputs
+    assert [(p.get_name(), p.size()) for p in outputs] == expected_outputs
+    assert loop.log_columns == tick.log_columns and tick.log_size == expected_outputs[-1][1]
+
+
+@pytest.mark.parametrize("name", ["hlcmp", "const_500"])
+def test_a_tick_is_arm_tick_evaluate_held_until_the_next(arm_ticks, insertion, name):
+    """The torque (and θ's rate) of the tick at t = 0 are ArmTick.evaluate's on that
+    tick's inputs, and they are held: new inputs change them only at the next tick
+    (t = 1 ms). The logs output is evaluated at the present inputs."""
+    plant, ticks = arm_ticks
+    tick, by_hand = ticks[name]
+    loop = ArmControlLoop(tick, plant.time_step())
+    context = loop.CreateDefaultContext()
+    first = _inputs(insertion[1], tick.law, seed=3)
+    second = _inputs(insertion[1], tick.law, seed=4)
+    expected = [by_hand.evaluate(*inputs) for inputs in (first, second)]
+    assert np.abs(expected[0].law.force).max() > 1.0  # a state that asks for a real command
+    assert np.abs(expected[0].torque - expected[1].torque).max() > 1e-3  # tells them apart
+
+    def outputs():
+        torque = loop.GetOutputPort("joint_torque").Eval(context)
+        rates = loop.GetOutputPort("theta_rate").Eval(context) if tick.law.learns else None
+        return torque, rates
+
+    def assert_outputs_are(result):
+        torque, rates = outputs()
+        np.testing.assert_allclose(torque, result.torque, rtol=1e-12, atol=1e-12)
+        if tick.law.learns:
+            np.testing.assert_allclose(rates, result.law.rates, rtol=1e-12, atol=1e-12)
+        else:
+            assert result.law.rates is None
+
+    _fix(loop, context, *first)
+    simulator = Simulator(loop, context)
+    simulator.AdvanceTo(0.0005)  # the tick at t = 0
+    assert_outputs_are(expected[0])
+    np.testing.assert_allclose(
+        loop.GetOutputPort("logs").Eval(context), by_hand.log_row(expected[0]), rtol=1e-12
+    )
+    _fix(loop, context, *second)  # new inputs between two ticks
+    assert_outputs_are(expected[0])  # held
+    np.testing.assert_allclose(
+        loop.GetOutputPort("logs").Eval(context), by_hand.log_row(expected[1]), rtol=1e-12
+    )
+    simulator.AdvanceTo(0.0015)  # the tick at t = 1 ms
+    assert_outputs_are(expected[1])
+
+
+def test_the_torque_is_saturated_at_the_effort_limits(arm_ticks, insertion):
+    """θ far too large: the tick's torque sits at the actuators' limits, as evaluate says."""
+    plant, ticks = arm_ticks
+    tick, by_hand = ticks["hlcmp"]
+    state, reference, theta = _inputs(insertion[1], tick.law, seed=5)
+    theta = theta * 1e4
+    result = by_hand.evaluate(state, reference, theta)
+    limits = np.array(
+        [plant.get_joint_actuator(i).effort_limit() for i in plant.GetJointActuatorIndices()]
+    )
+    assert result.saturated > 0 and np.all(np.abs(result.torque) <= limits)
+    loop = ArmControlLoop(tick, plant.time_step())
+    context = loop.CreateDefaultContext()
+    _fix(loop, context, state, reference, theta)
+    Simulator(loop, context).AdvanceTo(0.0005)
+    torque = loop.GetOutputPort("joint_torque").Eval(context)
+    np.testing.assert_allclose(torque, result.torque, rtol=1e-12)
+    assert np.sum(np.isclose(np.abs(torque), limits)) == result.saturated
+    logs = loop.GetOutputPort("logs").Eval(context)
+    assert logs[loop.log_columns["saturated"]][0] == result.saturated
