@@ -140,7 +140,7 @@ def cmd_run(args):
         result = run_scenario(
             args.scenario,
             args.out,
-            Progress(args.quiet),
+            reporter=Progress(args.quiet),
             drake_models_iiwa=args.iiwa == "drake_models",
             overrides=args.set,
             meshcat=meshcat,
@@ -221,7 +221,7 @@ def cmd_probe(args):
     from hlcmp_drake.run.probe import run_probe
 
     _quiet_drake(args)
-    result = run_probe(args.scenario, args.out, args.speed, overrides=args.set)
+    result = run_probe(args.scenario, args.out, speed=args.speed, overrides=args.set)
     readings = result.readings
     print(
         f"probe {readings['scenario']} at {readings['speed_m_per_s']:.3f} m/s: peak "
@@ -356,11 +356,11 @@ def cmd_serve(args):
             args.scenario,
             args.lcm,
             args.out or _default_out(args),
-            args.controller,
-            skill,
-            args.freeze,
-            overrides,
-            Progress(args.quiet),
+            controller=args.controller,
+            skill=skill,
+            freeze=args.freeze,
+            overrides=overrides,
+            reporter=Progress(args.quiet),
         )
     except DriverAbort as error:  # memq://: the simulated driver runs in this process
         print(f"hlcmp serve: the simulated driver aborted: {error}", file=sys.stderr)

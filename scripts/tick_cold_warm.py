@@ -40,7 +40,7 @@ def main() -> None:
     setup = prepare(scenario)
     plant = MultibodyPlant(0.0)
     load_models(plant, scenario)
-    tick = arm_tick(scenario, "hlcmp", plant, setup)
+    tick = arm_tick(scenario, "hlcmp", plant=plant, setup=setup)
     rng = np.random.default_rng(0)
     state = np.concatenate([setup.q0 + 0.01, rng.normal(0, 0.1, 7)])
     reference = (

@@ -370,7 +370,7 @@ def test_served_controller_equals_its_simulated_run(scenario_name, controller, t
     scenario, _ = load_scenario(scenario_name, ["duration_s=0.5"])
     simulated = simulate(diagram_factory(scenario)(controller), scenario, controller)
     served = serve_scenario(
-        scenario_name, "memq://", tmp_path, controller, overrides=["duration_s=0.5"]
+        scenario_name, "memq://", tmp_path, controller=controller, overrides=["duration_s=0.5"]
     ).run
     assert served.status == "ok" and served.series.keys() == simulated.series.keys()
     np.testing.assert_allclose(served.t, simulated.t, atol=1e-12)

@@ -103,7 +103,10 @@ def arm_ticks(insertion):
     scenario, setup = insertion
     plant, _ = add_plant(DiagramBuilder(), scenario)
     return plant, {
-        name: (arm_tick(scenario, name, plant, setup), arm_tick(scenario, name, plant, setup))
+        name: (
+            arm_tick(scenario, name, plant=plant, setup=setup),
+            arm_tick(scenario, name, plant=plant, setup=setup),
+        )
         for name in ("hlcmp", "const_500")
     }
 

@@ -4,7 +4,14 @@ its runs become metrics, claims, a table and figures."""
 from __future__ import annotations
 
 import dataclasses as dc
-from typing import Callable
+from typing import TYPE_CHECKING, Any, Callable
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from hlcmp_drake.config.scenario import ControllerConfig, Scenario
+    from hlcmp_drake.experiments.table import Table
+    from hlcmp_drake.io.runs import RunResult
 
 
 @dc.dataclass(frozen=True)
@@ -38,7 +45,7 @@ class Experiment:
     paper_section: str
     paper_figures: str
     world: type
-    controller_metrics: Callable
-    claims: Callable
-    table: Callable
-    figures: Callable
+    controller_metrics: Callable[[RunResult, ControllerConfig, Scenario], dict[str, Any]]
+    claims: Callable[..., dict[str, dict[str, Any]]]
+    table: Callable[[dict[str, dict[str, Any]]], Table]
+    figures: Callable[[dict[str, RunResult], Scenario], dict[str, Figure]]

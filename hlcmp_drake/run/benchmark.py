@@ -202,13 +202,13 @@ def _joint_space_replay(scenario, setup, run, harness):
             builder,
             scenario,
             world,
-            {
+            log_ports={
                 "plant_state": plant.get_state_output_port(),
                 "f_ext": world.sensor.GetOutputPort("task_force"),
                 "xd": source.get_output_port(),
                 "tau": controller.get_output_port_control(),
             },
-            never_saturated.get_output_port(),
+            saturated=never_saturated.get_output_port(),
         )
     return BuiltDiagram(
         builder.Build(),

@@ -116,6 +116,7 @@ def run_trials(
     scenario: Scenario,
     dmp: Dmp,
     trials: int,
+    *,
     theta0: tuple | None = None,
     reporter: Progress = SILENT,
 ) -> list[RunResult]:
@@ -142,7 +143,9 @@ def run_trials(
     name = learner(scenario)
     runs = []
     for k in range(trials):
-        run = run_one(build, scenario, name, f"trial_{k + 1}", theta0, reporter)
+        run = run_one(
+            build, scenario, name, label=f"trial_{k + 1}", theta0=theta0, reporter=reporter
+        )
         runs.append(run)
         if run.status != "ok":
             break
@@ -264,6 +267,7 @@ class LearningResult:
 def learn(
     scenario_name: str | Path,
     out_dir: str | Path,
+    *,
     demo: str | Path | None = None,
     skill: Skill | None = None,
     skill_path: str | Path | None = None,
@@ -300,7 +304,7 @@ def learn(
     scenario = learning_scenario(base, demo, skill, freeze)
     dmp = fit_demonstration(scenario) if demo is not None or skill is None else skill.dmp
     theta0 = (skill.theta_k, skill.theta_d, skill.theta_v) if skill else None
-    runs = run_trials(scenario, dmp, trials, theta0, reporter)
+    runs = run_trials(scenario, dmp, trials, theta0=theta0, reporter=reporter)
     rows = trial_metrics(runs, scenario)
     unstable = instability_record(runs)
     metrics = {

@@ -148,6 +148,7 @@ def probe_figure(
 def run_probe(
     name_or_path: str | Path,
     out_dir: str | Path | None = None,
+    *,
     speed: float | None = None,
     overrides: Sequence[str] = (),
 ) -> ProbeResult:

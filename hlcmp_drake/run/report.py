@@ -54,7 +54,7 @@ def run_report(
     for name in scenarios:
         reporter.say(f"running {name} ...")
         began = time.perf_counter()
-        result = run_scenario(name, out_dir / name, reporter)
+        result = run_scenario(name, out_dir / name, reporter=reporter)
         probe_dir = None
         if result.scenario.probe.push_m:  # the world alone, no controller (hlcmp probe)
             probe_dir = run_probe(name, out_dir / name / "probe").out_dir

@@ -32,6 +32,7 @@ def run_one(
     build: Callable,
     scenario: Scenario,
     controller: str,
+    *,
     label: str | None = None,
     theta0: tuple | None = None,
     reporter: Progress = SILENT,
@@ -67,6 +68,7 @@ def run_one(
 
 def run_controllers(
     scenario: Scenario,
+    *,
     reporter: Progress = SILENT,
     build: Callable | None = None,
     live: LiveView | None = None,
@@ -179,6 +181,7 @@ class ScenarioResult:
 def run_scenario(
     name_or_path: str | Path,
     out_dir: str | Path | None = None,
+    *,
     reporter: Progress = SILENT,
     drake_models_iiwa: bool = False,
     overrides: Sequence[str] = (),
@@ -197,7 +200,12 @@ def run_scenario(
     """
     scenario, path = load_scenario(name_or_path, overrides)
     return run_loaded_scenario(
-        scenario, path, out_dir, reporter, drake_models_iiwa, meshcat=meshcat
+        scenario,
+        path,
+        out_dir,
+        reporter=reporter,
+        drake_models_iiwa=drake_models_iiwa,
+        meshcat=meshcat,
     )
 
 
@@ -221,6 +229,7 @@ def run_loaded_scenario(
     scenario: Scenario,
     path: str | Path | None = None,
     out_dir: str | Path | None = None,
+    *,
     reporter: Progress = SILENT,
     drake_models_iiwa: bool = False,
     claims: bool = True,
@@ -257,9 +266,8 @@ def run_loaded_scenario(
         scenario = use_drake_models_iiwa(scenario)
     out_dir = Path(out_dir or Path("out") / scenario.name)
     build = diagram_factory(scenario)
-    runs = run_controllers(
-        scenario, reporter, build, LiveView(scenario, meshcat) if meshcat is not None else None
-    )
+    live = LiveView(scenario, meshcat) if meshcat is not None else None
+    runs = run_controllers(scenario, reporter=reporter, build=build, live=live)
     metrics = evaluate(runs, scenario, experiment if claims else without_claims(experiment))
     figures = experiment.figures(runs, scenario) if metrics["status"] == "ok" else {}
     write_results(

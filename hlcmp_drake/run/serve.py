@@ -164,7 +164,7 @@ class TorqueClient:
         plant = MultibodyPlant(0.0)
         load_models(plant, scenario)
         self.plant = plant
-        self.tick = arm_tick(scenario, controller, plant, setup)
+        self.tick = arm_tick(scenario, controller, plant=plant, setup=setup)
         self.law = self.tick.law
         self.theta = (
             initial_theta(scenario.controllers[controller], scenario, theta0)
@@ -561,6 +561,7 @@ def serve_scenario(
     name_or_path: str | Path,
     lcm_url: str,
     out_dir: str | Path,
+    *,
     controller: str | None = None,
     skill: Skill | None = None,
     freeze: bool = False,

@@ -202,6 +202,7 @@ def add_harness(
     builder: DiagramBuilder,
     scenario: Scenario,
     world: ArmWorld,
+    *,
     log_ports: dict,
     saturated: OutputPort,
 ) -> dict:
@@ -229,8 +230,8 @@ def add_harness(
         builder,
         scenario,
         world.plant,
-        {"contact_force": world.sensor.GetOutputPort("force"), "saturated": saturated},
-        arm_check(world.plant, scenario.task),
+        extra_inputs={"contact_force": world.sensor.GetOutputPort("force"), "saturated": saturated},
+        extra_check=arm_check(world.plant, scenario.task),
     )
     return add_loggers(builder, scenario, log_ports)
 
@@ -239,6 +240,7 @@ def build(
     scenario: Scenario,
     controller_name: str,
     setup: ArmSetup,
+    *,
     theta0: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
     harness: bool = True,
 ) -> BuiltDiagram:
@@ -277,13 +279,17 @@ def build(
         builder,
         scenario,
         controller_name,
-        world.plant,
-        world.tool_frame,
-        setup,
-        world.sensor.GetOutputPort("task_force"),
-        theta0,
+        plant=world.plant,
+        tool_frame=world.tool_frame,
+        setup=setup,
+        contact_force=world.sensor.GetOutputPort("task_force"),
+        theta0=theta0,
     )
-    loggers = add_harness(builder, scenario, world, log_ports, saturated) if harness else {}
+    loggers = (
+        add_harness(builder, scenario, world, log_ports=log_ports, saturated=saturated)
+        if harness
+        else {}
+    )
     diagram = builder.Build()
     diagram.set_name(f"{scenario.name}_{controller_name}")
     return BuiltDiagram(
@@ -329,14 +335,14 @@ def build_driven(scenario: Scenario, setup: ArmSetup) -> BuiltDiagram:
 
 
 def _add_modular_controller(
-    builder, scenario, name, plant, tool_frame, setup, contact_force, theta0
+    builder, scenario, name, *, plant, tool_frame, setup, contact_force, theta0
 ):
     """DmpSource -> controller -> J^T f_c + NullSpaceImpedance -> plant, one system per role."""
     task: ArmTask = scenario.task
     task_space = builder.AddSystem(TaskSpaceDynamics(plant, tool_frame, axes=task.axes))
     task_space.set_name("task_space")
     builder.Connect(plant.get_state_output_port(), task_space.plant_state)
-    reference = add_reference(builder, scenario, setup.dmp)
+    reference = add_reference(builder, scenario, dmp=setup.dmp)
     world = WorldPorts(reference, task_space, contact_force, setup.dmp.start)
     controller = add_controller(builder, scenario, name, world, theta0)
     below_task = builder.AddSystem(
@@ -349,19 +355,33 @@ def _add_modular_controller(
     builder.Connect(task_space.GetOutputPort("null_space_projector"), below_task.projector)
     builder.Connect(task_space.GetOutputPort("joint_gravity"), below_task.gravity)
     torque_map = add_torque_map(
-        builder, scenario, plant, controller.system, task_space, below_task.get_output_port()
+        builder,
+        scenario,
+        plant=plant,
+        controller=controller.system,
+        task_space=task_space,
+        extra_torque_port=below_task.get_output_port(),
     )
-    ports = modular_log_ports(plant, task_space, reference, controller, contact_force, torque_map)
+    ports = modular_log_ports(
+        plant=plant,
+        task_space=task_space,
+        reference=reference,
+        controller=controller,
+        force_port=contact_force,
+        torque_map=torque_map,
+    )
     return controller, ports, torque_map.GetOutputPort("saturated")
 
 
-def _add_fast_controller(builder, scenario, name, plant, tool_frame, setup, contact_force, theta0):
+def _add_fast_controller(
+    builder, scenario, name, *, plant, tool_frame, setup, contact_force, theta0
+):
     """The C++ DMP source -> ArmControlLoop (one Python call per plant step) -> plant, θ in
     a C++ Integrator fed the loop's held rate."""
     config = scenario.controllers[name]
     kind = controller_kind(scenario, name)
-    reference = add_reference(builder, scenario, setup.dmp, compiled=True)
-    tick = arm_tick(scenario, name, plant, setup)
+    reference = add_reference(builder, scenario, dmp=setup.dmp, compiled=True)
+    tick = arm_tick(scenario, name, plant=plant, setup=setup)
     law = tick.law
     loop = builder.AddSystem(ArmControlLoop(tick, plant.time_step()))
     loop.set_name(name)
@@ -404,7 +424,7 @@ def _add_fast_controller(builder, scenario, name, plant, tool_frame, setup, cont
 
 
 def arm_tick(
-    scenario: Scenario, controller_name: str, plant: MultibodyPlant, setup: ArmSetup
+    scenario: Scenario, controller_name: str, *, plant: MultibodyPlant, setup: ArmSetup
 ) -> ArmTick:
     """The arm's whole controller at one instant (`ArmTick`): the controller's law, the tool
     point's task-space terms, the orientation and posture held below the task, and the

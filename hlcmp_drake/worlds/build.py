@@ -125,4 +125,4 @@ def diagram_factory(scenario: Scenario, dmp: Dmp | None = None) -> Callable[...,
     """
     world = world_of(scenario)
     setup = world.prepare(scenario, dmp)
-    return lambda name, theta0=None: world.build(scenario, name, setup, theta0)
+    return lambda name, theta0=None: world.build(scenario, name, setup, theta0=theta0)

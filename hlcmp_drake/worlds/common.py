@@ -30,7 +30,7 @@ from hlcmp_drake.worlds.controllers import AddedController
 
 if TYPE_CHECKING:
     from pydrake.multibody.plant import MultibodyPlant
-    from pydrake.systems.framework import Diagram, LeafSystem, OutputPort
+    from pydrake.systems.framework import Context, Diagram, LeafSystem, OutputPort
     from pydrake.systems.primitives import VectorLogSink
 
     from hlcmp_drake.systems.task_space import TaskSpaceDynamics
@@ -56,12 +56,12 @@ class BuiltDiagram:
         which changes SceneGraph's collision filters).
     """
 
-    diagram: object
-    plant: object
-    controller: AddedController
-    loggers: dict
+    diagram: Diagram
+    plant: MultibodyPlant
+    controller: AddedController | None
+    loggers: dict[str, tuple[VectorLogSink, slice]]
     initial_positions: np.ndarray | None = None
-    after_step: Callable | None = None
+    after_step: Callable[[Context], None] | None = None
 
 
 def read_scenario_demonstration(
@@ -101,7 +101,11 @@ def read_scenario_demonstration(
 
 
 def add_reference(
-    builder: DiagramBuilder, scenario: Scenario, dmp: Dmp | None = None, compiled: bool = False
+    builder: DiagramBuilder,
+    scenario: Scenario,
+    *,
+    dmp: Dmp | None = None,
+    compiled: bool = False,
 ) -> StepReference | DmpSource | Diagram:
     """Add the desired-motion source, named "reference", to `builder`.
 
@@ -165,7 +169,7 @@ def sample_reference(
         ticks k * period, k = 0 ... round(duration / period).
     """
     builder = DiagramBuilder()
-    source = add_reference(builder, scenario, dmp, compiled=True)
+    source = add_reference(builder, scenario, dmp=dmp, compiled=True)
     diagram = builder.Build()
     simulator = Simulator(diagram)
     ApplySimulatorConfig(scenario.simulator_config, simulator)
@@ -182,6 +186,7 @@ def sample_reference(
 def add_torque_map(
     builder: DiagramBuilder,
     scenario: Scenario,
+    *,
     plant: MultibodyPlant,
     controller: LeafSystem,
     task_space: TaskSpaceDynamics,
@@ -223,6 +228,7 @@ def add_torque_map(
 
 
 def modular_log_ports(
+    *,
     plant: MultibodyPlant,
     task_space: TaskSpaceDynamics,
     reference: StepReference | DmpSource,
@@ -300,6 +306,7 @@ def add_safety_monitor(
     builder: DiagramBuilder,
     scenario: Scenario,
     plant: MultibodyPlant,
+    *,
     extra_inputs: dict | None = None,
     extra_check: Callable[[float, dict], str | None] | None = None,
 ) -> SafetyMonitor:

@@ -48,6 +48,7 @@ def build(
     scenario: Scenario,
     controller_name: str,
     setup: None = None,
+    *,
     theta0: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> BuiltDiagram:
     """The 1-DOF diagram: the slider plant, the unilateral spring, one controller.
@@ -86,13 +87,20 @@ def build(
         reference, task_space, spring.GetOutputPort("reaction_force"), np.zeros(scenario.n_axes)
     )
     controller = add_controller(builder, scenario, controller_name, world, theta0)
-    torque_map = add_torque_map(builder, scenario, plant, controller.system, task_space)
+    torque_map = add_torque_map(
+        builder, scenario, plant=plant, controller=controller.system, task_space=task_space
+    )
     add_safety_monitor(builder, scenario, plant)
     loggers = add_loggers(
         builder,
         scenario,
         modular_log_ports(
-            plant, task_space, reference, controller, world.contact_force, torque_map
+            plant=plant,
+            task_space=task_space,
+            reference=reference,
+            controller=controller,
+            force_port=world.contact_force,
+            torque_map=torque_map,
         ),
     )
     diagram = builder.Build()
