@@ -19,7 +19,7 @@ t_k, and held; Drake integrates the held rate exactly, so θ_{k+1} = θ_k + h θ
 explicit-Euler step of Table I ("for each time step: compute the increment rates (Eq.
 31), update these parameters"), first order in h. The modular path instead evaluates Eq.
 31 at both RK2 stages with the plant state after the step; the two differ by O(h) in θ
-(measured in tests/test_fast_path.py and docs/performance.md).
+(measured in tests/test_worlds_arm.py and docs/performance.md).
 """
 
 from __future__ import annotations
