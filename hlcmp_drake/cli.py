@@ -104,6 +104,12 @@ def _print_table(table):
     print(to_text(table))
 
 
+def _verdict_word(holds):
+    from hlcmp_drake.experiments.claims import NOT_JUDGED
+
+    return NOT_JUDGED if holds is None else ("reproduced" if holds else "NOT reproduced")
+
+
 def print_summary(result) -> None:
     """A scenario's table, instabilities, claims and where its files went."""
     metrics = result.metrics
@@ -116,8 +122,7 @@ def print_summary(result) -> None:
     for learner, claims in metrics.get("claims", {}).items():
         for claim, verdict in claims.items():
             print(
-                f"{claim} [{learner}]: {'reproduced' if verdict['holds'] else 'NOT reproduced'} -- "
-                f"{verdict['evidence']}"
+                f"{claim} [{learner}]: {_verdict_word(verdict['holds'])} -- {verdict['evidence']}"
             )
     print(f"status: {metrics['status']}; results in {result.out_dir}")
 

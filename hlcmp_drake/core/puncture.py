@@ -6,18 +6,26 @@ becomes smaller"), which elastic hydroelastic contact alone cannot give. Pure nu
 import numpy as np
 
 
-def depth_below(point: np.ndarray, top_point: np.ndarray, top_normal: np.ndarray) -> float:
+def depth_below(
+    point: np.ndarray, top_point: np.ndarray, top_normal: np.ndarray
+) -> float | np.ndarray:
     """How far `point` lies below an object's top face [m] (negative above it).
 
     Parameters
     ----------
-    point : (3,) array
-        The tool point, world [m].
+    point : (3,) or (T, 3) array
+        The tool point, world [m]; or its samples over time.
     top_point : (3,) array
         A point of the top face, world [m].
     top_normal : (3,) array
         The face's unit normal, out of the object.
+
+    Returns
+    -------
+    float, or (T,) array for (T, 3) points
     """
+    if np.ndim(point) == 2:
+        return np.dot(np.asarray(top_point) - np.asarray(point), top_normal)
     return float(np.dot(np.asarray(top_point) - point, top_normal))
 
 

@@ -52,8 +52,9 @@ class Verdict:
 
     Attributes
     ----------
-    holds : bool
-        Whether the claim is reproduced.
+    holds : bool or None
+        Whether the claim is reproduced; None: not judged (a run it speaks of did not do
+        the experiment's task).
     evidence : str
         What was measured, in a sentence or a few.
     parts : dict of str to bool, optional
@@ -62,7 +63,7 @@ class Verdict:
         Further measured values kept in metrics.json (e.g. C4's phases), by key.
     """
 
-    holds: bool
+    holds: bool | None
     evidence: str
     parts: dict | None = None
     details: dict = dc.field(default_factory=dict)
@@ -86,6 +87,10 @@ class Claim:
     judge : callable(ClaimInputs) -> Verdict or None
         Judges the claim; None when it cannot be judged on these inputs (e.g. without a
         learner), and the claim is then left out.
+    about : callable(ClaimInputs) -> list of str
+        The labels of the runs the claim speaks of (default: the learner). Each must have
+        done the experiment's task (its metrics' ``task.done``); otherwise the claim is
+        not judged (task not done): its `holds` is None.
     keys : tuple of str
         The order of the claim's entry in metrics.json (see ENTRY_KEYS).
     """
@@ -93,7 +98,25 @@ class Claim:
     name: str
     paper_says: str
     judge: Callable
+    about: Callable[[ClaimInputs], list] = lambda given: [given.learner]
     keys: tuple = ENTRY_KEYS
+
+    def not_judged(self, undone: dict[str, str]) -> dict:
+        """The claim's entry when a run it speaks of did not do the task: `holds` None, the
+        runs and why in the evidence.
+
+        Parameters
+        ----------
+        undone : dict of str to str
+            The runs that did not do the task, each with its task evidence.
+
+        Returns
+        -------
+        dict
+        """
+        why = "; ".join(f"{name}: {evidence}" for name, evidence in undone.items())
+        verdict = Verdict(holds=None, evidence=f"{NOT_JUDGED}: {why}")
+        return {key: value for key, value in self.entry(verdict).items() if key != "parts"}
 
     def entry(self, verdict: Verdict) -> dict:
         """The claim's entry of metrics.json for `verdict`: {"holds", "evidence",
@@ -155,9 +178,63 @@ def judge_claims(
     result = {}
     for claim in claims:
         verdict = claim.judge(given)
-        if verdict is not None:
-            result[claim.name] = claim.entry(verdict)
+        if verdict is None:
+            continue
+        undone = {
+            name: metrics[name]["task"]["evidence"]
+            for name in claim.about(given)
+            if not metrics.get(name, {}).get("task", {"done": True})["done"]
+        }
+        result[claim.name] = claim.not_judged(undone) if undone else claim.entry(verdict)
     return result
+
+
+# What a claim's verdict says when a run it speaks of did not do the experiment's task.
+NOT_JUDGED = "not judged (task not done)"
+
+
+def verdict_text(holds: bool | None) -> str:
+    """A claim's verdict as tables say it.
+
+    Parameters
+    ----------
+    holds : bool or None
+        The claim's `holds`; None when it was not judged (a run did not do the task).
+
+    Returns
+    -------
+    str
+        "yes", "no" or NOT_JUDGED.
+    """
+    return NOT_JUDGED if holds is None else ("yes" if holds else "no")
+
+
+def learner_and_constants(given: ClaimInputs) -> list:
+    """The runs a comparison of the learner with the constant impedances speaks of.
+
+    Parameters
+    ----------
+    given : ClaimInputs
+
+    Returns
+    -------
+    list of str
+    """
+    return [given.learner, *constant_impedances(given.scenario)]
+
+
+def constants_only(given: ClaimInputs) -> list:
+    """The runs a claim about the constant impedances alone speaks of.
+
+    Parameters
+    ----------
+    given : ClaimInputs
+
+    Returns
+    -------
+    list of str
+    """
+    return constant_impedances(given.scenario)
 
 
 def learner(scenario: Scenario) -> str | None:
@@ -258,7 +335,7 @@ def verdicts_table(claims: dict, learners: dict) -> Table:
         table.add(
             claim_name,
             row["paper_says"],
-            *("–" if n not in row else ("yes" if row[n] else "no") for n in names),
+            *("–" if n not in row else verdict_text(row[n]) for n in names),
         )
     return table
 
@@ -278,6 +355,6 @@ def evidence_table(claims: dict, learners: dict) -> Table:
                 claim_name,
                 reading_label(name, learners),
                 claim["evidence"],
-                "yes" if claim["holds"] else "no",
+                verdict_text(claim["holds"]),
             )
     return table

@@ -2,6 +2,8 @@
 
 The per-axis metrics are the insertion's (Figs. 6-8 there, Fig. 12b here)."""
 
+import numpy as np
+
 from hlcmp_drake.config.scenario import ArmTask, Scenario
 from hlcmp_drake.experiments.claims import (
     Claim,
@@ -10,11 +12,57 @@ from hlcmp_drake.experiments.claims import (
     constant_impedances,
     judge_claims,
     learner,
+    learner_and_constants,
     smoother_force,
 )
 from hlcmp_drake.experiments.experiment import Experiment
 from hlcmp_drake.experiments.insertion import AXES, controller_metrics, table
 from hlcmp_drake.experiments.plots import new_figure
+from hlcmp_drake.io.runs import RunResult
+
+# The task, "the cut reached its depth along its length": the cut stroke is where the
+# reference is at its deepest (within STROKE_BAND_M); the blade is at depth within
+# DEPTH_TOLERANCE_M of it -- a third of the demonstrated 15 mm cut -- and it must be so over
+# at least STROKE_FRACTION of the stroke's length.
+STROKE_BAND_M = 0.001
+DEPTH_TOLERANCE_M = 0.005
+STROKE_FRACTION = 0.9
+
+
+def cut_done(run: RunResult, scenario: Scenario) -> dict:
+    """Whether the blade cut at the demonstrated depth along the cut's length.
+
+    Parameters
+    ----------
+    run : RunResult
+        Its x and xd series (T, 3) [m]; the cut runs along y at the reference's deepest z.
+    scenario : Scenario
+        Unused: the stroke is read off the reference.
+
+    Returns
+    -------
+    dict
+        {"done", "evidence", "stroke_covered"}: the fraction of the stroke's length [-] over
+        which the blade was at depth.
+    """
+    x, xd = run.series["x"], run.series["xd"]
+    deepest = float(xd[:, 2].min())
+    stroke = xd[:, 2] <= deepest + STROKE_BAND_M
+    start, end = float(xd[stroke, 1].min()), float(xd[stroke, 1].max())
+    at_depth = x[:, 2] <= deepest + DEPTH_TOLERANCE_M
+    covered = 0.0
+    if at_depth.any() and end > start:
+        along = np.clip(x[at_depth, 1], start, end)
+        covered = float((along.max() - along.min()) / (end - start))
+    done = covered >= STROKE_FRACTION
+    shortfall = 1000 * (float(x[:, 2].min()) - deepest)
+    evidence = (
+        f"cut at depth (within {1000 * DEPTH_TOLERANCE_M:.0f} mm) over {100 * covered:.0f} % "
+        f"of the {100 * (end - start):.0f} cm stroke"
+        + ("" if done else f"; its deepest point stayed {shortfall:.1f} mm above the reference's")
+    )
+    return {"done": done, "evidence": evidence, "stroke_covered": covered}
+
 
 # --- the claims (Sec. V-E): each the paper's sentence, its judge and its evidence -----
 
@@ -50,6 +98,7 @@ C2 = Claim(
         'profile." (Fig. 12b)'
     ),
     judge=smoother_cutting_force,
+    about=learner_and_constants,
 )
 
 
@@ -200,4 +249,5 @@ EXPERIMENT = Experiment(
     claims=claims,
     table=table,
     figures=figures,
+    task_done=cut_done,
 )

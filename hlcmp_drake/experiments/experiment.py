@@ -38,6 +38,9 @@ class Experiment:
         The controllers' metrics as rows.
     figures : callable(runs, scenario) -> dict
         {file name: matplotlib Figure}.
+    task_done : callable(run, scenario) -> dict
+        Whether the run did the experiment's task: {"done": bool, "evidence": str, ...};
+        a claim about a run that did not is not judged.
     """
 
     name: str
@@ -49,3 +52,4 @@ class Experiment:
     claims: Callable[..., dict[str, dict[str, Any]]]
     table: Callable[[dict[str, dict[str, Any]]], Table]
     figures: Callable[[dict[str, RunResult], Scenario], dict[str, Figure]]
+    task_done: Callable[[RunResult, Scenario], dict[str, Any]]

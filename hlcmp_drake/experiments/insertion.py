@@ -9,12 +9,15 @@ from hlcmp_drake.core.metrics import (
     mean_abs_force,
     mean_abs_position_error,
 )
+from hlcmp_drake.core.puncture import depth_below
 from hlcmp_drake.experiments.claims import (
     Claim,
     ClaimInputs,
     Verdict,
     constant_impedances,
+    constants_only,
     judge_claims,
+    learner_and_constants,
     smoother_force,
 )
 from hlcmp_drake.experiments.experiment import Experiment
@@ -22,6 +25,7 @@ from hlcmp_drake.experiments.plots import bar_chart, new_figure
 from hlcmp_drake.experiments.table import Table, number, per_axis
 from hlcmp_drake.io.runs import RunResult
 from hlcmp_drake.worlds.controllers import kind_of, learners
+from hlcmp_drake.worlds.puncture import object_top
 
 AXES = ("x", "y", "z")
 CONTACT_FORCE_N = 0.5  # |f_ext| above this counts as contact
@@ -80,9 +84,48 @@ def controller_metrics(run: RunResult, config: ControllerConfig, scenario: Scena
     return metrics
 
 
-def _phase_times(run: RunResult):
-    """(contact onset, pierce = peak |f_z| before the deepest point of the reference, last
-    sample in contact) as sample indices; None without contact before the deepest point."""
+def went_through(run: RunResult, scenario: Scenario) -> dict:
+    """The insertion's task: the tool went through the plank, i.e. the foam tore. The tear
+    is the puncture model's own condition (`task.puncture`): the tool point reaching
+    `depth_m` below the plank's top face, read off the logged tool point, so a served run
+    is judged as a simulated one.
+
+    Parameters
+    ----------
+    run : RunResult
+        Its x series (T, 3), the tool point [m].
+    scenario : Scenario
+        Its task's puncture (the plank's frame and the tear depth).
+
+    Returns
+    -------
+    dict
+        {"done", "evidence", "tear_s"}: the first logged time at the tear depth [s], or None.
+        Without a puncture modelled there is no tear to find and every run counts as done.
+    """
+    top = object_top(scenario)
+    if top is None:
+        return {"done": True, "evidence": "no puncture modelled: counted as done", "tear_s": None}
+    tear_depth = scenario.task.puncture.depth_m
+    depth = depth_below(run.series["x"], *top)
+    torn = np.flatnonzero(depth >= tear_depth)
+    if torn.size:
+        tear_s = float(run.t[torn[0]])
+        return {"done": True, "evidence": f"tore the plank at {tear_s:.2f} s", "tear_s": tear_s}
+    return {
+        "done": False,
+        "evidence": (
+            f"did not go through the plank: the tool point reached {1000 * depth.max():.1f} mm "
+            f"below its top, the tear needs {1000 * tear_depth:.1f} mm"
+        ),
+        "tear_s": None,
+    }
+
+
+def _phase_times(run: RunResult, tear_s: float | None = None):
+    """(contact onset, pierce, last sample in contact) as sample indices, and whether the
+    pierce is the tear; None without contact before the deepest point. The pierce is the
+    tear where there is one, else the peak |f_z| before the deepest point of the reference."""
     mask = contact_mask(run)
     if not mask.any():
         return None
@@ -90,9 +133,12 @@ def _phase_times(run: RunResult):
     onset = int(np.argmax(mask))
     if onset >= deepest:
         return None
-    pierce = onset + int(np.argmax(np.abs(run.series["f_ext"][onset : deepest + 1, 2])))
+    if tear_s is not None:
+        pierce = int(np.searchsorted(run.t, tear_s))
+    else:
+        pierce = onset + int(np.argmax(np.abs(run.series["f_ext"][onset : deepest + 1, 2])))
     last = int(np.flatnonzero(mask)[-1])
-    return onset, pierce, last
+    return onset, pierce, last, tear_s is not None
 
 
 def _smoothed(values: np.ndarray, samples: int) -> np.ndarray:
@@ -101,7 +147,7 @@ def _smoothed(values: np.ndarray, samples: int) -> np.ndarray:
     return np.convolve(values, kernel, "same") / np.convolve(np.ones_like(values), kernel, "same")
 
 
-def rise_and_fall(run: RunResult) -> dict | None:
+def rise_and_fall(run: RunResult, tear_s: float | None = None) -> dict | None:
     """C4 in numbers, on the contact phase only (from contact onset to the last sample in
     contact), on profiles smoothed over SMOOTHING_S: K_s,z and v_z at onset, their peak
     and when it comes, and at the end of the contact. A profile rises when its peak exceeds
@@ -113,22 +159,26 @@ def rise_and_fall(run: RunResult) -> dict | None:
     ----------
     run : RunResult
         An Hl-CMP run (series Ks, v, xd, f_ext, t).
+    tear_s : float, optional
+        When the foam tore [s] (`went_through`): the pierce. Without it, the pierce is
+        the force peak.
 
     Returns
     -------
     dict or None
-        The phase times [s]; per profile the values [N/m, N], `rises` and `falls`; None
-        without a contact phase.
+        The phase times [s] and what the pierce is ("tear" or "force peak"); per profile
+        the values [N/m, N], `rises` and `falls`; None without a contact phase.
     """
-    phases = _phase_times(run)
+    phases = _phase_times(run, tear_s)
     if phases is None:
         return None
-    onset, pierce, last = phases
+    onset, pierce, last, is_tear = phases
     t = run.t
     samples = int(round(SMOOTHING_S / (t[1] - t[0]))) if len(t) > 1 else 1
     out = {
         "onset_s": float(t[onset]),
         "pierce_s": float(t[pierce]),
+        "pierce_is": "tear" if is_tear else "force peak",
         "contact_end_s": float(t[last]),
     }
     for key, name in (("Ks", "stiffness"), ("v", "feedforward")):
@@ -214,6 +264,7 @@ C1 = Claim(
         'tracking." (Fig. 6)'
     ),
     judge=stiffer_tracks_better,
+    about=constants_only,
 )
 
 
@@ -247,6 +298,7 @@ C2 = Claim(
         'more smooth force profiles" (Fig. 8)'
     ),
     judge=smoother_contact_force,
+    about=learner_and_constants,
 )
 
 
@@ -310,6 +362,7 @@ C3 = Claim(
         'could not do so." (Figs. 4, 5)'
     ),
     judge=selective_adaptation,
+    about=learner_and_constants,
 )
 
 
@@ -336,7 +389,8 @@ def rises_then_falls(given: ClaimInputs) -> Verdict | None:
     if given.learner_metrics is None:
         return None
     runs, name = given.runs, given.learner
-    phases = rise_and_fall(runs[name]) if runs else None
+    tear_s = given.learner_metrics.get("task", {}).get("tear_s")
+    phases = rise_and_fall(runs[name], tear_s) if runs else None
     if phases is None:
         return Verdict(holds=False, evidence="no contact phase found in the Hl-CMP run.")
     ks, ff = phases["stiffness"], phases["feedforward"]
@@ -345,8 +399,9 @@ def rises_then_falls(given: ClaimInputs) -> Verdict | None:
     return Verdict(
         holds=ks["rises"] and ks["falls"] and ff["rises"] and ff["falls"],
         evidence=(
-            f"contact {phases['onset_s']:.2f}-{phases['contact_end_s']:.2f} s, pierce "
-            f"{phases['pierce_s']:.2f} s; smoothed K_s,z {ks['at_onset']:.1f} -> peak "
+            f"contact {phases['onset_s']:.2f}-{phases['contact_end_s']:.2f} s, "
+            f"{phases['pierce_is']} {phases['pierce_s']:.2f} s; "
+            f"smoothed K_s,z {ks['at_onset']:.1f} -> peak "
             f"{ks['peak']:.1f} at {ks['peak_s']:.2f} s -> {ks['at_contact_end']:.1f} N/m "
             f"(rises: {_yes_no(ks['rises'])}, falls after the pierce: {_yes_no(ks['falls'])}); "
             f"v_z {ff['at_onset']:.2f} -> peak {ff['peak']:.2f} at {ff['peak_s']:.2f} s -> "
@@ -526,4 +581,5 @@ EXPERIMENT = Experiment(
     claims=claims,
     table=table,
     figures=figures,
+    task_done=went_through,
 )

@@ -50,6 +50,32 @@ def controller_metrics(run: RunResult, config: ControllerConfig, scenario: Scena
     }
 
 
+def reached_the_return(run: RunResult, scenario: Scenario) -> dict:
+    """The 1-DOF task: the run lasted to the return command (the second step), so its
+    depth at that moment and its return can be measured.
+
+    Parameters
+    ----------
+    run : RunResult
+    scenario : Scenario
+        Its reference's steps.
+
+    Returns
+    -------
+    dict
+        {"done", "evidence"}.
+    """
+    _, _, _, return_start = _segments(scenario)
+    done = bool(run.t[-1] >= return_start)
+    ran = f"ran {run.t[-1]:.2f} s"
+    return {
+        "done": done,
+        "evidence": f"{ran}, past the return command at {return_start:g} s"
+        if done
+        else f"{ran}, ended before the return command at {return_start:g} s",
+    }
+
+
 def _fmt(value):
     return "never" if value is None else f"{value:.2f} s"
 
@@ -128,6 +154,7 @@ C5 = Claim(
         'achieve a fast response compared to our approach." (Fig. 13)'
     ),
     judge=faster_than_force_tracking,
+    about=lambda given: [given.learner, *labels_with_role(given.scenario, FORCE_TRACKING)],
     keys=("holds", "paper_says", "parts", "evidence"),  # C5's order in metrics.json
 )
 
@@ -233,4 +260,5 @@ EXPERIMENT = Experiment(
     claims=claims,
     table=table,
     figures=figures,
+    task_done=reached_the_return,
 )

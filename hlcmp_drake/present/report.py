@@ -11,7 +11,12 @@ from pathlib import Path
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.experiments import EXPERIMENTS, Experiment, experiment_of
-from hlcmp_drake.experiments.claims import evidence_table, reading_label, verdicts_table
+from hlcmp_drake.experiments.claims import (
+    evidence_table,
+    reading_label,
+    verdict_text,
+    verdicts_table,
+)
 from hlcmp_drake.experiments.table import Table
 from hlcmp_drake.present.tables import to_html, to_markdown
 
@@ -63,7 +68,7 @@ def claims_summary_table(all_metrics: dict) -> Table:
                 claim_name,
                 scenario,
                 row["paper_says"],
-                *("–" if h not in row else ("**yes**" if row[h] else "**no**") for h in headers),
+                *("–" if h not in row else f"**{verdict_text(row[h])}**" for h in headers),
             )
     return table
 

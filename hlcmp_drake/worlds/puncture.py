@@ -5,14 +5,15 @@ from __future__ import annotations
 
 import dataclasses as dc
 
+import numpy as np
 from pydrake.geometry import CollisionFilterDeclaration, GeometrySet, SceneGraph
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import Frame
 from pydrake.systems.framework import Context, DiagramBuilder
 
-from hlcmp_drake.config.scenario import PunctureConfig
+from hlcmp_drake.config.scenario import PunctureConfig, Scenario
 from hlcmp_drake.systems.puncture import HoleFriction
-from hlcmp_drake.worlds.models import scoped_frame
+from hlcmp_drake.worlds.models import load_models, scoped_frame
 
 
 @dc.dataclass
@@ -98,3 +99,27 @@ def add_puncture(
         plant.GetCollisionGeometriesForBody(tool_frame.body()),
         plant.GetCollisionGeometriesForBody(object_body),
     )
+
+
+def object_top(scenario: Scenario) -> tuple[np.ndarray, np.ndarray] | None:
+    """Where the punctured object's top face is: the pose `add_puncture` reads, from the
+    scenario's models alone.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        With an ArmTask.
+
+    Returns
+    -------
+    (point, normal) of (3,) arrays, or None
+        A point of the top face [m] and its unit normal out of the object, world; None
+        when the task has no puncture.
+    """
+    config = scenario.task.puncture
+    if not config.object_frame:
+        return None
+    plant = MultibodyPlant(0.0)
+    load_models(plant, scenario)
+    top = scoped_frame(plant, config.object_frame).CalcPoseInWorld(plant.CreateDefaultContext())
+    return top.translation(), top.rotation().matrix()[:, 2]
