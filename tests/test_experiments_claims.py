@@ -107,3 +107,30 @@ def test_renamed_labels_give_the_same_verdicts(request, tmp_path, name, experime
         assert {c: v["holds"] for c, v in claims.items()} == {
             c: v["holds"] for c, v in original["claims"][old].items()
         }
+
+
+def test_a_claim_about_a_run_that_did_not_do_the_task_is_not_judged():
+    from hlcmp_drake.experiments.claims import (
+        NOT_JUDGED,
+        Claim,
+        Verdict,
+        judge_claims,
+        verdict_text,
+    )
+
+    scenario, _ = load_scenario("insertion")
+    claim = Claim("CX", "a sentence", lambda given: Verdict(True, "measured"))
+    done = {"done": True, "evidence": "tore the plank at 3.70 s"}
+    undone = {"done": False, "evidence": "did not go through the plank"}
+    metrics = {name: {"task": done} for name in scenario.controllers}
+    assert judge_claims([claim], metrics, scenario)["CX"]["holds"] is True
+    metrics["hlcmp"] = {"task": undone}
+    entry = judge_claims([claim], metrics, scenario)["CX"]
+    assert entry["holds"] is None
+    assert entry["evidence"] == "hlcmp: did not go through the plank"
+    assert verdict_text(None) == NOT_JUDGED and verdict_text(False) == "no"
+    # a claim that does not speak of the learner is judged all the same
+    about_constants = Claim(
+        "CY", "another", lambda given: Verdict(False, "m"), about=lambda g: ["const_500"]
+    )
+    assert judge_claims([about_constants], metrics, scenario)["CY"]["holds"] is False

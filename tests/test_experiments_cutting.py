@@ -10,6 +10,7 @@ from conftest import REPO_ROOT
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.scenario import ArmTask, HlcmpConfig
 from hlcmp_drake.experiments import cutting
+from hlcmp_drake.io.runs import RunResult
 from hlcmp_drake.present.report import results_markdown
 from hlcmp_drake.worlds.arm import fit_demonstration
 
@@ -83,3 +84,23 @@ def test_readme_results_come_from_this_run(cutting_run):
         "<!-- END cutting results -->"
     )[0]
     assert block == results_markdown(metrics, cutting.EXPERIMENT)
+
+
+def _cut(depth_short_m, covered):
+    """A blade cutting along y at the reference's depth (short of it by `depth_short_m`)
+    over the first `covered` fraction of an 18 cm stroke."""
+    t = np.linspace(0.0, 10.0, 1001)
+    y = np.interp(t, [0, 2, 8, 10], [-0.10, -0.10, 0.08, 0.08])
+    zd = np.interp(t, [0, 2, 8, 10], [0.275, 0.255, 0.255, 0.275])
+    xd = np.column_stack([np.full_like(t, 0.6), y, zd])
+    end = -0.10 + covered * 0.18
+    z = np.where(y <= end, zd + depth_short_m, 0.275)
+    x = np.column_stack([np.full_like(t, 0.6), y, z])
+    return RunResult("blade", t, {"x": x, "xd": xd})
+
+
+def test_the_cut_is_done_at_depth_along_its_length():
+    assert cutting.cut_done(_cut(0.002, 1.0), None)["done"]
+    short = cutting.cut_done(_cut(0.006, 1.0), None)  # 6 mm above: not at depth
+    assert not short["done"] and short["stroke_covered"] == 0.0
+    assert not cutting.cut_done(_cut(0.0, 0.5), None)["done"]  # half the stroke

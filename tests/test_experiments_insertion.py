@@ -115,10 +115,10 @@ def test_run_metrics_agree_with_its_time_series(insertion_run):
             key.split("/", 1)[1]: data[key] for key in data.files if key.startswith(f"{name}/")
         }
         run = SimpleNamespace(t=data["t"], series=series)
-        assert (
-            insertion.controller_metrics(run, scenario.controllers[name], scenario)
-            == metrics["controllers"][name]
-        )
+        assert {
+            **insertion.controller_metrics(run, scenario.controllers[name], scenario),
+            "task": insertion.went_through(run, scenario),
+        } == metrics["controllers"][name]
 
 
 def test_build_insertion_diagram_by_hand(tmp_path):
@@ -242,3 +242,36 @@ def test_c3_needs_the_constant_impedances_not_to_be_selective():
     )  # all near zero in x/y
     c3 = insertion.claims(metrics, scenario, None, "hlcmp")["C3"]
     assert not c3["holds"] and not c3["parts"]["constant_xy_force_not_near_zero"]
+
+
+@pytest.mark.slow  # reads the whole `hlcmp run insertion` (insertion_run)
+def test_claims_about_a_run_that_did_not_go_through_are_not_judged(insertion_run):
+    metrics = json.loads((insertion_run / "metrics.json").read_text())
+    tasks = {name: m["task"] for name, m in metrics["controllers"].items()}
+    for name in ("const_500", "const_1000", "const_2000"):  # they all tear the foam
+        assert tasks[name]["done"] and tasks[name]["tear_s"] > 0
+    hl = metrics["claims"]["hlcmp"]
+    if not tasks["hlcmp"]["done"]:
+        for claim in ("C2", "C3", "C4"):  # each speaks of the learner's run
+            assert hl[claim]["holds"] is None
+            assert hl[claim]["evidence"].startswith("hlcmp: did not go through the plank")
+    assert hl["C1"]["holds"] is not None  # C1 compares the constant impedances only
+
+
+def _straight_down(depth_reached_m):
+    """A tool point going straight down into the insertion's plank and back."""
+    scenario, _ = load_scenario("insertion")
+    top, normal = insertion.object_top(scenario)
+    depth = np.interp(T, [0, 4, 8], [-0.01, depth_reached_m, -0.01])
+    x = top + np.outer(-depth, normal)
+    return RunResult("probe", T, {"x": x}), scenario
+
+
+def test_the_insertion_is_done_when_the_tool_point_reaches_the_tear_depth():
+    run, scenario = _straight_down(0.016)  # the tear is at 15 mm
+    task = insertion.went_through(run, scenario)
+    assert task["done"] and 3.5 < task["tear_s"] < 4.0
+    run, scenario = _straight_down(0.010)
+    task = insertion.went_through(run, scenario)
+    assert not task["done"] and task["tear_s"] is None
+    assert "reached 10.0 mm below its top, the tear needs 15.0 mm" in task["evidence"]

@@ -102,8 +102,8 @@ class Claim:
     keys: tuple = ENTRY_KEYS
 
     def not_judged(self, undone: dict[str, str]) -> dict:
-        """The claim's entry when a run it speaks of did not do the task: `holds` None, the
-        runs and why in the evidence.
+        """The claim's entry when a run it speaks of did not do the task: `holds` None (see
+        NOT_JUDGED), the runs and why in the evidence.
 
         Parameters
         ----------
@@ -115,7 +115,7 @@ class Claim:
         dict
         """
         why = "; ".join(f"{name}: {evidence}" for name, evidence in undone.items())
-        verdict = Verdict(holds=None, evidence=f"{NOT_JUDGED}: {why}")
+        verdict = Verdict(holds=None, evidence=why)
         return {key: value for key, value in self.entry(verdict).items() if key != "parts"}
 
     def entry(self, verdict: Verdict) -> dict:
