@@ -101,22 +101,24 @@ class Claim:
     about: Callable[[ClaimInputs], list] = lambda given: [given.learner]
     keys: tuple = ENTRY_KEYS
 
-    def not_judged(self, undone: dict[str, str]) -> dict:
+    def not_judged(self, undone: dict[str, str], measured: Verdict) -> dict:
         """The claim's entry when a run it speaks of did not do the task: `holds` None (see
-        NOT_JUDGED), the runs and why in the evidence.
+        NOT_JUDGED), the runs and why in the evidence; what was measured stays in the
+        details.
 
         Parameters
         ----------
         undone : dict of str to str
             The runs that did not do the task, each with its task evidence.
+        measured : Verdict
+            The judge's findings, of which only the details are kept.
 
         Returns
         -------
         dict
         """
         why = "; ".join(f"{name}: {evidence}" for name, evidence in undone.items())
-        verdict = Verdict(holds=None, evidence=why)
-        return {key: value for key, value in self.entry(verdict).items() if key != "parts"}
+        return self.entry(Verdict(holds=None, evidence=why, details=measured.details))
 
     def entry(self, verdict: Verdict) -> dict:
         """The claim's entry of metrics.json for `verdict`: {"holds", "evidence",
@@ -185,7 +187,7 @@ def judge_claims(
             for name in claim.about(given)
             if not metrics.get(name, {}).get("task", {"done": True})["done"]
         }
-        result[claim.name] = claim.not_judged(undone) if undone else claim.entry(verdict)
+        result[claim.name] = claim.not_judged(undone, verdict) if undone else claim.entry(verdict)
     return result
 
 
