@@ -168,34 +168,48 @@ def cmd_report(args):
 
 def cmd_learn(args):
     from hlcmp_drake.io.skill import load_skill
+    from hlcmp_drake.run.learning import learn
 
     skill = load_skill(args.skill) if args.skill else None
-    return _learn_or_reproduce(args, demo=args.demo, skill=skill, trials=args.trials, freeze=False)
+    result = learn(
+        args.scenario,
+        args.out,
+        demo=args.demo,
+        skill=skill,
+        skill_path=args.skill,
+        trials=args.trials,
+        **_learning_options(args),
+    )
+    return _print_learning(result)
 
 
 def cmd_reproduce(args):
     from hlcmp_drake.io.skill import load_skill
+    from hlcmp_drake.run.learning import reproduce
 
-    return _learn_or_reproduce(
-        args, demo=None, skill=load_skill(args.skill), trials=1, freeze=args.freeze
-    )
-
-
-def _learn_or_reproduce(args, demo, skill, trials, freeze):
-    from hlcmp_drake.run.learning import learn, trials_table
-
-    _quiet_drake(args)
-    result = learn(
+    result = reproduce(
         args.scenario,
         args.out,
-        demo=demo,
-        skill=skill,
+        load_skill(args.skill),
         skill_path=args.skill,
-        trials=trials,
-        freeze=freeze,
+        freeze=args.freeze,
+        **_learning_options(args),
+    )
+    return _print_learning(result)
+
+
+def _learning_options(args):
+    """What learn and reproduce both take from the command line."""
+    _quiet_drake(args)
+    return dict(
         reporter=Progress(args.quiet),
         overrides=args.set,
     )
+
+
+def _print_learning(result):
+    from hlcmp_drake.run.learning import trials_table
+
     _print_table(trials_table(result.metrics))
     if result.skill_path is not None:
         print(f"skill: {result.skill_path}")
@@ -429,14 +443,9 @@ def build_parser():
         "controllers.hlcmp.q_k=[300,300,300] (repeatable)",
     )
 
-    world = argparse.ArgumentParser(add_help=False)  # where learn and reproduce run, and write
+    world = argparse.ArgumentParser(add_help=False)  # where learn and reproduce run
     world.add_argument(
         "--scenario", required=True, help="the world: insertion, cutting, or a YAML path"
-    )
-    world.add_argument(
-        "--out",
-        required=True,
-        help="output folder (metrics, figures, recording; and skill.npz when learning)",
     )
 
     parser = _Parser(
@@ -502,6 +511,11 @@ def build_parser():
         "demo", help="demonstration CSV (t,x,y,z; world frame of the scenario, metres)"
     )
     learn.add_argument(
+        "--out",
+        required=True,
+        help="output folder: the learned skill.npz, metrics, figures, recording",
+    )
+    learn.add_argument(
         "--trials",
         type=_trial_count,
         default=1,
@@ -518,6 +532,12 @@ def build_parser():
         help="replay a learned skill in a scenario",
     )
     reproduce.add_argument("skill", help="skill file (.npz) from hlcmp learn or fit")
+    reproduce.add_argument(
+        "--out",
+        required=True,
+        help="output folder: metrics, figures, recording; and the skill.npz it goes on "
+        "learning unless --freeze",
+    )
     reproduce.add_argument(
         "--freeze", action="store_true", help="no adaptation: the learned profiles as they are"
     )

@@ -143,3 +143,42 @@ def test_effort_and_improvement_by_hand():
         "smoothness_z": True,
         "effort": False,
     }
+
+
+# --- reproduce is itself --------------------------------------------------------------
+
+
+def test_rows_are_labelled_by_the_command_that_ran_them():
+    from hlcmp_drake.run.learning import run_label, trials_table
+
+    row = {
+        "trial": 1,
+        "mean_abs_position_error_m": {"x": 0.001},
+        "mean_abs_force_N": {"x": 1.0},
+        "force_smoothness_N": {"z": 2.0},
+        "effort_N": 0.5,
+    }
+    learned = {"command": "learn", "adaptation": "on", "trials": [row, {**row, "trial": 2}]}
+    frozen = {"command": "reproduce", "adaptation": "frozen", "trials": [row]}
+    adapting = {"command": "reproduce", "adaptation": "on", "trials": [row]}
+    assert run_label(learned, 2) == "learn, trial 2"
+    assert run_label(frozen, 1) == "reproduce --freeze"
+    assert run_label(adapting, 1) == "reproduce"
+    assert run_label({"adaptation": "frozen"}, 1) == "learn, trial 1"  # before "command"
+    assert [r[0] for r in trials_table(adapting).rows] == ["reproduce"]
+    assert [r[0] for r in trials_table(learned, frozen).rows] == [
+        "learn, trial 1",
+        "learn, trial 2",
+        "reproduce --freeze",
+    ]
+
+
+def test_each_command_describes_its_own_output(capsys):
+    for command, says, never in (
+        ("learn", "the learned skill.npz", "unless --freeze"),
+        ("reproduce", "unless --freeze", "when learning"),
+    ):
+        with pytest.raises(SystemExit):
+            main([command, "--help"])
+        text = " ".join(capsys.readouterr().out.split())
+        assert says in text and never not in text

@@ -214,20 +214,42 @@ def improvement(rows: list[dict]) -> dict | None:
     }
 
 
-def trials_table(learn_metrics: dict, replay_metrics: dict | None = None) -> Table:
-    """The trials of `hlcmp learn` (and a frozen replay's row, when given) as a Table.
+def run_label(metrics: dict, trial: int) -> str:
+    """How a trial of `learn` or `reproduce` is labelled in tables: "learn, trial K",
+    "reproduce" or "reproduce --freeze".
 
     Parameters
     ----------
-    learn_metrics : dict
-        The metrics.json of `hlcmp learn`.
+    metrics : dict
+        A metrics.json of `learn` or `reproduce` (one without "command" is a learn's).
+    trial : int
+        The trial's number, from 1.
+
+    Returns
+    -------
+    str
+    """
+    if metrics.get("command", "learn") == "reproduce":
+        return "reproduce --freeze" if metrics.get("adaptation") == "frozen" else "reproduce"
+    return f"learn, trial {trial}"
+
+
+def trials_table(metrics: dict, replay_metrics: dict | None = None) -> Table:
+    """The trials of `hlcmp learn` or `hlcmp reproduce` (and a replay's row, when given)
+    as a Table, each row labelled by the command that ran it (`run_label`).
+
+    Parameters
+    ----------
+    metrics : dict
+        The metrics.json of `hlcmp learn` or `hlcmp reproduce`.
     replay_metrics : dict, optional
-        The metrics.json of `hlcmp reproduce --freeze`.
+        The metrics.json of `hlcmp reproduce --freeze`, a row after the trials.
     """
     table = Table(["run"] + [header for header, _ in TRIAL_MEASURES])
-    rows = [(f"learn, trial {r['trial']}", r) for r in learn_metrics["trials"]]
+    rows = [(run_label(metrics, r["trial"]), r) for r in metrics["trials"]]
     if replay_metrics is not None:
-        rows.append(("reproduce --freeze", replay_metrics["trials"][0]))
+        replay = {"command": "reproduce", **replay_metrics}
+        rows.append((run_label(replay, 1), replay_metrics["trials"][0]))
     for label, row in rows:
         table.add(label, *(number(value(row)) for _, value in TRIAL_MEASURES))
     return table
@@ -298,7 +320,90 @@ def learn(
     reporter : Progress, optional
     overrides : sequence of str
         ``dotted.key=value`` overrides of the scenario.
+
+    Raises
+    ------
+    InputError
+        Before anything is simulated: a bad scenario or demonstration, or a skill that
+        does not fit the scenario's axes.
     """
+    return _learn_or_reproduce(
+        "learn",
+        scenario_name,
+        out_dir,
+        demo=demo,
+        skill=skill,
+        skill_path=skill_path,
+        trials=trials,
+        freeze=freeze,
+        reporter=reporter,
+        overrides=overrides,
+    )
+
+
+def reproduce(
+    scenario_name: str | Path,
+    out_dir: str | Path,
+    skill: Skill,
+    *,
+    skill_path: str | Path | None = None,
+    freeze: bool = False,
+    reporter: Progress = SILENT,
+    overrides: Sequence[str] = (),
+) -> LearningResult:
+    """Replay a skill once in a scenario: its DMP and profiles, adapting on (a skill.npz
+    is saved) or off with `freeze`.
+
+    Parameters
+    ----------
+    scenario_name : str or Path
+        A bundled scenario or a YAML file with a demonstration and an Hl-CMP.
+    out_dir : str or Path
+        Where metrics.json, the time series, figures, recording (and skill.npz unless
+        `freeze`) go.
+    skill : Skill
+        The skill to replay.
+    skill_path : path, optional
+        Where `skill` was read from (recorded in metrics.json).
+    freeze : bool
+        No adaptation (learning rates 0): the skill's profiles as they are.
+    reporter : Progress, optional
+    overrides : sequence of str
+        ``dotted.key=value`` overrides of the scenario.
+
+    Raises
+    ------
+    InputError
+        Before anything is simulated: a bad scenario or a skill that does not fit the
+        scenario's axes.
+    """
+    return _learn_or_reproduce(
+        "reproduce",
+        scenario_name,
+        out_dir,
+        demo=None,
+        skill=skill,
+        skill_path=skill_path,
+        trials=1,
+        freeze=freeze,
+        reporter=reporter,
+        overrides=overrides,
+    )
+
+
+def _learn_or_reproduce(
+    command,
+    scenario_name,
+    out_dir,
+    *,
+    demo,
+    skill,
+    skill_path,
+    trials,
+    freeze,
+    reporter,
+    overrides,
+):
     base, path = load_scenario(scenario_name, overrides)
     experiment = experiment_of(base, path)
     scenario = learning_scenario(base, demo, skill, freeze)
@@ -308,6 +413,7 @@ def learn(
     rows = trial_metrics(runs, scenario)
     unstable = instability_record(runs)
     metrics = {
+        "command": command,
         "scenario": scenario.name,
         "status": "unstable" if unstable else "ok",
         "demonstration": None if demo is None else str(demo),
