@@ -145,6 +145,80 @@ def test_effort_and_improvement_by_hand():
     }
 
 
+# --- how long a trial lasts ----------------------------------------------------------
+
+
+def resampled_demo(path, seconds, source=INSERTION_DEMO):
+    """The bundled insertion demonstration played in `seconds` (same path), 100 Hz."""
+    from hlcmp_drake.io.demos import read_demonstration, write_trajectory
+
+    t, positions, axes = read_demonstration(source)
+    new_t = np.linspace(0.0, seconds, int(round(100 * seconds)) + 1)
+    scaled = t * seconds / t[-1]
+    resampled = np.column_stack([np.interp(new_t, scaled, p) for p in positions.T])
+    write_trajectory(path, new_t, resampled, axes)
+    return path
+
+
+class Simulated(Exception):
+    """Raised in place of simulating: what would have run."""
+
+
+@pytest.fixture
+def no_simulation(monkeypatch):
+    """run_trials replaced: records the scenario it would simulate, then stops the command."""
+    seen = []
+
+    def run_trials(scenario, dmp, trials, **_):
+        seen.append(scenario)
+        raise Simulated(scenario.duration_s)
+
+    monkeypatch.setattr("hlcmp_drake.run.learning.run_trials", run_trials)
+    return seen
+
+
+def test_sets_duration_sees_only_the_scenario_duration():
+    from hlcmp_drake.run.learning import sets_duration
+
+    assert sets_duration(["duration_s=4"]) and sets_duration([" duration_s = 4"])
+    assert sets_duration([{"duration_s": 4}])
+    assert not sets_duration([])
+    assert not sets_duration(["reference.duration_s=6", "controllers.hlcmp.pi=4"])
+    assert not sets_duration([{"reference.duration_s": 6}])
+
+
+@pytest.mark.parametrize(
+    "extra, expected",
+    [
+        ([], 6.0 + 1.0),  # the demonstration's 6 s and SETTLE_S
+        (["--set", "duration_s=2.5"], 2.5),  # the user's, as said
+        (["--set", "reference.duration_s=3"], 3.0 + 1.0),  # the DMP replayed at tau = 3 s
+    ],
+)
+def test_learn_runs_the_demonstration_and_the_settle_time(tmp_path, no_simulation, extra, expected):
+    from hlcmp_drake.run.learning import SETTLE_S
+
+    assert SETTLE_S == 1.0
+    demo = resampled_demo(tmp_path / "six.csv", 6.0)
+    # The bundled insertion scenario runs 9.5 s (its own 8.5 s demonstration + 1 s).
+    with pytest.raises(Simulated):
+        main(["learn", str(demo), "--scenario", "insertion", "--out", str(tmp_path / "o"), *extra])
+    assert no_simulation[0].duration_s == pytest.approx(expected)
+
+
+def test_reproduce_runs_the_skill_and_the_settle_time(tmp_path, no_simulation):
+    from hlcmp_drake.cli import main as cli
+    from hlcmp_drake.core.dmp import Dmp
+    from hlcmp_drake.io.demos import read_demonstration
+    from hlcmp_drake.io.skill import Skill, save_skill
+
+    t, positions, axes = read_demonstration(resampled_demo(tmp_path / "six.csv", 6.0))
+    path = save_skill(tmp_path / "six.npz", Skill.untrained(Dmp.fit(t, positions, axes)))
+    with pytest.raises(Simulated):
+        cli(["reproduce", str(path), "--scenario", "insertion", "--out", str(tmp_path / "o")])
+    assert no_simulation[0].duration_s == pytest.approx(7.0)
+
+
 # --- reproduce is itself --------------------------------------------------------------
 
 

@@ -4,6 +4,10 @@ trials, save it, and reproduce it later (with or without further adaptation).
 Each trial is one reproduction of the demonstration in the scenario's world by the
 scenario's learning controller (its Hl-CMP, found by config kind), starting from the
 theta the previous trial ended with.
+
+A trial lasts as long as the skill -- the demonstration's duration, the DMP's tau (or the
+scenario's `reference.duration_s` when that rescales it) -- plus SETTLE_S, whatever the
+scenario's own `duration_s` is; an override ``duration_s=...`` sets it instead.
 """
 
 from __future__ import annotations
@@ -30,6 +34,57 @@ from hlcmp_drake.run.runner import run_one, write_results
 from hlcmp_drake.worlds.arm import fit_demonstration
 from hlcmp_drake.worlds.build import diagram_factory
 from hlcmp_drake.worlds.controllers import controller_kind
+
+# The simulated time after the skill's end (its tau) in every trial of `learn` and
+# `reproduce` [s]. It is the bundled scenarios' own (8.5 s + 1 s for the insertion, 8 s +
+# 1 s for the cutting), so learning from their demonstrations runs as long as `hlcmp run`,
+# and it is the time the profiles take to come to rest after tau: the phase passes the last
+# basis centre at tau, and the normalized basis (N = 30, alpha_s = 4) puts 71 % of every
+# profile on its last function there and, 1 s later, 99.95 % for a 6 s skill (99.8 % for
+# 8.5 s, 97 % for 20 s); from then on K_s, K_d and v are that function's weights, constant
+# (the README's learning section says what the arm does then). The reference is at its
+# goal by then: after a 6 s insertion demonstration it stays within 0.5 mm of it from tau.
+SETTLE_S = 1.0
+
+
+def skill_duration(scenario: Scenario, dmp: Dmp) -> float:
+    """The skill's duration in `scenario`: the DMP's tau, or the scenario's
+    `reference.duration_s` when that is > 0 (the same path replayed at another tau).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        With a DemonstrationConfig reference.
+    dmp : Dmp
+        The skill's (or the fitted demonstration's) DMP.
+
+    Returns
+    -------
+    float
+        The time the reference takes [s].
+    """
+    reference = scenario.reference
+    scaled = reference.duration_s if isinstance(reference, DemonstrationConfig) else 0.0
+    return float(scaled or dmp.tau)
+
+
+def sets_duration(overrides: Sequence[str | dict]) -> bool:
+    """Whether the overrides set the scenario's `duration_s`.
+
+    Parameters
+    ----------
+    overrides : sequence of str or dict
+        As for `load_scenario`: ``key=value`` strings or {key: value} dicts.
+
+    Returns
+    -------
+    bool
+    """
+    for override in overrides:
+        keys = override if isinstance(override, dict) else [str(override).partition("=")[0]]
+        if any(str(key).strip() == "duration_s" for key in keys):
+            return True
+    return False
 
 
 def learning_scenario(
@@ -300,6 +355,9 @@ def learn(
 ) -> LearningResult:
     """Learn (or, with a skill and `freeze`, replay) over `trials` reproductions.
 
+    Each trial lasts the skill's duration (`skill_duration`) plus SETTLE_S, unless the
+    overrides set ``duration_s``.
+
     Parameters
     ----------
     scenario_name : str or Path
@@ -353,6 +411,9 @@ def reproduce(
 ) -> LearningResult:
     """Replay a skill once in a scenario: its DMP and profiles, adapting on (a skill.npz
     is saved) or off with `freeze`.
+
+    The run lasts the skill's duration (`skill_duration`) plus SETTLE_S, unless the
+    overrides set ``duration_s``.
 
     Parameters
     ----------
@@ -408,6 +469,9 @@ def _learn_or_reproduce(
     experiment = experiment_of(base, path)
     scenario = learning_scenario(base, demo, skill, freeze)
     dmp = fit_demonstration(scenario) if demo is not None or skill is None else skill.dmp
+    tau = skill_duration(scenario, dmp)
+    if not sets_duration(overrides):
+        scenario = dc.replace(scenario, duration_s=tau + SETTLE_S)
     theta0 = (skill.theta_k, skill.theta_d, skill.theta_v) if skill else None
     runs = run_trials(scenario, dmp, trials, theta0=theta0, reporter=reporter)
     rows = trial_metrics(runs, scenario)
@@ -419,6 +483,9 @@ def _learn_or_reproduce(
         "demonstration": None if demo is None else str(demo),
         "started_from_skill": None if skill_path is None else str(skill_path),
         "adaptation": "frozen" if freeze else "on",
+        "duration_s": scenario.duration_s,
+        "skill_duration_s": tau,
+        "settle_s": None if sets_duration(overrides) else SETTLE_S,
         "trials": rows,
         "improves_over_trials": improvement(rows),
     }
