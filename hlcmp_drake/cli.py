@@ -2,8 +2,8 @@
 
     hlcmp run SCENARIO [--out DIR] [--set KEY=VALUE ...] [--iiwa ours|drake_models]
     hlcmp report [--out DIR] [--scenarios ...]   bundled scenarios and one offline page
-    hlcmp learn DEMO.csv --scenario S --out DIR [--trials K] [--skill SKILL.npz]
-    hlcmp reproduce SKILL.npz --scenario S --out DIR [--freeze]
+    hlcmp learn DEMO.csv --scenario S --out DIR [--trials K] [--skill SKILL.npz [--any-scenario]]
+    hlcmp reproduce SKILL.npz --scenario S --out DIR [--freeze] [--any-scenario]
     hlcmp bench [--out DIR] [--quick]        measure where the time goes
     hlcmp fit DEMO.csv --out SKILL.npz       fit the DMP of a demonstration
     hlcmp rollout SKILL.npz --out TRAJ.csv   roll a skill's DMP out
@@ -171,6 +171,8 @@ def cmd_learn(args):
     from hlcmp_drake.run.learning import learn
 
     skill = load_skill(args.skill) if args.skill else None
+    if args.any_scenario and skill is None:
+        raise InputError("--any-scenario needs --skill: it lets a skill from another world start")
     result = learn(
         args.scenario,
         args.out,
@@ -178,6 +180,7 @@ def cmd_learn(args):
         skill=skill,
         skill_path=args.skill,
         trials=args.trials,
+        any_scenario=args.any_scenario,
         **_learning_options(args),
     )
     return _print_learning(result)
@@ -193,6 +196,7 @@ def cmd_reproduce(args):
         load_skill(args.skill),
         skill_path=args.skill,
         freeze=args.freeze,
+        any_scenario=args.any_scenario,
         **_learning_options(args),
     )
     return _print_learning(result)
@@ -204,6 +208,7 @@ def _learning_options(args):
     return dict(
         reporter=Progress(args.quiet),
         overrides=args.set,
+        warn=lambda line: print(f"hlcmp: warning: {line}", file=sys.stderr),
     )
 
 
@@ -446,6 +451,11 @@ def build_parser():
     world = argparse.ArgumentParser(add_help=False)  # where learn and reproduce run
     world.add_argument(
         "--scenario", required=True, help="the world: insertion, cutting, or a YAML path"
+    )
+    world.add_argument(
+        "--any-scenario",
+        action="store_true",
+        help="use a skill learned in another world (scenario) all the same",
     )
 
     parser = _Parser(

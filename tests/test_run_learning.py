@@ -1,5 +1,6 @@
 """hlcmp learn / reproduce: skills as files, repeated trials, frozen replays."""
 
+import dataclasses as dc
 import json
 
 import numpy as np
@@ -8,6 +9,7 @@ from conftest import INSERTION_DEMO
 
 from hlcmp_drake.cli import main
 from hlcmp_drake.core.dmp import basis_centers_and_widths, normalized_basis, phase_at
+from hlcmp_drake.io.paths import DIAGRAMS_DIR
 from hlcmp_drake.io.skill import load_skill
 
 
@@ -177,6 +179,22 @@ def no_simulation(monkeypatch):
     return seen
 
 
+@pytest.fixture(scope="module")
+def insertion_skill(tmp_path_factory):
+    """A skill of the bundled insertion demonstration (θ = 0), recorded as learned in the
+    insertion world: what `hlcmp learn` would save, without the simulation."""
+    from hlcmp_drake.config.loading import load_scenario
+    from hlcmp_drake.config.world import world_of_scenario
+    from hlcmp_drake.io.skill import Skill, save_skill
+    from hlcmp_drake.worlds.arm import fit_demonstration
+
+    scenario, _ = load_scenario("insertion")
+    skill = dc.replace(
+        Skill.untrained(fit_demonstration(scenario)), world=world_of_scenario(scenario)
+    )
+    return save_skill(tmp_path_factory.mktemp("skill") / "insertion.npz", skill)
+
+
 def test_sets_duration_sees_only_the_scenario_duration():
     from hlcmp_drake.run.learning import sets_duration
 
@@ -219,6 +237,99 @@ def test_reproduce_runs_the_skill_and_the_settle_time(tmp_path, no_simulation):
     assert no_simulation[0].duration_s == pytest.approx(7.0)
 
 
+# --- skills know their world ---------------------------------------------------------
+
+
+def test_a_skill_is_refused_in_another_world_in_one_line(
+    insertion_skill, tmp_path, capsys, no_simulation
+):
+    for scenario in ("cutting", "one_dof"):
+        args = ["reproduce", str(insertion_skill), "--scenario", scenario, "--freeze"]
+        assert main([*args, "--out", str(tmp_path / scenario)]) == 2
+        error = capsys.readouterr().err.strip().splitlines()
+        assert len(error) == 1, error
+        assert error[0].startswith("hlcmp: error: the skill was learned in 'insertion' (ArmTask")
+        assert f"not in '{scenario}'" in error[0] and "--any-scenario" in error[0]
+    # Moving the plank by an override makes another world, under the same name.
+    moved = ["--set", "task.puncture.depth_m=0.01"]
+    assert main(["reproduce", str(insertion_skill), "--scenario", "insertion", *moved,
+                 "--out", str(tmp_path / "moved")]) == 2  # fmt: skip
+    assert "not in this 'insertion'" in capsys.readouterr().err
+    assert no_simulation == []  # refused before anything was simulated
+    assert not (tmp_path / "cutting").exists()
+
+
+def test_any_scenario_replays_it_elsewhere_with_a_warning(
+    insertion_skill, tmp_path, capsys, no_simulation
+):
+    with pytest.raises(Simulated):
+        main(["reproduce", str(insertion_skill), "--scenario", "cutting", "--any-scenario",
+              "--freeze", "--out", str(tmp_path / "o")])  # fmt: skip
+    assert no_simulation[0].name == "cutting"
+    warning = capsys.readouterr().err.strip().splitlines()
+    assert warning == [
+        "hlcmp: warning: the skill was learned in 'insertion' (ArmTask world "
+        f"{load_skill(insertion_skill).world.digest[:12]}), not in 'cutting' (ArmTask world "
+        f"{_digest('cutting')[:12]}); used here all the same (--any-scenario)"
+    ]
+
+
+def _digest(name):
+    from hlcmp_drake.config.loading import load_scenario
+    from hlcmp_drake.config.world import world_of_scenario
+
+    return world_of_scenario(load_scenario(name)[0]).digest
+
+
+def test_its_own_world_replays_silently(insertion_skill, tmp_path, capsys, no_simulation):
+    with pytest.raises(Simulated):
+        main(["reproduce", str(insertion_skill), "--scenario", "insertion", "--freeze",
+              "--set", "controllers.hlcmp.pi=4", "--out", str(tmp_path / "o")])  # fmt: skip
+    assert capsys.readouterr().err == ""
+
+
+def test_learning_from_a_skill_of_another_world_is_refused_too(
+    insertion_skill, tmp_path, capsys, no_simulation
+):
+    demo = str(DIAGRAMS_DIR / "demos" / "cutting_demo.csv")
+    args = ["learn", demo, "--scenario", "cutting", "--out", str(tmp_path / "o")]
+    assert main([*args, "--skill", str(insertion_skill)]) == 2
+    assert "the skill was learned in 'insertion'" in capsys.readouterr().err
+    assert main([*args, "--any-scenario"]) == 2
+    assert "--any-scenario needs --skill" in capsys.readouterr().err
+    assert no_simulation == []
+
+
+def test_a_skill_without_a_world_is_used_with_a_warning(
+    insertion_skill, tmp_path, capsys, no_simulation
+):
+    """A format 1 file (and a skill of hlcmp fit) records no world: replayed, with a line."""
+    old = tmp_path / "old.npz"
+    with np.load(insertion_skill) as data:
+        arrays = {k: data[k] for k in data.files if not k.startswith("world_")}
+    np.savez(old, **{**arrays, "format_version": np.array(1)})
+    with pytest.raises(Simulated):
+        main(["reproduce", str(old), "--scenario", "cutting", "--out", str(tmp_path / "o")])
+    assert capsys.readouterr().err.strip().splitlines() == [
+        "hlcmp: warning: the skill records no world (a skill of hlcmp fit, or a file saved "
+        "before skill format 2): it is used in 'cutting' unchecked"
+    ]
+
+
+def test_check_skill_world_by_hand(insertion_skill):
+    from hlcmp_drake.config.loading import load_scenario
+    from hlcmp_drake.io.errors import InputError
+    from hlcmp_drake.run.learning import check_skill_world
+
+    skill = load_skill(insertion_skill)
+    insertion, cutting = (load_scenario(name)[0] for name in ("insertion", "cutting"))
+    assert check_skill_world(skill, insertion) is None
+    with pytest.raises(InputError, match="not in 'cutting'"):
+        check_skill_world(skill, cutting)
+    assert "all the same" in check_skill_world(skill, cutting, any_scenario=True)
+    assert "records no world" in check_skill_world(dc.replace(skill, world=None), insertion)
+
+
 # --- reproduce is itself --------------------------------------------------------------
 
 
@@ -256,3 +367,4 @@ def test_each_command_describes_its_own_output(capsys):
             main([command, "--help"])
         text = " ".join(capsys.readouterr().out.split())
         assert says in text and never not in text
+        assert "--any-scenario" in text

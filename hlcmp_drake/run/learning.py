@@ -7,20 +7,24 @@ theta the previous trial ended with.
 
 A trial lasts as long as the skill -- the demonstration's duration, the DMP's tau (or the
 scenario's `reference.duration_s` when that rescales it) -- plus SETTLE_S, whatever the
-scenario's own `duration_s` is; an override ``duration_s=...`` sets it instead.
+scenario's own `duration_s` is; an override ``duration_s=...`` sets it instead. A skill
+records the world it was learned in (`hlcmp_drake.config.world`); using it in another
+world is refused unless asked for (`any_scenario`), and a skill whose world is unknown (a
+skill of `hlcmp fit`, or a format 1 file) is used with a warning.
 """
 
 from __future__ import annotations
 
 import dataclasses as dc
 from pathlib import Path
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 from matplotlib.figure import Figure
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.scenario import DemonstrationConfig, Scenario
+from hlcmp_drake.config.world import world_of_scenario
 from hlcmp_drake.core.dmp import Dmp
 from hlcmp_drake.experiments import experiment_of
 from hlcmp_drake.experiments.claims import learner
@@ -28,7 +32,7 @@ from hlcmp_drake.experiments.plots import new_figure
 from hlcmp_drake.experiments.table import Table, number
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.io.runs import RunResult, instability_record
-from hlcmp_drake.io.skill import Skill, save_skill
+from hlcmp_drake.io.skill import Skill, SkillWorld, save_skill
 from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.run.runner import run_one, write_results
 from hlcmp_drake.worlds.arm import fit_demonstration
@@ -85,6 +89,54 @@ def sets_duration(overrides: Sequence[str | dict]) -> bool:
         if any(str(key).strip() == "duration_s" for key in keys):
             return True
     return False
+
+
+def check_skill_world(skill: Skill, scenario: Scenario, any_scenario: bool = False) -> str | None:
+    """Refuse a skill learned in another world than the scenario's, unless `any_scenario`.
+
+    Parameters
+    ----------
+    skill : Skill
+        Its `world` is where it was learned (None: unknown).
+    scenario : Scenario
+        Where it is about to be used (as loaded, with its overrides).
+    any_scenario : bool
+        Use it in another world all the same.
+
+    Returns
+    -------
+    str or None
+        A warning line when the skill is used unchecked (its world unknown) or in another
+        world with `any_scenario`; None when it is used in its own world.
+
+    Raises
+    ------
+    InputError
+        The skill's world is known and is not the scenario's, and not `any_scenario`.
+    """
+    here = world_of_scenario(scenario)
+    if skill.world is None:
+        return (
+            f"the skill records no world (a skill of hlcmp fit, or a file saved before "
+            f"skill format 2): it is used in '{scenario.name}' unchecked"
+        )
+    if skill.world.same_world(here):
+        return None
+    what = (
+        f"not in this '{here.scenario}' ({here.kind} world {here.digest[:12]}), whose models, "
+        "their placement or task differ"
+        if skill.world.scenario == here.scenario
+        else f"not in {here.describe()}"
+    )
+    if not any_scenario:
+        raise InputError(
+            f"the skill was learned in {skill.world.describe()}, {what}; its profiles belong "
+            "to that world (pass --any-scenario to use it here anyway)"
+        )
+    return (
+        f"the skill was learned in {skill.world.describe()}, {what}; used here all the same "
+        "(--any-scenario)"
+    )
 
 
 def learning_scenario(
@@ -333,12 +385,14 @@ def trials_figure(rows: list[dict]) -> Figure:
 @dc.dataclass
 class LearningResult:
     """What `learn` and `reproduce` return: the metrics.json content, the trials' runs,
-    where the files went, and the saved skill file (None when frozen or unstable)."""
+    where the files went, the saved skill file (None when frozen or unstable) and the
+    warnings given (each also in metrics.json)."""
 
     metrics: dict
     runs: list
     out_dir: Path
     skill_path: Path | None
+    warnings: list[str] = dc.field(default_factory=list)
 
 
 def learn(
@@ -350,13 +404,15 @@ def learn(
     skill_path: str | Path | None = None,
     trials: int = 1,
     freeze: bool = False,
+    any_scenario: bool = False,
     reporter: Progress = SILENT,
     overrides: Sequence[str] = (),
+    warn: Callable[[str], None] | None = None,
 ) -> LearningResult:
     """Learn (or, with a skill and `freeze`, replay) over `trials` reproductions.
 
     Each trial lasts the skill's duration (`skill_duration`) plus SETTLE_S, unless the
-    overrides set ``duration_s``.
+    overrides set ``duration_s``. The skill saved records the scenario's world.
 
     Parameters
     ----------
@@ -375,15 +431,20 @@ def learn(
         Reproductions, each continuing from the previous one's learned profiles.
     freeze : bool
         No adaptation (learning rates 0): the skill's profiles as they are.
+    any_scenario : bool
+        Use a skill learned in another world all the same (`check_skill_world`).
     reporter : Progress, optional
     overrides : sequence of str
         ``dotted.key=value`` overrides of the scenario.
+    warn : callable(str), optional
+        Told each warning line before anything is simulated (e.g. a skill whose world
+        is unknown).
 
     Raises
     ------
     InputError
-        Before anything is simulated: a bad scenario or demonstration, or a skill that
-        does not fit the scenario's axes.
+        Before anything is simulated: a bad scenario or demonstration, a skill that does
+        not fit the scenario's axes, or one learned in another world.
     """
     return _learn_or_reproduce(
         "learn",
@@ -394,8 +455,10 @@ def learn(
         skill_path=skill_path,
         trials=trials,
         freeze=freeze,
+        any_scenario=any_scenario,
         reporter=reporter,
         overrides=overrides,
+        warn=warn,
     )
 
 
@@ -406,8 +469,10 @@ def reproduce(
     *,
     skill_path: str | Path | None = None,
     freeze: bool = False,
+    any_scenario: bool = False,
     reporter: Progress = SILENT,
     overrides: Sequence[str] = (),
+    warn: Callable[[str], None] | None = None,
 ) -> LearningResult:
     """Replay a skill once in a scenario: its DMP and profiles, adapting on (a skill.npz
     is saved) or off with `freeze`.
@@ -428,15 +493,19 @@ def reproduce(
         Where `skill` was read from (recorded in metrics.json).
     freeze : bool
         No adaptation (learning rates 0): the skill's profiles as they are.
+    any_scenario : bool
+        Replay a skill learned in another world all the same (`check_skill_world`).
     reporter : Progress, optional
     overrides : sequence of str
         ``dotted.key=value`` overrides of the scenario.
+    warn : callable(str), optional
+        Told each warning line before anything is simulated.
 
     Raises
     ------
     InputError
-        Before anything is simulated: a bad scenario or a skill that does not fit the
-        scenario's axes.
+        Before anything is simulated: a bad scenario, a skill that does not fit the
+        scenario's axes, or one learned in another world.
     """
     return _learn_or_reproduce(
         "reproduce",
@@ -447,8 +516,10 @@ def reproduce(
         skill_path=skill_path,
         trials=1,
         freeze=freeze,
+        any_scenario=any_scenario,
         reporter=reporter,
         overrides=overrides,
+        warn=warn,
     )
 
 
@@ -462,16 +533,28 @@ def _learn_or_reproduce(
     skill_path,
     trials,
     freeze,
+    any_scenario,
     reporter,
     overrides,
+    warn,
 ):
     base, path = load_scenario(scenario_name, overrides)
     experiment = experiment_of(base, path)
+    warnings = []
+    if skill is not None:
+        # The world before the axes: a skill from another world is refused for that.
+        warning = check_skill_world(skill, base, any_scenario)
+        if warning is not None:
+            warnings.append(warning)
     scenario = learning_scenario(base, demo, skill, freeze)
     dmp = fit_demonstration(scenario) if demo is not None or skill is None else skill.dmp
     tau = skill_duration(scenario, dmp)
     if not sets_duration(overrides):
         scenario = dc.replace(scenario, duration_s=tau + SETTLE_S)
+    for warning in warnings:
+        if warn is not None:
+            warn(warning)
+    world = world_of_scenario(base)
     theta0 = (skill.theta_k, skill.theta_d, skill.theta_v) if skill else None
     runs = run_trials(scenario, dmp, trials, theta0=theta0, reporter=reporter)
     rows = trial_metrics(runs, scenario)
@@ -479,9 +562,11 @@ def _learn_or_reproduce(
     metrics = {
         "command": command,
         "scenario": scenario.name,
+        "world": dc.asdict(world),
         "status": "unstable" if unstable else "ok",
         "demonstration": None if demo is None else str(demo),
         "started_from_skill": None if skill_path is None else str(skill_path),
+        "skill_world": _world_record(skill),
         "adaptation": "frozen" if freeze else "on",
         "duration_s": scenario.duration_s,
         "skill_duration_s": tau,
@@ -489,6 +574,8 @@ def _learn_or_reproduce(
         "trials": rows,
         "improves_over_trials": improvement(rows),
     }
+    if warnings:
+        metrics["warnings"] = warnings
     if unstable:
         metrics["instability"] = unstable
     figures = {}
@@ -498,6 +585,14 @@ def _learn_or_reproduce(
     out_dir = Path(out_dir)
     saved = None
     if not unstable and not freeze:
-        saved = save_skill(out_dir / "skill.npz", Skill(dmp, *runs[-1].theta))
+        saved = save_skill(out_dir / "skill.npz", Skill(dmp, *runs[-1].theta, world=world))
     write_results(out_dir, scenario, {run.controller: run for run in runs}, metrics, figures)
-    return LearningResult(metrics, runs, out_dir, saved)
+    return LearningResult(metrics, runs, out_dir, saved, warnings)
+
+
+def _world_record(skill: Skill | None) -> dict | str | None:
+    """metrics.json's record of where the skill used was learned."""
+    if skill is None:
+        return None
+    world: SkillWorld | None = skill.world
+    return "unknown" if world is None else dc.asdict(world)
