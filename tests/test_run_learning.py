@@ -368,3 +368,41 @@ def test_each_command_describes_its_own_output(capsys):
         text = " ".join(capsys.readouterr().out.split())
         assert says in text and never not in text
         assert "--any-scenario" in text
+
+
+@pytest.mark.slow
+def test_a_short_skill_runs_its_own_time_and_records_its_world(tmp_path):
+    """A 2 s demonstration (the bundled one's approach) in the 9.5 s insertion scenario:
+    learning and the frozen replay run 2 + 1 s; the skill records the insertion world;
+    after the demonstration the frozen profiles are the last basis function's weights."""
+    from hlcmp_drake.config.loading import load_scenario
+    from hlcmp_drake.config.world import world_of_scenario
+    from hlcmp_drake.io.demos import read_demonstration, write_trajectory
+
+    t, positions, axes = read_demonstration(INSERTION_DEMO)
+    keep = t <= 2.0 + 1e-9
+    demo = write_trajectory(tmp_path / "approach.csv", t[keep], positions[keep], axes)
+    per_step = ["--set", "controllers.hlcmp.q_units=per_step"]  # profiles worth looking at
+    world = ["--scenario", "insertion", *per_step, "--quiet"]
+    assert main(["learn", str(demo), *world, "--out", str(tmp_path / "learn")]) == 0
+    skill = load_skill(tmp_path / "learn" / "skill.npz")
+    assert skill.dmp.tau == pytest.approx(2.0)
+    scenario, _ = load_scenario("insertion", ["controllers.hlcmp.q_units=per_step"])
+    assert skill.world == world_of_scenario(scenario)
+    assert main(["reproduce", str(tmp_path / "learn" / "skill.npz"), *world, "--freeze",
+                 "--out", str(tmp_path / "frozen")]) == 0  # fmt: skip
+    for out in ("learn", "frozen"):
+        metrics = json.loads((tmp_path / out / "metrics.json").read_text())
+        assert metrics["duration_s"] == pytest.approx(3.0) and metrics["settle_s"] == 1.0
+        assert metrics["world"]["digest"] == skill.world.digest
+        assert np.load(tmp_path / out / "timeseries.npz")["t"][-1] == pytest.approx(3.0, abs=0.011)
+    data = np.load(tmp_path / "frozen" / "timeseries.npz")
+    late = data["t"] >= 2.0 + 0.9
+    assert np.abs(skill.theta_v[:, -1]).max() > 1e-3  # a feed-forward to hold, not zero
+    for series, theta in (("Ks", skill.theta_k), ("Kd", skill.theta_d), ("v", skill.theta_v)):
+        np.testing.assert_allclose(
+            data[f"trial_1/{series}"][late],
+            np.broadcast_to(theta[:, -1], (late.sum(), 3)),
+            rtol=2e-3,
+            atol=1e-3 * np.abs(theta).max(),
+        )
