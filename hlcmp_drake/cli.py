@@ -8,8 +8,8 @@
     hlcmp fit DEMO.csv --out SKILL.npz       fit the DMP of a demonstration
     hlcmp rollout SKILL.npz --out TRAJ.csv   roll a skill's DMP out
     hlcmp sweep SWEEP.yaml [--out DIR] [--engine local|ray] [--address A] [--workers N] [--dry-run]
-    hlcmp serve SCENARIO --lcm URL [--controller C] [--skill SKILL.npz [--freeze]]
-                [--duration S] [--out DIR]
+    hlcmp serve SCENARIO --lcm URL [--controller C] [--skill SKILL.npz [--freeze]
+                [--any-scenario]] [--duration S] [--out DIR]
     hlcmp sim-driver SCENARIO --lcm URL [--realtime] [--duration S] [--idle-timeout S]
 
 Exit codes: 0 success, 2 bad input (one line on stderr; --debug shows the traceback),
@@ -208,8 +208,12 @@ def _learning_options(args):
     return dict(
         reporter=Progress(args.quiet),
         overrides=args.set,
-        warn=lambda line: print(f"hlcmp: warning: {line}", file=sys.stderr),
+        warn=_warn,
     )
+
+
+def _warn(line):
+    print(f"hlcmp: warning: {line}", file=sys.stderr)
 
 
 def _print_learning(result):
@@ -369,6 +373,8 @@ def cmd_serve(args):
 
     _quiet_drake(args)
     skill = load_skill(args.skill) if args.skill else None
+    if args.any_scenario and skill is None:
+        raise InputError("--any-scenario needs --skill: it lets a skill from another world serve")
     overrides = list(args.set) + ([f"duration_s={args.duration}"] if args.duration else [])
     try:
         result = serve_scenario(
@@ -378,8 +384,10 @@ def cmd_serve(args):
             controller=args.controller,
             skill=skill,
             freeze=args.freeze,
+            any_scenario=args.any_scenario,
             overrides=overrides,
             reporter=Progress(args.quiet),
+            warn=_warn,
         )
     except DriverAbort as error:  # memq://: the simulated driver runs in this process
         print(f"hlcmp serve: the simulated driver aborted: {error}", file=sys.stderr)
@@ -648,6 +656,11 @@ def build_parser():
         "--skill", help="serve the Hl-CMP from this skill file's DMP and learned profiles"
     )
     serve.add_argument("--freeze", action="store_true", help="with --skill: no adaptation")
+    serve.add_argument(
+        "--any-scenario",
+        action="store_true",
+        help="with --skill: serve a skill learned in another world (scenario) all the same",
+    )
     serve.add_argument(
         "--duration", type=_positive, help="seconds to serve (default the scenario's duration_s)"
     )
