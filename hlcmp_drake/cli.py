@@ -2,14 +2,14 @@
 
     hlcmp run SCENARIO [--out DIR] [--set KEY=VALUE ...] [--iiwa ours|drake_models]
     hlcmp report [--out DIR] [--scenarios ...]   bundled scenarios and one offline page
-    hlcmp learn DEMO.csv --scenario S --out DIR [--trials K] [--skill SKILL.npz]
-    hlcmp reproduce SKILL.npz --scenario S --out DIR [--freeze]
+    hlcmp learn DEMO.csv --scenario S --out DIR [--trials K] [--skill SKILL.npz [--any-scenario]]
+    hlcmp reproduce SKILL.npz --scenario S --out DIR [--freeze] [--any-scenario]
     hlcmp bench [--out DIR] [--quick]        measure where the time goes
     hlcmp fit DEMO.csv --out SKILL.npz       fit the DMP of a demonstration
     hlcmp rollout SKILL.npz --out TRAJ.csv   roll a skill's DMP out
     hlcmp sweep SWEEP.yaml [--out DIR] [--engine local|ray] [--address A] [--workers N] [--dry-run]
-    hlcmp serve SCENARIO --lcm URL [--controller C] [--skill SKILL.npz [--freeze]]
-                [--duration S] [--out DIR]
+    hlcmp serve SCENARIO --lcm URL [--controller C] [--skill SKILL.npz [--freeze]
+                [--any-scenario]] [--duration S] [--out DIR]
     hlcmp sim-driver SCENARIO --lcm URL [--realtime] [--duration S] [--idle-timeout S]
 
 Exit codes: 0 success, 2 bad input (one line on stderr; --debug shows the traceback),
@@ -173,34 +173,57 @@ def cmd_report(args):
 
 def cmd_learn(args):
     from hlcmp_drake.io.skill import load_skill
+    from hlcmp_drake.run.learning import learn
 
     skill = load_skill(args.skill) if args.skill else None
-    return _learn_or_reproduce(args, demo=args.demo, skill=skill, trials=args.trials, freeze=False)
+    if args.any_scenario and skill is None:
+        raise InputError("--any-scenario needs --skill: it lets a skill from another world start")
+    result = learn(
+        args.scenario,
+        args.out,
+        demo=args.demo,
+        skill=skill,
+        skill_path=args.skill,
+        trials=args.trials,
+        any_scenario=args.any_scenario,
+        **_learning_options(args),
+    )
+    return _print_learning(result)
 
 
 def cmd_reproduce(args):
     from hlcmp_drake.io.skill import load_skill
+    from hlcmp_drake.run.learning import reproduce
 
-    return _learn_or_reproduce(
-        args, demo=None, skill=load_skill(args.skill), trials=1, freeze=args.freeze
-    )
-
-
-def _learn_or_reproduce(args, demo, skill, trials, freeze):
-    from hlcmp_drake.run.learning import learn, trials_table
-
-    _quiet_drake(args)
-    result = learn(
+    result = reproduce(
         args.scenario,
         args.out,
-        demo=demo,
-        skill=skill,
+        load_skill(args.skill),
         skill_path=args.skill,
-        trials=trials,
-        freeze=freeze,
+        freeze=args.freeze,
+        any_scenario=args.any_scenario,
+        **_learning_options(args),
+    )
+    return _print_learning(result)
+
+
+def _learning_options(args):
+    """What learn and reproduce both take from the command line."""
+    _quiet_drake(args)
+    return dict(
         reporter=Progress(args.quiet),
         overrides=args.set,
+        warn=_warn,
     )
+
+
+def _warn(line):
+    print(f"hlcmp: warning: {line}", file=sys.stderr)
+
+
+def _print_learning(result):
+    from hlcmp_drake.run.learning import trials_table
+
     _print_table(trials_table(result.metrics))
     if result.skill_path is not None:
         print(f"skill: {result.skill_path}")
@@ -355,6 +378,8 @@ def cmd_serve(args):
 
     _quiet_drake(args)
     skill = load_skill(args.skill) if args.skill else None
+    if args.any_scenario and skill is None:
+        raise InputError("--any-scenario needs --skill: it lets a skill from another world serve")
     overrides = list(args.set) + ([f"duration_s={args.duration}"] if args.duration else [])
     try:
         result = serve_scenario(
@@ -364,8 +389,10 @@ def cmd_serve(args):
             controller=args.controller,
             skill=skill,
             freeze=args.freeze,
+            any_scenario=args.any_scenario,
             overrides=overrides,
             reporter=Progress(args.quiet),
+            warn=_warn,
         )
     except DriverAbort as error:  # memq://: the simulated driver runs in this process
         print(f"hlcmp serve: the simulated driver aborted: {error}", file=sys.stderr)
@@ -434,14 +461,14 @@ def build_parser():
         "controllers.hlcmp.q_k=[300,300,300] (repeatable)",
     )
 
-    world = argparse.ArgumentParser(add_help=False)  # where learn and reproduce run, and write
+    world = argparse.ArgumentParser(add_help=False)  # where learn and reproduce run
     world.add_argument(
         "--scenario", required=True, help="the world: insertion, cutting, or a YAML path"
     )
     world.add_argument(
-        "--out",
-        required=True,
-        help="output folder (metrics, figures, recording; and skill.npz when learning)",
+        "--any-scenario",
+        action="store_true",
+        help="use a skill learned in another world (scenario) all the same",
     )
 
     parser = _Parser(
@@ -507,6 +534,11 @@ def build_parser():
         "demo", help="demonstration CSV (t,x,y,z; world frame of the scenario, metres)"
     )
     learn.add_argument(
+        "--out",
+        required=True,
+        help="output folder: the learned skill.npz, metrics, figures, recording",
+    )
+    learn.add_argument(
         "--trials",
         type=_trial_count,
         default=1,
@@ -523,6 +555,12 @@ def build_parser():
         help="replay a learned skill in a scenario",
     )
     reproduce.add_argument("skill", help="skill file (.npz) from hlcmp learn or fit")
+    reproduce.add_argument(
+        "--out",
+        required=True,
+        help="output folder: metrics, figures, recording; and the skill.npz it goes on "
+        "learning unless --freeze",
+    )
     reproduce.add_argument(
         "--freeze", action="store_true", help="no adaptation: the learned profiles as they are"
     )
@@ -623,6 +661,11 @@ def build_parser():
         "--skill", help="serve the Hl-CMP from this skill file's DMP and learned profiles"
     )
     serve.add_argument("--freeze", action="store_true", help="with --skill: no adaptation")
+    serve.add_argument(
+        "--any-scenario",
+        action="store_true",
+        help="with --skill: serve a skill learned in another world (scenario) all the same",
+    )
     serve.add_argument(
         "--duration", type=_positive, help="seconds to serve (default the scenario's duration_s)"
     )

@@ -1,5 +1,6 @@
-"""hlcmp_drake.io.skill: a skill file round trips; a bad, truncated, missing or non-skill
-file is one clear error."""
+"""hlcmp_drake.io.skill: a skill file round trips, with the world it was learned in; a
+format 1 file (no world) still loads; a bad, truncated, missing or non-skill file is one
+clear error."""
 
 import numpy as np
 import pytest
@@ -7,7 +8,9 @@ from conftest import DEMO_CSV
 
 from hlcmp_drake.core.dmp import Dmp
 from hlcmp_drake.io.errors import InputError
-from hlcmp_drake.io.skill import FORMAT_VERSION, Skill, load_skill, save_skill
+from hlcmp_drake.io.skill import FORMAT_VERSION, Skill, SkillWorld, load_skill, save_skill
+
+WORLD = SkillWorld("insertion", "ArmTask", "0123456789abcdef" * 4)
 
 
 @pytest.fixture
@@ -15,7 +18,7 @@ def skill(smooth_demo):
     t, positions = smooth_demo
     dmp = Dmp.fit(t, positions, "xyz")
     rng = np.random.default_rng(0)
-    return Skill(dmp, *(rng.uniform(0, 100, dmp.theta_p.shape) for _ in range(3)))
+    return Skill(dmp, *(rng.uniform(0, 100, dmp.theta_p.shape) for _ in range(3)), world=WORLD)
 
 
 def test_round_trip(tmp_path, skill):
@@ -28,6 +31,30 @@ def test_round_trip(tmp_path, skill):
     assert loaded.dmp.settings == skill.dmp.settings
     assert loaded.dmp.axis_names == ("x", "y", "z")
     assert loaded.dmp.tau == skill.dmp.tau
+    assert loaded.world == WORLD
+
+
+def test_a_skill_without_a_world_round_trips_as_unknown(tmp_path, skill):
+    path = save_skill(tmp_path / "skill.npz", Skill.untrained(skill.dmp))
+    assert load_skill(path).world is None
+
+
+def test_a_format_1_file_loads_with_its_world_unknown(tmp_path, skill):
+    path = save_skill(tmp_path / "skill.npz", skill)
+    # A file as format 1 wrote it: no world fields.
+    _rewrite(
+        path, format_version=np.array(1), world_scenario=None, world_kind=None, world_digest=None
+    )
+    loaded = load_skill(path)
+    assert loaded.world is None
+    np.testing.assert_array_equal(loaded.theta_k, skill.theta_k)
+
+
+def test_same_world_compares_kind_and_digest_not_the_name():
+    assert WORLD.same_world(SkillWorld("my_insertion", WORLD.kind, WORLD.digest))
+    assert not WORLD.same_world(SkillWorld("insertion", WORLD.kind, "f" * 64))
+    assert not WORLD.same_world(SkillWorld("insertion", "SliderTask", WORLD.digest))
+    assert WORLD.describe() == "'insertion' (ArmTask world 0123456789ab)"
 
 
 def _rewrite(path, **changes):
@@ -42,7 +69,14 @@ def _rewrite(path, **changes):
 @pytest.mark.parametrize(
     "changes, message",
     [
-        ({"format_version": np.array(FORMAT_VERSION + 1)}, "format_version 2 is not supported"),
+        (
+            {"format_version": np.array(FORMAT_VERSION + 1)},
+            "format_version 3 is not supported (this version reads 1, 2)",
+        ),
+        ({"world_digest": None}, "missing field(s): world_digest"),
+        ({"world_digest": np.array("abc")}, "field 'world_digest' must be 64 hex digits"),
+        ({"world_kind": np.array("")}, "field(s) world_kind empty while the others name a world"),
+        ({"world_scenario": np.array(3)}, "field 'world_scenario' must be a string"),
         ({"theta_k": np.zeros((3, 7))}, "field 'theta_k' has shape (3, 7), expected (3, 30)"),
         ({"goal": np.zeros(2)}, "field 'goal' has shape (2,)"),
         ({"theta_v": None}, "missing field(s): theta_v"),

@@ -1,5 +1,6 @@
 """hlcmp learn / reproduce: skills as files, repeated trials, frozen replays."""
 
+import dataclasses as dc
 import json
 
 import numpy as np
@@ -8,6 +9,7 @@ from conftest import INSERTION_DEMO
 
 from hlcmp_drake.cli import main
 from hlcmp_drake.core.dmp import basis_centers_and_widths, normalized_basis, phase_at
+from hlcmp_drake.io.paths import DIAGRAMS_DIR
 from hlcmp_drake.io.skill import load_skill
 
 
@@ -143,3 +145,264 @@ def test_effort_and_improvement_by_hand():
         "smoothness_z": True,
         "effort": False,
     }
+
+
+# --- how long a trial lasts ----------------------------------------------------------
+
+
+def resampled_demo(path, seconds, source=INSERTION_DEMO):
+    """The bundled insertion demonstration played in `seconds` (same path), 100 Hz."""
+    from hlcmp_drake.io.demos import read_demonstration, write_trajectory
+
+    t, positions, axes = read_demonstration(source)
+    new_t = np.linspace(0.0, seconds, int(round(100 * seconds)) + 1)
+    scaled = t * seconds / t[-1]
+    resampled = np.column_stack([np.interp(new_t, scaled, p) for p in positions.T])
+    write_trajectory(path, new_t, resampled, axes)
+    return path
+
+
+class Simulated(Exception):
+    """Raised in place of simulating: what would have run."""
+
+
+@pytest.fixture
+def no_simulation(monkeypatch):
+    """run_trials replaced: records the scenario it would simulate, then stops the command."""
+    seen = []
+
+    def run_trials(scenario, dmp, trials, **_):
+        seen.append(scenario)
+        raise Simulated(scenario.duration_s)
+
+    monkeypatch.setattr("hlcmp_drake.run.learning.run_trials", run_trials)
+    return seen
+
+
+@pytest.fixture(scope="module")
+def insertion_skill(tmp_path_factory):
+    """A skill of the bundled insertion demonstration (θ = 0), recorded as learned in the
+    insertion world: what `hlcmp learn` would save, without the simulation."""
+    from hlcmp_drake.config.loading import load_scenario
+    from hlcmp_drake.config.world import world_of_scenario
+    from hlcmp_drake.io.skill import Skill, save_skill
+    from hlcmp_drake.worlds.arm import fit_demonstration
+
+    scenario, _ = load_scenario("insertion")
+    skill = dc.replace(
+        Skill.untrained(fit_demonstration(scenario)), world=world_of_scenario(scenario)
+    )
+    return save_skill(tmp_path_factory.mktemp("skill") / "insertion.npz", skill)
+
+
+def test_sets_duration_sees_only_the_scenario_duration():
+    from hlcmp_drake.run.learning import sets_duration
+
+    assert sets_duration(["duration_s=4"]) and sets_duration([" duration_s = 4"])
+    assert sets_duration([{"duration_s": 4}])
+    assert not sets_duration([])
+    assert not sets_duration(["reference.duration_s=6", "controllers.hlcmp.pi=4"])
+    assert not sets_duration([{"reference.duration_s": 6}])
+
+
+@pytest.mark.parametrize(
+    "extra, expected",
+    [
+        ([], 6.0 + 1.0),  # the demonstration's 6 s and SETTLE_S
+        (["--set", "duration_s=2.5"], 2.5),  # the user's, as said
+        (["--set", "reference.duration_s=3"], 3.0 + 1.0),  # the DMP replayed at tau = 3 s
+    ],
+)
+def test_learn_runs_the_demonstration_and_the_settle_time(tmp_path, no_simulation, extra, expected):
+    from hlcmp_drake.run.learning import SETTLE_S
+
+    assert SETTLE_S == 1.0
+    demo = resampled_demo(tmp_path / "six.csv", 6.0)
+    # The bundled insertion scenario runs 9.5 s (its own 8.5 s demonstration + 1 s).
+    with pytest.raises(Simulated):
+        main(["learn", str(demo), "--scenario", "insertion", "--out", str(tmp_path / "o"), *extra])
+    assert no_simulation[0].duration_s == pytest.approx(expected)
+
+
+def test_reproduce_runs_the_skill_and_the_settle_time(tmp_path, no_simulation):
+    from hlcmp_drake.cli import main as cli
+    from hlcmp_drake.core.dmp import Dmp
+    from hlcmp_drake.io.demos import read_demonstration
+    from hlcmp_drake.io.skill import Skill, save_skill
+
+    t, positions, axes = read_demonstration(resampled_demo(tmp_path / "six.csv", 6.0))
+    path = save_skill(tmp_path / "six.npz", Skill.untrained(Dmp.fit(t, positions, axes)))
+    with pytest.raises(Simulated):
+        cli(["reproduce", str(path), "--scenario", "insertion", "--out", str(tmp_path / "o")])
+    assert no_simulation[0].duration_s == pytest.approx(7.0)
+
+
+# --- skills know their world ---------------------------------------------------------
+
+
+def test_a_skill_is_refused_in_another_world_in_one_line(
+    insertion_skill, tmp_path, capsys, no_simulation
+):
+    for scenario in ("cutting", "one_dof"):
+        args = ["reproduce", str(insertion_skill), "--scenario", scenario, "--freeze"]
+        assert main([*args, "--out", str(tmp_path / scenario)]) == 2
+        error = capsys.readouterr().err.strip().splitlines()
+        assert len(error) == 1, error
+        assert error[0].startswith("hlcmp: error: the skill was learned in 'insertion' (ArmTask")
+        assert f"not in '{scenario}'" in error[0] and "--any-scenario" in error[0]
+    # Moving the plank by an override makes another world, under the same name.
+    moved = ["--set", "task.puncture.depth_m=0.01"]
+    assert main(["reproduce", str(insertion_skill), "--scenario", "insertion", *moved,
+                 "--out", str(tmp_path / "moved")]) == 2  # fmt: skip
+    assert "not in this 'insertion'" in capsys.readouterr().err
+    assert no_simulation == []  # refused before anything was simulated
+    assert not (tmp_path / "cutting").exists()
+
+
+def test_any_scenario_replays_it_elsewhere_with_a_warning(
+    insertion_skill, tmp_path, capsys, no_simulation
+):
+    with pytest.raises(Simulated):
+        main(["reproduce", str(insertion_skill), "--scenario", "cutting", "--any-scenario",
+              "--freeze", "--out", str(tmp_path / "o")])  # fmt: skip
+    assert no_simulation[0].name == "cutting"
+    warning = capsys.readouterr().err.strip().splitlines()
+    assert warning == [
+        "hlcmp: warning: the skill was learned in 'insertion' (ArmTask world "
+        f"{load_skill(insertion_skill).world.digest[:12]}), not in 'cutting' (ArmTask world "
+        f"{_digest('cutting')[:12]}); used here all the same (--any-scenario)"
+    ]
+
+
+def _digest(name):
+    from hlcmp_drake.config.loading import load_scenario
+    from hlcmp_drake.config.world import world_of_scenario
+
+    return world_of_scenario(load_scenario(name)[0]).digest
+
+
+def test_its_own_world_replays_silently(insertion_skill, tmp_path, capsys, no_simulation):
+    with pytest.raises(Simulated):
+        main(["reproduce", str(insertion_skill), "--scenario", "insertion", "--freeze",
+              "--set", "controllers.hlcmp.pi=4", "--out", str(tmp_path / "o")])  # fmt: skip
+    assert capsys.readouterr().err == ""
+
+
+def test_learning_from_a_skill_of_another_world_is_refused_too(
+    insertion_skill, tmp_path, capsys, no_simulation
+):
+    demo = str(DIAGRAMS_DIR / "demos" / "cutting_demo.csv")
+    args = ["learn", demo, "--scenario", "cutting", "--out", str(tmp_path / "o")]
+    assert main([*args, "--skill", str(insertion_skill)]) == 2
+    assert "the skill was learned in 'insertion'" in capsys.readouterr().err
+    assert main([*args, "--any-scenario"]) == 2
+    assert "--any-scenario needs --skill" in capsys.readouterr().err
+    assert no_simulation == []
+
+
+def test_a_skill_without_a_world_is_used_with_a_warning(
+    insertion_skill, tmp_path, capsys, no_simulation
+):
+    """A format 1 file (and a skill of hlcmp fit) records no world: replayed, with a line."""
+    old = tmp_path / "old.npz"
+    with np.load(insertion_skill) as data:
+        arrays = {k: data[k] for k in data.files if not k.startswith("world_")}
+    np.savez(old, **{**arrays, "format_version": np.array(1)})
+    with pytest.raises(Simulated):
+        main(["reproduce", str(old), "--scenario", "cutting", "--out", str(tmp_path / "o")])
+    assert capsys.readouterr().err.strip().splitlines() == [
+        "hlcmp: warning: the skill records no world (a skill of hlcmp fit, or a file saved "
+        "before skill format 2): it is used in 'cutting' unchecked"
+    ]
+
+
+def test_check_skill_world_by_hand(insertion_skill):
+    from hlcmp_drake.config.loading import load_scenario
+    from hlcmp_drake.io.errors import InputError
+    from hlcmp_drake.run.learning import check_skill_world
+
+    skill = load_skill(insertion_skill)
+    insertion, cutting = (load_scenario(name)[0] for name in ("insertion", "cutting"))
+    assert check_skill_world(skill, insertion) is None
+    with pytest.raises(InputError, match="not in 'cutting'"):
+        check_skill_world(skill, cutting)
+    assert "all the same" in check_skill_world(skill, cutting, any_scenario=True)
+    assert "records no world" in check_skill_world(dc.replace(skill, world=None), insertion)
+
+
+# --- reproduce is itself --------------------------------------------------------------
+
+
+def test_rows_are_labelled_by_the_command_that_ran_them():
+    from hlcmp_drake.run.learning import run_label, trials_table
+
+    row = {
+        "trial": 1,
+        "mean_abs_position_error_m": {"x": 0.001},
+        "mean_abs_force_N": {"x": 1.0},
+        "force_smoothness_N": {"z": 2.0},
+        "effort_N": 0.5,
+    }
+    learned = {"command": "learn", "adaptation": "on", "trials": [row, {**row, "trial": 2}]}
+    frozen = {"command": "reproduce", "adaptation": "frozen", "trials": [row]}
+    adapting = {"command": "reproduce", "adaptation": "on", "trials": [row]}
+    assert run_label(learned, 2) == "learn, trial 2"
+    assert run_label(frozen, 1) == "reproduce --freeze"
+    assert run_label(adapting, 1) == "reproduce"
+    assert run_label({"adaptation": "frozen"}, 1) == "learn, trial 1"  # before "command"
+    assert [r[0] for r in trials_table(adapting).rows] == ["reproduce"]
+    assert [r[0] for r in trials_table(learned, frozen).rows] == [
+        "learn, trial 1",
+        "learn, trial 2",
+        "reproduce --freeze",
+    ]
+
+
+def test_each_command_describes_its_own_output(capsys):
+    for command, says, never in (
+        ("learn", "the learned skill.npz", "unless --freeze"),
+        ("reproduce", "unless --freeze", "when learning"),
+    ):
+        with pytest.raises(SystemExit):
+            main([command, "--help"])
+        text = " ".join(capsys.readouterr().out.split())
+        assert says in text and never not in text
+        assert "--any-scenario" in text
+
+
+@pytest.mark.slow
+def test_a_short_skill_runs_its_own_time_and_records_its_world(tmp_path):
+    """A 2 s demonstration (the bundled one's approach) in the 9.5 s insertion scenario:
+    learning and the frozen replay run 2 + 1 s; the skill records the insertion world;
+    after the demonstration the frozen profiles are the last basis function's weights."""
+    from hlcmp_drake.config.loading import load_scenario
+    from hlcmp_drake.config.world import world_of_scenario
+    from hlcmp_drake.io.demos import read_demonstration, write_trajectory
+
+    t, positions, axes = read_demonstration(INSERTION_DEMO)
+    keep = t <= 2.0 + 1e-9
+    demo = write_trajectory(tmp_path / "approach.csv", t[keep], positions[keep], axes)
+    per_step = ["--set", "controllers.hlcmp.q_units=per_step"]  # profiles worth looking at
+    world = ["--scenario", "insertion", *per_step, "--quiet"]
+    assert main(["learn", str(demo), *world, "--out", str(tmp_path / "learn")]) == 0
+    skill = load_skill(tmp_path / "learn" / "skill.npz")
+    assert skill.dmp.tau == pytest.approx(2.0)
+    scenario, _ = load_scenario("insertion", ["controllers.hlcmp.q_units=per_step"])
+    assert skill.world == world_of_scenario(scenario)
+    assert main(["reproduce", str(tmp_path / "learn" / "skill.npz"), *world, "--freeze",
+                 "--out", str(tmp_path / "frozen")]) == 0  # fmt: skip
+    for out in ("learn", "frozen"):
+        metrics = json.loads((tmp_path / out / "metrics.json").read_text())
+        assert metrics["duration_s"] == pytest.approx(3.0) and metrics["settle_s"] == 1.0
+        assert metrics["world"]["digest"] == skill.world.digest
+        assert np.load(tmp_path / out / "timeseries.npz")["t"][-1] == pytest.approx(3.0, abs=0.011)
+    data = np.load(tmp_path / "frozen" / "timeseries.npz")
+    late = data["t"] >= 2.0 + 0.9
+    assert np.abs(skill.theta_v[:, -1]).max() > 1e-3  # a feed-forward to hold, not zero
+    for series, theta in (("Ks", skill.theta_k), ("Kd", skill.theta_d), ("v", skill.theta_v)):
+        np.testing.assert_allclose(
+            data[f"trial_1/{series}"][late],
+            np.broadcast_to(theta[:, -1], (late.sum(), 3)),
+            rtol=2e-3,
+            atol=1e-3 * np.abs(theta).max(),
+        )

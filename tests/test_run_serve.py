@@ -2,6 +2,7 @@
 the simulated run (in one process over memq://, in two over udpm://), the watchdogs, and
 bad serve input."""
 
+import dataclasses as dc
 import json
 import os
 import random
@@ -277,6 +278,7 @@ def test_saturated_torques_stop_the_client_after_max_saturation_s():
             "has no controller 'nope'",
         ),
         (["serve", "insertion", "--lcm", "memq://", "--freeze"], "--freeze needs --skill"),
+        (["serve", "insertion", "--lcm", "memq://", "--any-scenario"], "--any-scenario needs"),
         (["serve", "insertion", "--lcm", "tcp://x:1"], "expected udpm://GROUP:PORT?ttl=0"),
         (["sim-driver", "insertion", "--lcm", "memq://"], "memq:// reaches only this process"),
         (
@@ -378,3 +380,32 @@ def test_served_controller_equals_its_simulated_run(scenario_name, controller, t
         assert np.abs(served.series[name] - values).max() <= 1e-9 * max(
             1.0, np.abs(values).max()
         ), name
+
+
+def test_a_skill_from_another_world_is_not_served(tmp_path, capsys, monkeypatch):
+    """An insertion skill served in the cutting world: one line, exit 2, before the LCM is
+    opened; --any-scenario serves it with a warning line."""
+    from hlcmp_drake.cli import main
+    from hlcmp_drake.config.loading import load_scenario
+    from hlcmp_drake.config.world import world_of_scenario
+    from hlcmp_drake.io.skill import Skill, save_skill
+    from hlcmp_drake.worlds.arm import fit_demonstration
+
+    insertion, _ = load_scenario("insertion")
+    skill = Skill.untrained(fit_demonstration(insertion))
+    path = save_skill(tmp_path / "skill.npz", dc.replace(skill, world=world_of_scenario(insertion)))
+
+    class Opened(Exception):
+        pass
+
+    def open_lcm(url):
+        raise Opened(url)
+
+    monkeypatch.setattr("hlcmp_drake.run.serve.open_lcm", open_lcm)
+    args = ["serve", "cutting", "--lcm", "memq://", "--skill", str(path), "--freeze"]
+    assert main([*args, "--out", str(tmp_path / "o")]) == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    assert len(error) == 1 and "the skill was learned in 'insertion'" in error[0], error
+    with pytest.raises(Opened):
+        main([*args, "--any-scenario", "--out", str(tmp_path / "o")])
+    assert "used here all the same" in capsys.readouterr().err

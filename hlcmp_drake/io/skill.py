@@ -1,14 +1,19 @@
 """A compliant skill theta = {theta_p, theta_k, theta_d, theta_v} (paper Eq. 17) as one file.
 
 The file is a NumPy .npz with a `format_version`; it holds the DMP (theta_p and its
-settings, tau, start, goal, Eq. 13 amplitudes, axis names) and the learned compliant
-profiles' weights (M x N each). Loading checks the version, the keys and every shape.
+settings, tau, start, goal, Eq. 13 amplitudes, axis names), the learned compliant
+profiles' weights (M x N each) and, from format 2 on, the world the skill was learned in
+(`SkillWorld`: the scenario's name, the world's kind and a digest of what defines it).
+Loading checks the version, the keys and every shape. A format 1 file (written before
+skills recorded their world) still loads; its world is unknown (`Skill.world` None), as is
+that of a skill `hlcmp fit` made from a demonstration alone.
 """
 
 from __future__ import annotations
 
 import codecs
 import dataclasses as dc
+import re
 import zipfile
 from pathlib import Path
 from typing import Any
@@ -18,14 +23,67 @@ import numpy as np
 from hlcmp_drake.core.dmp import Dmp, DmpSettings
 from hlcmp_drake.io.errors import InputError
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+# The versions this one reads: 1 is a skill without its world (Skill.world None).
+READABLE_VERSIONS = (1, 2)
+# Format 2's record of the world (SkillWorld's fields), all empty when it is unknown.
+WORLD_FIELDS = ("world_scenario", "world_kind", "world_digest")
 NOT_A_SKILL = "not a skill file (a .npz written by hlcmp fit/learn)"
 _ZIP_MAGIC = (b"PK\x03\x04", b"PK\x05\x06")  # a .npz is a zip archive
 
 
 @dc.dataclass(frozen=True)
+class SkillWorld:
+    """The world a skill was learned in, as a replay compares it.
+
+    Two worlds are the same when their `kind` and `digest` are (`same_world`); the
+    scenario's name is kept to say where the skill comes from, so a copy of a scenario
+    under another name with the same world replays without complaint.
+
+    Attributes
+    ----------
+    scenario : str
+        The name of the scenario the skill was learned in (e.g. "insertion").
+    kind : str
+        The world's kind: the scenario's task class, "ArmTask" or "SliderTask".
+    digest : str
+        64 hex digits: the SHA-256 of what defines the world (the scenario's model
+        directives, with each model file's content, and its task), made by
+        `hlcmp_drake.config.world.world_of_scenario`.
+    """
+
+    scenario: str
+    kind: str
+    digest: str
+
+    def same_world(self, other: SkillWorld) -> bool:
+        """Whether `other` is the same world (kind and digest; the name may differ).
+
+        Parameters
+        ----------
+        other : SkillWorld
+
+        Returns
+        -------
+        bool
+        """
+        return (self.kind, self.digest) == (other.kind, other.digest)
+
+    def describe(self) -> str:
+        """The scenario and a short form of the world, e.g. "'insertion' (ArmTask world
+        3f2a9c1b07d4)", for messages.
+
+        Returns
+        -------
+        str
+        """
+        return f"'{self.scenario}' ({self.kind} world {self.digest[:12]})"
+
+
+@dc.dataclass(frozen=True)
 class Skill:
-    """A compliant skill theta: the DMP with theta_p and the compliant profiles' weights.
+    """A compliant skill theta: the DMP with theta_p and the compliant profiles' weights,
+    and the world they were learned in.
 
     Attributes
     ----------
@@ -34,12 +92,16 @@ class Skill:
     theta_k, theta_d, theta_v : (M, N) arrays
         Basis weights of the stiffness [N/m], damping [N s/m] and feed-forward force [N]
         profiles, one row per axis.
+    world : SkillWorld or None
+        Where the profiles were learned; None when unknown (a skill of `hlcmp fit`, which
+        learned nothing, or a format 1 file).
     """
 
     dmp: Dmp
     theta_k: np.ndarray
     theta_d: np.ndarray
     theta_v: np.ndarray
+    world: SkillWorld | None = None
 
     @classmethod
     def untrained(cls, dmp: Dmp) -> Skill:
@@ -62,7 +124,8 @@ class Skill:
 def save_skill(path: str | Path, skill: Skill) -> Path:
     """Write a skill file (.npz with `format_version`), atomically.
 
-    beta is stored by its value (alpha / 4 when the settings leave it at None).
+    beta is stored by its value (alpha / 4 when the settings leave it at None); the world
+    as three strings world_scenario, world_kind, world_digest (all empty when unknown).
 
     Parameters
     ----------
@@ -97,6 +160,9 @@ def save_skill(path: str | Path, skill: Skill) -> Path:
         theta_d=skill.theta_d,
         theta_v=skill.theta_v,
     )
+    world = skill.world or SkillWorld("", "", "")
+    for key in ("scenario", "kind", "digest"):
+        arrays[f"world_{key}"] = np.array(getattr(world, key))
 
     def write(temp):
         with open(temp, "wb") as stream:
@@ -117,7 +183,8 @@ def load_skill(path: str | Path) -> Skill:
     -------
     Skill
         The skill, arrays as float (goal_scaled as bool); a stored beta equal to
-        alpha / 4 becomes the settings' default None.
+        alpha / 4 becomes the settings' default None; its world None when the file records
+        none (format 1, or empty strings).
     """
 
     def fail(problem):
@@ -138,9 +205,10 @@ def load_skill(path: str | Path) -> Skill:
     if "format_version" not in arrays:
         raise fail("not a skill file: no 'format_version'")
     version = int(arrays["format_version"])
-    if version != FORMAT_VERSION:
+    if version not in READABLE_VERSIONS:
         raise fail(
-            f"format_version {version} is not supported (this version reads {FORMAT_VERSION})"
+            f"format_version {version} is not supported (this version reads "
+            f"{', '.join(map(str, READABLE_VERSIONS))})"
         )
     required = (
         "axis_names",
@@ -158,7 +226,7 @@ def load_skill(path: str | Path) -> Skill:
         "theta_k",
         "theta_d",
         "theta_v",
-    )
+    ) + (WORLD_FIELDS if version >= 2 else ())
     missing = [key for key in required if key not in arrays]
     if missing:
         raise fail(f"missing field(s): {', '.join(missing)}")
@@ -203,7 +271,26 @@ def load_skill(path: str | Path) -> Skill:
         arrays["theta_k"].astype(float),
         arrays["theta_d"].astype(float),
         arrays["theta_v"].astype(float),
+        _world(arrays, fail) if version >= 2 else None,
     )
+
+
+def _world(arrays, fail):
+    """The SkillWorld of a format 2 file: three strings, all empty (None) or all set."""
+    values = {}
+    for key in WORLD_FIELDS:
+        value = arrays[key]
+        if value.shape != () or value.dtype.kind != "U":
+            raise fail(f"field '{key}' must be a string")
+        values[key] = str(value)
+    if not any(values.values()):
+        return None
+    if not all(values.values()):
+        empty = [key for key, value in values.items() if not value]
+        raise fail(f"field(s) {', '.join(empty)} empty while the others name a world")
+    if not re.fullmatch(r"[0-9a-f]{64}", values["world_digest"]):
+        raise fail("field 'world_digest' must be 64 hex digits (a SHA-256)")
+    return SkillWorld(values["world_scenario"], values["world_kind"], values["world_digest"])
 
 
 def _check_is_zip(path, fail):

@@ -4,19 +4,27 @@ trials, save it, and reproduce it later (with or without further adaptation).
 Each trial is one reproduction of the demonstration in the scenario's world by the
 scenario's learning controller (its Hl-CMP, found by config kind), starting from the
 theta the previous trial ended with.
+
+A trial lasts as long as the skill -- the demonstration's duration, the DMP's tau (or the
+scenario's `reference.duration_s` when that rescales it) -- plus SETTLE_S, whatever the
+scenario's own `duration_s` is; an override ``duration_s=...`` sets it instead. A skill
+records the world it was learned in (`hlcmp_drake.config.world`); using it in another
+world is refused unless asked for (`any_scenario`), and a skill whose world is unknown (a
+skill of `hlcmp fit`, or a format 1 file) is used with a warning.
 """
 
 from __future__ import annotations
 
 import dataclasses as dc
 from pathlib import Path
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 from matplotlib.figure import Figure
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.scenario import DemonstrationConfig, Scenario
+from hlcmp_drake.config.world import world_of_scenario
 from hlcmp_drake.core.dmp import Dmp
 from hlcmp_drake.experiments import experiment_of
 from hlcmp_drake.experiments.claims import learner
@@ -24,12 +32,111 @@ from hlcmp_drake.experiments.plots import new_figure
 from hlcmp_drake.experiments.table import Table, number
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.io.runs import RunResult, instability_record
-from hlcmp_drake.io.skill import Skill, save_skill
+from hlcmp_drake.io.skill import Skill, SkillWorld, save_skill
 from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.run.runner import run_one, write_results
 from hlcmp_drake.worlds.arm import fit_demonstration
 from hlcmp_drake.worlds.build import diagram_factory
 from hlcmp_drake.worlds.controllers import controller_kind
+
+# The simulated time after the skill's end (its tau) in every trial of `learn` and
+# `reproduce` [s]. It is the bundled scenarios' own (8.5 s + 1 s for the insertion, 8 s +
+# 1 s for the cutting), so learning from their demonstrations runs as long as `hlcmp run`,
+# and it is the time the profiles take to come to rest after tau: the phase passes the last
+# basis centre at tau, and the normalized basis (N = 30, alpha_s = 4) puts 71 % of every
+# profile on its last function there and, 1 s later, 99.95 % for a 6 s skill (99.8 % for
+# 8.5 s, 97 % for 20 s); from then on K_s, K_d and v are that function's weights, constant
+# (the README's learning section says what the arm does then). The reference is at its
+# goal by then: after a 6 s insertion demonstration it stays within 0.5 mm of it from tau.
+SETTLE_S = 1.0
+
+
+def skill_duration(scenario: Scenario, dmp: Dmp) -> float:
+    """The skill's duration in `scenario`: the DMP's tau, or the scenario's
+    `reference.duration_s` when that is > 0 (the same path replayed at another tau).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        With a DemonstrationConfig reference.
+    dmp : Dmp
+        The skill's (or the fitted demonstration's) DMP.
+
+    Returns
+    -------
+    float
+        The time the reference takes [s].
+    """
+    reference = scenario.reference
+    scaled = reference.duration_s if isinstance(reference, DemonstrationConfig) else 0.0
+    return float(scaled or dmp.tau)
+
+
+def sets_duration(overrides: Sequence[str | dict]) -> bool:
+    """Whether the overrides set the scenario's `duration_s`.
+
+    Parameters
+    ----------
+    overrides : sequence of str or dict
+        As for `load_scenario`: ``key=value`` strings or {key: value} dicts.
+
+    Returns
+    -------
+    bool
+    """
+    for override in overrides:
+        keys = override if isinstance(override, dict) else [str(override).partition("=")[0]]
+        if any(str(key).strip() == "duration_s" for key in keys):
+            return True
+    return False
+
+
+def check_skill_world(skill: Skill, scenario: Scenario, any_scenario: bool = False) -> str | None:
+    """Refuse a skill learned in another world than the scenario's, unless `any_scenario`.
+
+    Parameters
+    ----------
+    skill : Skill
+        Its `world` is where it was learned (None: unknown).
+    scenario : Scenario
+        Where it is about to be used (as loaded, with its overrides).
+    any_scenario : bool
+        Use it in another world all the same.
+
+    Returns
+    -------
+    str or None
+        A warning line when the skill is used unchecked (its world unknown) or in another
+        world with `any_scenario`; None when it is used in its own world.
+
+    Raises
+    ------
+    InputError
+        The skill's world is known and is not the scenario's, and not `any_scenario`.
+    """
+    here = world_of_scenario(scenario)
+    if skill.world is None:
+        return (
+            f"the skill records no world (a skill of hlcmp fit, or a file saved before "
+            f"skill format 2): it is used in '{scenario.name}' unchecked"
+        )
+    if skill.world.same_world(here):
+        return None
+    what = (
+        f"not in this '{here.scenario}' ({here.kind} world {here.digest[:12]}), whose models, "
+        "their placement or task differ"
+        if skill.world.scenario == here.scenario
+        else f"not in {here.describe()}"
+    )
+    if not any_scenario:
+        raise InputError(
+            f"the skill was learned in {skill.world.describe()}, {what}; its profiles belong "
+            "to that world (pass --any-scenario to use it here anyway)"
+        )
+    return (
+        f"the skill was learned in {skill.world.describe()}, {what}; used here all the same "
+        "(--any-scenario)"
+    )
 
 
 def learning_scenario(
@@ -214,20 +321,42 @@ def improvement(rows: list[dict]) -> dict | None:
     }
 
 
-def trials_table(learn_metrics: dict, replay_metrics: dict | None = None) -> Table:
-    """The trials of `hlcmp learn` (and a frozen replay's row, when given) as a Table.
+def run_label(metrics: dict, trial: int) -> str:
+    """How a trial of `learn` or `reproduce` is labelled in tables: "learn, trial K",
+    "reproduce" or "reproduce --freeze".
 
     Parameters
     ----------
-    learn_metrics : dict
-        The metrics.json of `hlcmp learn`.
+    metrics : dict
+        A metrics.json of `learn` or `reproduce` (one without "command" is a learn's).
+    trial : int
+        The trial's number, from 1.
+
+    Returns
+    -------
+    str
+    """
+    if metrics.get("command", "learn") == "reproduce":
+        return "reproduce --freeze" if metrics.get("adaptation") == "frozen" else "reproduce"
+    return f"learn, trial {trial}"
+
+
+def trials_table(metrics: dict, replay_metrics: dict | None = None) -> Table:
+    """The trials of `hlcmp learn` or `hlcmp reproduce` (and a replay's row, when given)
+    as a Table, each row labelled by the command that ran it (`run_label`).
+
+    Parameters
+    ----------
+    metrics : dict
+        The metrics.json of `hlcmp learn` or `hlcmp reproduce`.
     replay_metrics : dict, optional
-        The metrics.json of `hlcmp reproduce --freeze`.
+        The metrics.json of `hlcmp reproduce --freeze`, a row after the trials.
     """
     table = Table(["run"] + [header for header, _ in TRIAL_MEASURES])
-    rows = [(f"learn, trial {r['trial']}", r) for r in learn_metrics["trials"]]
+    rows = [(run_label(metrics, r["trial"]), r) for r in metrics["trials"]]
     if replay_metrics is not None:
-        rows.append(("reproduce --freeze", replay_metrics["trials"][0]))
+        replay = {"command": "reproduce", **replay_metrics}
+        rows.append((run_label(replay, 1), replay_metrics["trials"][0]))
     for label, row in rows:
         table.add(label, *(number(value(row)) for _, value in TRIAL_MEASURES))
     return table
@@ -256,12 +385,14 @@ def trials_figure(rows: list[dict]) -> Figure:
 @dc.dataclass
 class LearningResult:
     """What `learn` and `reproduce` return: the metrics.json content, the trials' runs,
-    where the files went, and the saved skill file (None when frozen or unstable)."""
+    where the files went, the saved skill file (None when frozen or unstable) and the
+    warnings given (each also in metrics.json)."""
 
     metrics: dict
     runs: list
     out_dir: Path
     skill_path: Path | None
+    warnings: list[str] = dc.field(default_factory=list)
 
 
 def learn(
@@ -273,10 +404,15 @@ def learn(
     skill_path: str | Path | None = None,
     trials: int = 1,
     freeze: bool = False,
+    any_scenario: bool = False,
     reporter: Progress = SILENT,
     overrides: Sequence[str] = (),
+    warn: Callable[[str], None] | None = None,
 ) -> LearningResult:
     """Learn (or, with a skill and `freeze`, replay) over `trials` reproductions.
+
+    Each trial lasts the skill's duration (`skill_duration`) plus SETTLE_S, unless the
+    overrides set ``duration_s``. The skill saved records the scenario's world.
 
     Parameters
     ----------
@@ -295,27 +431,151 @@ def learn(
         Reproductions, each continuing from the previous one's learned profiles.
     freeze : bool
         No adaptation (learning rates 0): the skill's profiles as they are.
+    any_scenario : bool
+        Use a skill learned in another world all the same (`check_skill_world`).
     reporter : Progress, optional
     overrides : sequence of str
         ``dotted.key=value`` overrides of the scenario.
+    warn : callable(str), optional
+        Told each warning line before anything is simulated (e.g. a skill whose world
+        is unknown).
+
+    Raises
+    ------
+    InputError
+        Before anything is simulated: a bad scenario or demonstration, a skill that does
+        not fit the scenario's axes, or one learned in another world.
     """
+    return _learn_or_reproduce(
+        "learn",
+        scenario_name,
+        out_dir,
+        demo=demo,
+        skill=skill,
+        skill_path=skill_path,
+        trials=trials,
+        freeze=freeze,
+        any_scenario=any_scenario,
+        reporter=reporter,
+        overrides=overrides,
+        warn=warn,
+    )
+
+
+def reproduce(
+    scenario_name: str | Path,
+    out_dir: str | Path,
+    skill: Skill,
+    *,
+    skill_path: str | Path | None = None,
+    freeze: bool = False,
+    any_scenario: bool = False,
+    reporter: Progress = SILENT,
+    overrides: Sequence[str] = (),
+    warn: Callable[[str], None] | None = None,
+) -> LearningResult:
+    """Replay a skill once in a scenario: its DMP and profiles, adapting on (a skill.npz
+    is saved) or off with `freeze`.
+
+    The run lasts the skill's duration (`skill_duration`) plus SETTLE_S, unless the
+    overrides set ``duration_s``.
+
+    Parameters
+    ----------
+    scenario_name : str or Path
+        A bundled scenario or a YAML file with a demonstration and an Hl-CMP.
+    out_dir : str or Path
+        Where metrics.json, the time series, figures, recording (and skill.npz unless
+        `freeze`) go.
+    skill : Skill
+        The skill to replay.
+    skill_path : path, optional
+        Where `skill` was read from (recorded in metrics.json).
+    freeze : bool
+        No adaptation (learning rates 0): the skill's profiles as they are.
+    any_scenario : bool
+        Replay a skill learned in another world all the same (`check_skill_world`).
+    reporter : Progress, optional
+    overrides : sequence of str
+        ``dotted.key=value`` overrides of the scenario.
+    warn : callable(str), optional
+        Told each warning line before anything is simulated.
+
+    Raises
+    ------
+    InputError
+        Before anything is simulated: a bad scenario, a skill that does not fit the
+        scenario's axes, or one learned in another world.
+    """
+    return _learn_or_reproduce(
+        "reproduce",
+        scenario_name,
+        out_dir,
+        demo=None,
+        skill=skill,
+        skill_path=skill_path,
+        trials=1,
+        freeze=freeze,
+        any_scenario=any_scenario,
+        reporter=reporter,
+        overrides=overrides,
+        warn=warn,
+    )
+
+
+def _learn_or_reproduce(
+    command,
+    scenario_name,
+    out_dir,
+    *,
+    demo,
+    skill,
+    skill_path,
+    trials,
+    freeze,
+    any_scenario,
+    reporter,
+    overrides,
+    warn,
+):
     base, path = load_scenario(scenario_name, overrides)
     experiment = experiment_of(base, path)
+    warnings = []
+    if skill is not None:
+        # The world before the axes: a skill from another world is refused for that.
+        warning = check_skill_world(skill, base, any_scenario)
+        if warning is not None:
+            warnings.append(warning)
     scenario = learning_scenario(base, demo, skill, freeze)
     dmp = fit_demonstration(scenario) if demo is not None or skill is None else skill.dmp
+    tau = skill_duration(scenario, dmp)
+    if not sets_duration(overrides):
+        scenario = dc.replace(scenario, duration_s=tau + SETTLE_S)
+    for warning in warnings:
+        if warn is not None:
+            warn(warning)
+    world = world_of_scenario(base)
     theta0 = (skill.theta_k, skill.theta_d, skill.theta_v) if skill else None
     runs = run_trials(scenario, dmp, trials, theta0=theta0, reporter=reporter)
     rows = trial_metrics(runs, scenario)
     unstable = instability_record(runs)
     metrics = {
+        "command": command,
         "scenario": scenario.name,
+        "world": dc.asdict(world),
         "status": "unstable" if unstable else "ok",
         "demonstration": None if demo is None else str(demo),
         "started_from_skill": None if skill_path is None else str(skill_path),
+        "skill_world": _world_record(skill),
         "adaptation": "frozen" if freeze else "on",
+        "duration_s": scenario.duration_s,
+        "skill_duration_s": tau,
+        "settle_s": None if sets_duration(overrides) else SETTLE_S,
         "trials": rows,
         "improves_over_trials": improvement(rows),
     }
+    if warnings:
+        metrics["warnings"] = warnings
     if unstable:
         metrics["instability"] = unstable
     figures = {}
@@ -325,6 +585,14 @@ def learn(
     out_dir = Path(out_dir)
     saved = None
     if not unstable and not freeze:
-        saved = save_skill(out_dir / "skill.npz", Skill(dmp, *runs[-1].theta))
+        saved = save_skill(out_dir / "skill.npz", Skill(dmp, *runs[-1].theta, world=world))
     write_results(out_dir, scenario, {run.controller: run for run in runs}, metrics, figures)
-    return LearningResult(metrics, runs, out_dir, saved)
+    return LearningResult(metrics, runs, out_dir, saved, warnings)
+
+
+def _world_record(skill: Skill | None) -> dict | str | None:
+    """metrics.json's record of where the skill used was learned."""
+    if skill is None:
+        return None
+    world: SkillWorld | None = skill.world
+    return "unknown" if world is None else dc.asdict(world)

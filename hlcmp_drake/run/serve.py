@@ -23,7 +23,7 @@ import dataclasses as dc
 import gc
 import time
 from pathlib import Path
-from typing import Iterator, Sequence
+from typing import Callable, Iterator, Sequence
 
 import numpy as np
 from pydrake.lcm import DrakeLcm
@@ -45,7 +45,7 @@ from hlcmp_drake.io.iiwa_lcm import (
 from hlcmp_drake.io.runs import RunResult
 from hlcmp_drake.io.skill import Skill
 from hlcmp_drake.present.progress import SILENT, Progress
-from hlcmp_drake.run.learning import learning_scenario
+from hlcmp_drake.run.learning import check_skill_world, learning_scenario
 from hlcmp_drake.run.runner import evaluate, without_claims, write_results
 from hlcmp_drake.run.sim_driver import DriverSummary, SimulatedIiwaDriver
 from hlcmp_drake.systems.monitor import plant_state_check
@@ -565,8 +565,10 @@ def serve_scenario(
     controller: str | None = None,
     skill: Skill | None = None,
     freeze: bool = False,
+    any_scenario: bool = False,
     overrides: Sequence[str] = (),
     reporter: Progress = SILENT,
+    warn: Callable[[str], None] | None = None,
 ) -> ServeResult:
     """Load a scenario, serve its controller over LCM, and write the results.
 
@@ -583,9 +585,14 @@ def serve_scenario(
         Where timeseries.npz, metrics.json, recording.html and serve.json go.
     controller, skill, freeze
         What to serve (see `served_scenario`).
+    any_scenario : bool
+        Serve a skill learned in another world all the same (refused otherwise, before
+        the LCM is opened: `run.learning.check_skill_world`).
     overrides : sequence of str
         ``dotted.key=value`` overrides (duration_s sets how long to serve).
     reporter : Progress, optional
+    warn : callable(str), optional
+        Told each warning line (e.g. a skill whose world is unknown) before serving.
 
     Returns
     -------
@@ -594,7 +601,10 @@ def serve_scenario(
     from hlcmp_drake.config.loading import load_scenario
 
     scenario, _ = load_scenario(name_or_path, overrides)
+    warning = check_skill_world(skill, scenario, any_scenario) if skill is not None else None
     scenario, controller, theta0 = served_scenario(scenario, controller, skill, freeze)
+    if warning is not None and warn is not None:
+        warn(warning)
     lcm = open_lcm(lcm_url)
     setup = prepare(scenario, skill.dmp if skill is not None else None)
     client = TorqueClient(scenario, controller, lcm, theta0, setup)
