@@ -32,6 +32,25 @@ def new_figure(
     return figure, axes.ravel()
 
 
+def controller_colors(labels) -> dict:
+    """One colour per controller, by its place in `labels` (matplotlib's C0, C1, ...), so
+    that a controller keeps its colour in every panel of a figure, as in the recording.
+
+    Parameters
+    ----------
+    labels : iterable of str
+        The controllers' labels, in the scenario's order.
+
+    Returns
+    -------
+    dict of str to str
+        {label: hex colour}; the cycle of ten colours repeats after the tenth.
+    """
+    from matplotlib.colors import to_hex
+
+    return {label: to_hex(f"C{k % 10}") for k, label in enumerate(labels)}
+
+
 def bar_chart(values: dict, groups: tuple, ylabel: str) -> Figure:
     """Grouped bars, one group per entry of `groups` (labelled "<group> axis").
 
