@@ -213,7 +213,8 @@ def cmd_bench(args):
     results = run_benchmark(quick=args.quick, reporter=Progress(stream=sys.stderr))
     path = write_json(Path(args.out) / "bench.json", results)
     _print_table(table(results))
-    print(f"bench.json: {path}")
+    smoke = " (a quick smoke run: no target judged; `hlcmp bench` measures)" if args.quick else ""
+    print(f"bench.json: {path}{smoke}")
     return 0
 
 
