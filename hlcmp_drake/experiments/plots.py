@@ -5,6 +5,8 @@ them needs no display and leaves an interactive session's backend alone."""
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
 from matplotlib.figure import Figure
 
@@ -32,7 +34,7 @@ def new_figure(
     return figure, axes.ravel()
 
 
-def controller_colors(labels) -> dict:
+def controller_colors(labels: Iterable[str]) -> dict:
     """One colour per controller, by its place in `labels` (matplotlib's C0, C1, ...), so
     that a controller keeps its colour in every panel of a figure, as in the recording.
 
