@@ -8,7 +8,7 @@ from pathlib import Path
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.experiments import experiment_of
-from hlcmp_drake.io.outputs import write_text
+from hlcmp_drake.io.outputs import replacing_outputs, write_text
 from hlcmp_drake.io.paths import bundled_scenarios
 from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.present.report import ReportSection, report_page
@@ -51,18 +51,19 @@ def run_report(
             bundled_scenarios(), key=lambda n: experiment_of(load_scenario(n)[0]).paper_section
         )
     sections, statuses, start = [], [], time.perf_counter()
-    for name in scenarios:
-        reporter.say(f"running {name} ...")
-        began = time.perf_counter()
-        result = run_scenario(name, out_dir / name, reporter=reporter)
-        probe_dir = None
-        if result.scenario.probe.push_m:  # the world alone, no controller (hlcmp probe)
-            probe_dir = run_probe(name, out_dir / name / "probe").out_dir
-        sections.append(
-            ReportSection(
-                name, result.out_dir, time.perf_counter() - began, result.experiment, probe_dir
+    with replacing_outputs(out_dir):  # a scenario left out this time leaves no old folder
+        for name in scenarios:
+            reporter.say(f"running {name} ...")
+            began = time.perf_counter()
+            result = run_scenario(name, out_dir / name, reporter=reporter)
+            probe_dir = None
+            if result.scenario.probe.push_m:  # the world alone, no controller (hlcmp probe)
+                probe_dir = run_probe(name, out_dir / name / "probe").out_dir
+            sections.append(
+                ReportSection(
+                    name, result.out_dir, time.perf_counter() - began, result.experiment, probe_dir
+                )
             )
-        )
-        statuses.append(result.metrics["status"])
-    page = write_text(out_dir / "index.html", report_page(out_dir, sections))
+            statuses.append(result.metrics["status"])
+        page = write_text(out_dir / "index.html", report_page(out_dir, sections))
     return ReportResult(page, sections, statuses, time.perf_counter() - start)
