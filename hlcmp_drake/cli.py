@@ -1,7 +1,7 @@
 """The `hlcmp` command line.
 
     hlcmp run SCENARIO [--out DIR] [--set KEY=VALUE ...] [--iiwa ours|drake_models]
-    hlcmp report [--out DIR] [--scenarios ...]   bundled scenarios and one offline page
+    hlcmp report [--out DIR] [--scenarios NAME|YAML ...]   scenarios and one offline page
     hlcmp learn DEMO.csv --scenario S --out DIR [--trials K] [--skill SKILL.npz]
     hlcmp reproduce SKILL.npz --scenario S --out DIR [--freeze]
     hlcmp bench [--out DIR] [--quick]        measure where the time goes
@@ -478,8 +478,9 @@ def build_parser():
     report.add_argument(
         "--scenarios",
         nargs="+",
-        choices=bundled,
-        help="a subset to run, in this order (default all, in the paper's order)",
+        metavar="SCENARIO",
+        help=f"what to run, in this order: bundled scenarios ({', '.join(bundled)}) or "
+        "scenario .yaml paths of your own (default every bundled one, in the paper's order)",
     )
     report.set_defaults(func=cmd_report)
 
@@ -679,7 +680,6 @@ def _default_out(args):
 
 def _check_output(args):
     """Refuse an output path that cannot be written before any work is done (exit 2)."""
-    from pathlib import Path
 
     from hlcmp_drake.io.outputs import check_output_file, check_output_folder
 
@@ -695,8 +695,11 @@ def _check_output(args):
         check_output_file(out)
         return
     check_output_folder(out)
-    for name in getattr(args, "scenarios", None) or ():  # report: one folder per scenario
-        check_output_folder(Path(out) / name, "--out")
+    if args.command == "report" and args.scenarios:  # one folder per scenario, by its name
+        from hlcmp_drake.run.report import report_folders
+
+        for folder in report_folders(out, args.scenarios).values():
+            check_output_folder(folder, "--out")
 
 
 def main(argv=None):
