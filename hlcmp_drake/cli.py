@@ -378,7 +378,8 @@ def cmd_serve(args):
         f"{record['missed_ticks']} missed, {timing}"
     )
     print(f"{record['status']}: {record['stopped_because']}")
-    print(f"serve.json, metrics.json, timeseries.npz in {result.out_dir}")
+    served = ", timeseries.npz, recording.html" if len(result.run.t) else ""
+    print(f"serve.json, metrics.json{served} in {result.out_dir}")
     return 0 if record["status"] == "ok" else EXIT_UNSTABLE
 
 
@@ -542,7 +543,7 @@ def build_parser():
     fit = sub.add_parser(
         "fit", parents=[common], help="fit the DMP of a demonstration CSV (t,x,y,z)"
     )
-    fit.add_argument("demo")
+    fit.add_argument("demo", help="demonstration CSV: t,x,y,z (time in s, then 1-3 positions in m)")
     fit.add_argument("--out", required=True, help="skill file to write (.npz)")
     fit.add_argument(
         "--basis",
@@ -562,7 +563,7 @@ def build_parser():
     rollout = sub.add_parser(
         "rollout", parents=[common], help="roll a skill's DMP out into a trajectory CSV"
     )
-    rollout.add_argument("skill")
+    rollout.add_argument("skill", help="skill file (.npz) from hlcmp fit or hlcmp learn")
     rollout.add_argument("--out", required=True, help="trajectory CSV to write")
     rollout.add_argument(
         "--duration", type=_positive, help="new duration tau in s (temporal scaling)"
