@@ -1,7 +1,7 @@
 """The `hlcmp` command line.
 
     hlcmp run SCENARIO [--out DIR] [--set KEY=VALUE ...] [--iiwa ours|drake_models]
-    hlcmp report [--out DIR] [--scenarios ...]   bundled scenarios and one offline page
+    hlcmp report [--out DIR] [--scenarios NAME|YAML ...]   scenarios and one offline page
     hlcmp learn DEMO.csv --scenario S --out DIR [--trials K] [--skill SKILL.npz [--any-scenario]]
     hlcmp reproduce SKILL.npz --scenario S --out DIR [--freeze] [--any-scenario]
     hlcmp bench [--out DIR] [--quick]        measure where the time goes
@@ -241,7 +241,8 @@ def cmd_bench(args):
     results = run_benchmark(quick=args.quick, reporter=Progress(stream=sys.stderr))
     path = write_json(Path(args.out) / "bench.json", results)
     _print_table(table(results))
-    print(f"bench.json: {path}")
+    smoke = " (a quick smoke run: no target judged; `hlcmp bench` measures)" if args.quick else ""
+    print(f"bench.json: {path}{smoke}")
     return 0
 
 
@@ -409,7 +410,8 @@ def cmd_serve(args):
         f"{record['missed_ticks']} missed, {timing}"
     )
     print(f"{record['status']}: {record['stopped_because']}")
-    print(f"serve.json, metrics.json, timeseries.npz in {result.out_dir}")
+    served = ", timeseries.npz, recording.html" if len(result.run.t) else ""
+    print(f"serve.json, metrics.json{served} in {result.out_dir}")
     return 0 if record["status"] == "ok" else EXIT_UNSTABLE
 
 
@@ -509,8 +511,9 @@ def build_parser():
     report.add_argument(
         "--scenarios",
         nargs="+",
-        choices=bundled,
-        help="a subset to run, in this order (default all, in the paper's order)",
+        metavar="SCENARIO",
+        help=f"what to run, in this order: bundled scenarios ({', '.join(bundled)}) or "
+        "scenario .yaml paths of your own (default every bundled one, in the paper's order)",
     )
     report.set_defaults(func=cmd_report)
 
@@ -583,7 +586,7 @@ def build_parser():
     fit = sub.add_parser(
         "fit", parents=[common], help="fit the DMP of a demonstration CSV (t,x,y,z)"
     )
-    fit.add_argument("demo")
+    fit.add_argument("demo", help="demonstration CSV: t,x,y,z (time in s, then 1-3 positions in m)")
     fit.add_argument("--out", required=True, help="skill file to write (.npz)")
     fit.add_argument(
         "--basis",
@@ -603,7 +606,7 @@ def build_parser():
     rollout = sub.add_parser(
         "rollout", parents=[common], help="roll a skill's DMP out into a trajectory CSV"
     )
-    rollout.add_argument("skill")
+    rollout.add_argument("skill", help="skill file (.npz) from hlcmp fit or hlcmp learn")
     rollout.add_argument("--out", required=True, help="trajectory CSV to write")
     rollout.add_argument(
         "--duration", type=_positive, help="new duration tau in s (temporal scaling)"
@@ -726,7 +729,6 @@ def _default_out(args):
 
 def _check_output(args):
     """Refuse an output path that cannot be written before any work is done (exit 2)."""
-    from pathlib import Path
 
     from hlcmp_drake.io.outputs import check_output_file, check_output_folder
 
@@ -742,8 +744,11 @@ def _check_output(args):
         check_output_file(out)
         return
     check_output_folder(out)
-    for name in getattr(args, "scenarios", None) or ():  # report: one folder per scenario
-        check_output_folder(Path(out) / name, "--out")
+    if args.command == "report" and args.scenarios:  # one folder per scenario, by its name
+        from hlcmp_drake.run.report import report_folders
+
+        for folder in report_folders(out, args.scenarios).values():
+            check_output_folder(folder, "--out")
 
 
 def main(argv=None):

@@ -156,6 +156,7 @@ def test_drake_models_without_internet_is_one_clear_line(tmp_path):
     assert result.returncode == 2
     assert len(result.stderr.strip().splitlines()) == 1, result.stderr
     assert "drake_models" in result.stderr
+    assert not result.stderr.strip().endswith(":")  # Drake's reason, not "All downloads failed:"
     assert not (tmp_path / "o").exists()
 
 
@@ -326,3 +327,26 @@ def test_run_with_meshcat_prints_its_url_and_closes_the_port(tmp_path):
             probe.connect(("localhost", port))
     finally:
         gc.enable()
+
+
+def test_every_positional_argument_has_help():
+    from hlcmp_drake.cli import build_parser
+
+    parser = build_parser()
+    (commands,) = [a for a in parser._actions if a.dest == "command"]
+    missing = [
+        f"{name} {action.dest}"
+        for name, sub in commands.choices.items()
+        for action in sub._actions
+        if not action.option_strings and not action.help
+    ]
+    assert missing == []
+
+
+def test_drake_models_on_a_scenario_without_the_arm_is_one_line_and_runs_nothing(tmp_path):
+    result = hlcmp("run", "one_dof", "--iiwa", "drake_models", "--out", tmp_path / "o")
+    assert one_error_line(result) == (
+        "hlcmp: error: --iiwa drake_models: only applies to arm scenarios (with "
+        "package://hlcmp_drake/models/iiwa14.sdf, e.g. insertion, cutting); 'one_dof' has no iiwa"
+    )
+    assert not (tmp_path / "o").exists()

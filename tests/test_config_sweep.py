@@ -151,3 +151,16 @@ def test_a_task_carries_its_whole_scenario_as_yaml_text(tmp_path):
         assert list(scenario.controllers) == ["hlcmp"] == task.controllers and not task.claims
         assert scenario.controllers["hlcmp"].pi == pi and scenario.duration_s == 0.1
         assert task.overrides == ["duration_s=0.1", f"controllers.hlcmp.pi={pi}"]
+
+
+def test_a_metrics_line_is_the_line_of_its_path_or_series(tmp_path):
+    from hlcmp_drake.config.sweep import metric_line
+
+    path = write_sweep(
+        tmp_path,
+        "scenario: one_dof\nmetrics:\n"
+        "- {label: a, path: controllers.hlcmp.reach_time_s}\n"
+        "- label: b\n  series: 'hlcmp/Ks'  # the stiffness\n"
+        "- {label: c, path: controllers.hlcmp.reach_time_s, scale: 2.0}\n",
+    )
+    assert [metric_line(load_sweep(path), k) for k in range(3)] == [3, 5, 6]

@@ -18,3 +18,13 @@ def test_drake_models_variant_swaps_the_arm_and_the_flange_weld():
     assert weld.parent == "iiwa::iiwa_link_7"
     assert list(weld.X_PC.GetDeterministicValue().translation()) == [0.0, 0.0, 0.045]
     assert len(variant.directives) == len(scenario.directives)
+
+
+def test_a_scenario_without_our_iiwa_is_refused():
+    import pytest
+
+    from hlcmp_drake.config.variants import use_drake_models_iiwa
+    from hlcmp_drake.io.errors import InputError
+
+    with pytest.raises(InputError, match=r"only applies to arm scenarios .* 'one_dof' has no iiwa"):
+        use_drake_models_iiwa(load_scenario("one_dof")[0])

@@ -106,3 +106,67 @@ def test_a_run_shorter_than_the_return_command_has_no_x_at_10s_and_no_verdict():
     assert all(m["position_at_10s_m"] is None for m in metrics.values())
     assert one_dof.claims(metrics, scenario) == {}
     assert "n/a" in one_dof.table(metrics).rows[0]
+
+
+def _fake_runs(scenario, scale=None):
+    """Every controller's run as 3 s of made-up series; a learner's K_s and K_d peak at
+    `scale[name]` (default 30)."""
+    t = np.linspace(0.0, 3.0, 301)
+    bump = (t * np.exp(-t))[:, None]
+    scale = scale or {}
+    runs = {}
+    for name in scenario.controllers:
+        peak = scale.get(name, 30.0)
+        runs[name] = SimpleNamespace(
+            t=t,
+            series={
+                "x": -0.1 * bump,
+                "xd": np.full((len(t), 1), -0.15),
+                "f_ext": bump,
+                "Ks": peak * bump / bump.max(),
+                "Kd": -0.3 * peak * bump / bump.max(),
+            },
+        )
+    return runs
+
+
+def _lines_by_label(axis):
+    return {line.get_label(): line.get_color() for line in axis.get_lines()}
+
+
+def test_the_figure_shows_every_learners_profiles_with_units_and_one_colour_per_controller():
+    from hlcmp_drake.worlds.controllers import learners
+
+    scenario, _ = load_scenario("one_dof")
+    runs = _fake_runs(scenario, {"hlcmp": 30.0, "hlcmp_per_step": 2000.0})
+    axes = one_dof.figures(runs, scenario)["one_dof.png"].axes
+    position, force, stiffness, damping = axes
+    assert (
+        sorted(_lines_by_label(stiffness))
+        == sorted(learners(scenario))
+        == [
+            "hlcmp",
+            "hlcmp_per_step",
+        ]
+    )
+    assert sorted(_lines_by_label(damping)) == sorted(learners(scenario))
+    assert "[N/m]" in stiffness.get_ylabel() and "[N·s/m]" in damping.get_ylabel()
+    assert "[m]" in position.get_ylabel() and "[N]" in force.get_ylabel()
+    colours = _lines_by_label(position)
+    colours.pop("reference $x_d$")
+    assert sorted(colours) == sorted(scenario.controllers)
+    assert len(set(colours.values())) == len(colours)  # one colour, one controller
+    for axis in (force, stiffness, damping):
+        for label, colour in _lines_by_label(axis).items():
+            assert colour == colours[label], (axis.get_ylabel(), label)
+    # 2000 N/m beside 30 N/m: a log scale, so that the smaller profile is not a flat line
+    assert stiffness.get_yscale() == "symlog" and damping.get_yscale() == "symlog"
+
+
+def test_profiles_of_similar_size_stay_on_a_linear_axis_and_a_run_without_learner_says_so():
+    scenario, _ = load_scenario("one_dof")
+    axes = one_dof.figures(_fake_runs(scenario), scenario)["one_dof.png"].axes
+    assert axes[2].get_yscale() == "linear" and axes[3].get_yscale() == "linear"
+    vic = {name: run for name, run in _fake_runs(scenario).items() if name.startswith("vic")}
+    axes = one_dof.figures(vic, scenario)["one_dof.png"].axes
+    assert not axes[2].get_lines() and "no learning controller" in axes[2].texts[0].get_text()

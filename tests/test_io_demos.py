@@ -43,3 +43,45 @@ def test_fuzzed_demonstrations_never_crash(tmp_path):
             assert "\n" not in str(error) and str(error).startswith(str(path))
             outcomes["error"] += 1
     assert outcomes["ok"] > 0 and outcomes["error"] > 0
+
+
+def _write(path, t, x):
+    path.write_text("t,x,y,z\n" + "".join(f"{a:.6f},{b:.6f},0,0.2\n" for a, b in zip(t, x)))
+    return path
+
+
+def test_a_jump_faster_than_the_bound_is_refused_with_its_line(tmp_path):
+    from hlcmp_drake.io.demos import MAX_SPEED_M_PER_S
+
+    t = 0.01 * np.arange(30)
+    x = 0.001 * np.arange(30)
+    x[15:] += 0.1  # 10 cm between two 10 ms samples: 10 m/s
+    path = _write(tmp_path / "jump.csv", t, x)
+    with pytest.raises(InputError) as error:
+        read_demonstration(path)
+    message = str(error.value)
+    assert message.startswith(f"{path}:17: the demonstration moves 10.1 cm in 10 ms from line 16")
+    assert f"faster than the {MAX_SPEED_M_PER_S:g} m/s" in message and "\n" not in message
+    # the same jump spread over five samples of a 1 kHz recording is just as fast
+    t = 0.001 * np.arange(300)
+    x = np.where(t < 0.1, 0.0, np.minimum((t - 0.1) / 0.005, 1.0) * 0.1)
+    with pytest.raises(InputError, match=r"jump.csv:10[2-6]: the demonstration moves 2.0 cm"):
+        read_demonstration(_write(path, t, x))
+
+
+def test_fast_moves_and_a_noisy_1khz_recording_are_not_jumps(tmp_path):
+    rng = np.random.default_rng(0)
+    t = 0.001 * np.arange(2000)
+    x = 1.0 * t + rng.normal(0.0, 0.001, len(t))  # 1 m/s, 1 mm of noise per sample
+    read_demonstration(_write(tmp_path / "noisy.csv", t, x))
+    t = 0.01 * np.arange(100)
+    read_demonstration(_write(tmp_path / "fast.csv", t, 2.5 * t))  # 2.5 m/s throughout
+    with pytest.raises(InputError, match=r"fast.csv:\d+: .* 3.5 m/s over 10 ms"):
+        read_demonstration(_write(tmp_path / "fast.csv", t, 3.5 * t))
+
+
+def test_the_bundled_demonstrations_pass_the_speed_bound():
+    from hlcmp_drake.io.paths import DIAGRAMS_DIR
+
+    for path in sorted((DIAGRAMS_DIR / "demos").glob("*.csv")):
+        assert len(read_demonstration(path)[0]) > 100

@@ -71,3 +71,79 @@ def test_atomic_write_replaces_whole_or_not_at_all(tmp_path):
         outputs.atomic_write(path, broken)
     assert path.read_text() == '{\n  "a": 1\n}\n'  # the old file is intact
     assert os.listdir(path.parent) == ["metrics.json"]  # no temporary left behind
+
+
+def _manifest(folder):
+    import json
+
+    return json.loads((folder / outputs.MANIFEST).read_text())["files"]
+
+
+def test_a_reused_folder_keeps_only_the_listed_files_the_last_command_wrote(tmp_path):
+    with outputs.replacing_outputs(tmp_path):  # the first command: an insertion's files
+        outputs.write_text(tmp_path / "metrics.json", "{}")
+        outputs.write_text(tmp_path / "figures" / "fig4_profiles_z.png", "png")
+        outputs.write_text(tmp_path / "skill.npz", "npz")
+    assert _manifest(tmp_path) == ["figures/fig4_profiles_z.png", "metrics.json", "skill.npz"]
+    (tmp_path / "notes.txt").write_text("mine")  # the user's, whatever the names
+    (tmp_path / "figures" / "mine.png").write_text("mine")
+    (tmp_path / "timeseries.npz").write_text("a file of ours the manifest does not list")
+    with outputs.replacing_outputs(tmp_path):  # the second command writes less
+        outputs.write_text(tmp_path / "metrics.json", "{}")
+    files = sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*"))
+    assert files == [
+        outputs.MANIFEST,
+        "figures",
+        "figures/mine.png",
+        "metrics.json",
+        "notes.txt",
+        "timeseries.npz",
+    ]
+    assert _manifest(tmp_path) == ["metrics.json"]
+    with outputs.replacing_outputs(tmp_path):
+        outputs.write_text(tmp_path / "figures" / "one_dof.png", "png")
+    with outputs.replacing_outputs(tmp_path):
+        outputs.write_text(tmp_path / "metrics.json", "{}")
+    (tmp_path / "figures" / "mine.png").unlink()
+    with outputs.replacing_outputs(tmp_path):  # figures/ was left empty by the next removal
+        outputs.write_text(tmp_path / "figures" / "a.png", "png")
+    with outputs.replacing_outputs(tmp_path):
+        outputs.write_text(tmp_path / "metrics.json", "{}")
+    assert not (tmp_path / "figures").exists()
+
+
+def test_a_failed_command_removes_nothing_and_lists_old_and_new(tmp_path):
+    with outputs.replacing_outputs(tmp_path):
+        outputs.write_text(tmp_path / "old.png", "png")
+    with pytest.raises(KeyboardInterrupt), outputs.replacing_outputs(tmp_path):
+        outputs.write_text(tmp_path / "new.json", "{}")
+        raise KeyboardInterrupt
+    assert (tmp_path / "old.png").exists()
+    assert _manifest(tmp_path) == ["new.json", "old.png"]
+    with outputs.replacing_outputs(tmp_path):  # a command that writes nothing removes nothing
+        pass
+    assert (tmp_path / "old.png").exists()
+
+
+def test_only_regular_files_inside_the_folder_are_removed_and_kept_inputs_stay(tmp_path):
+    import json
+
+    out, outside = tmp_path / "out", tmp_path / "outside"
+    outside.mkdir()
+    (outside / "precious.txt").write_text("mine")
+    (outside / "x.png").write_text("mine")
+    out.mkdir()
+    (out / "link.txt").symlink_to(outside / "precious.txt")
+    (out / "figures").symlink_to(outside)
+    (out / "skill.npz").write_text("the input")
+    listed = ["../outside/precious.txt", str(outside / "precious.txt"), "link.txt"]
+    listed += ["figures/x.png", "skill.npz"]
+    (out / outputs.MANIFEST).write_text(json.dumps({"tool": "hlcmp", "files": listed}))
+    with outputs.replacing_outputs(out, keep=[out / "skill.npz"]):
+        outputs.write_text(out / "metrics.json", "{}")
+    assert (outside / "precious.txt").read_text() == "mine" and (outside / "x.png").exists()
+    assert (out / "link.txt").is_symlink() and (out / "skill.npz").exists()
+    (out / outputs.MANIFEST).write_text(json.dumps({"tool": "other", "files": ["metrics.json"]}))
+    with outputs.replacing_outputs(out):  # not this tool's list: nothing is ours
+        outputs.write_text(out / "a.json", "{}")
+    assert (out / "metrics.json").exists()

@@ -30,4 +30,42 @@ def test_quick_benchmark_writes_every_measurement(tmp_path, capsys):
     )
     assert "dmp_vs_movement_primitives" in results
     assert set(results["scenario_wall_s"]) == {"one_dof", "insertion", "cutting"}
-    assert "controller_overhead_ratio" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "controller_overhead_ratio" in out and "quick smoke run" in out
+    assert "met" not in out.split() and "missed" not in out
+
+
+def _results(mode):
+    """bench.json content with made-up values (a full run misses all five targets)."""
+    quick = mode == "quick"
+    results = {
+        "machine": {"python": "3", "processor": "", "mode": mode},
+        "insertion_rtf": 1.0,
+        "controller_overhead_ratio": 9.0,
+        "controller_overhead_ratio_bare": 9.0,
+        "modular_over_fast": 2.0,
+        "python_calls_per_step": 9.0,
+        "python_calls_per_step_modular": 30.0,
+        "controller_tick_us": {"p50": 300.0, "p99": 900.0},
+        "dmp_fit_ms": 1.0,
+        "dmp_rollout_ms": 1.0,
+        "dmp_vs_movement_primitives": 2.0,
+        "insertion_simulated_s": 1.0 if quick else 9.5,
+        "scenario_wall_s": {"one_dof": 1.0},
+    }
+    if quick:
+        results["scenario_simulated_s"] = 0.5
+    return results
+
+
+def test_a_quick_run_is_labelled_a_smoke_run_and_judges_no_target():
+    from hlcmp_drake.present.tables import to_text
+    from hlcmp_drake.run.benchmark import table
+
+    text = to_text(table(_results("quick")))
+    assert "quick smoke run" in text.splitlines()[0]
+    assert "met" not in text.split() and "missed" not in text and "≥" not in text
+    assert "(1 s, harnessed" in text and "9.5 s" not in text
+    assert "`hlcmp run one_dof` cut to 0.5 s" in text
+    full = to_text(table(_results("full")))
+    assert "smoke" not in full and full.count("**missed**") == 5 and "(9.5 s, harnessed" in full

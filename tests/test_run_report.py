@@ -10,3 +10,46 @@ def test_report_command_runs_the_scenarios(tmp_path):
     assert main(["report", "--out", str(tmp_path), "--scenarios", "one_dof", "--quiet"]) == 0
     text = (tmp_path / "index.html").read_text()
     assert "one_dof/recording.html" in text and (tmp_path / "one_dof" / "metrics.json").exists()
+
+
+def _own_scenario(folder, name="my_one_dof", duration=0.3):
+    """The bundled 1-DOF scenario saved as one's own YAML, renamed and cut short."""
+    from hlcmp_drake.io.paths import DIAGRAMS_DIR
+
+    text = (DIAGRAMS_DIR / "one_dof.yaml").read_text()
+    text = text.replace("name: one_dof", f"name: {name}", 1)
+    path = folder / f"{name}.yaml"
+    path.write_text(text.replace("duration_s: 20.0", f"duration_s: {duration}", 1))
+    return path
+
+
+def test_a_report_of_ones_own_scenario_file(tmp_path):
+    from hlcmp_drake.cli import main
+
+    own = _own_scenario(tmp_path)
+    out = tmp_path / "report"
+    assert main(["report", "--out", str(out), "--scenarios", str(own), "--quiet"]) == 0
+    text = (out / "index.html").read_text()
+    assert "my_one_dof/recording.html" in text and (out / "my_one_dof" / "metrics.json").exists()
+    assert "1-DOF comparison with a variable-impedance controller: my_one_dof" in text
+
+
+def test_report_scenarios_are_all_checked_before_the_first_runs(tmp_path):
+    from conftest import one_line_error, run_cli
+
+    from hlcmp_drake.io.errors import InputError
+    from hlcmp_drake.run.report import report_folders
+
+    own = _own_scenario(tmp_path)
+    assert report_folders(tmp_path / "r", [str(own), "one_dof"]) == {
+        str(own): tmp_path / "r" / "my_one_dof",
+        "one_dof": tmp_path / "r" / "one_dof",
+    }
+    with pytest.raises(InputError, match="has the name of one_dof"):
+        report_folders(tmp_path / "r", ["one_dof", str(_own_scenario(tmp_path, "one_dof"))])
+    with pytest.raises(InputError, match="one_dof: is given twice"):
+        report_folders(tmp_path / "r", ["one_dof", "one_dof"])
+    out = tmp_path / "out"
+    result = run_cli("report", "--out", out, "--scenarios", "one_dof", tmp_path / "nowhere.yaml")
+    one_line_error(result)
+    assert "nowhere.yaml" in result.stderr and not out.exists()

@@ -72,3 +72,37 @@ def test_a_live_meshcat_shows_each_run_while_it_simulates(tmp_path):
     for label in ("hlcmp", "hlcmp_per_step", "vic_fd_0.5"):
         assert meshcat.HasPath(f"/drake/runs/{label}")
     assert (tmp_path / "recording.html").exists()  # the offline recording is still written
+
+
+def test_a_reused_out_folder_loses_the_previous_runs_files_and_keeps_the_users(
+    tmp_path, monkeypatch
+):
+    """The first run writes an insertion figure too (fig4, as `hlcmp run insertion` would);
+    the second, the plain 1-DOF run into the same folder, leaves only its own files and the
+    user's."""
+    import dataclasses as dc
+
+    import hlcmp_drake.run.runner as runner
+    from hlcmp_drake.experiments import experiment_of
+
+    def with_fig4(scenario, path=None):
+        experiment = experiment_of(scenario, path)
+
+        def figures(runs, scenario):
+            made = experiment.figures(runs, scenario)
+            return {**made, "fig4_profiles_z.png": next(iter(made.values()))}
+
+        return dc.replace(experiment, figures=figures)
+
+    out = tmp_path / "o"
+    monkeypatch.setattr(runner, "experiment_of", with_fig4)
+    assert main(["run", *short_one_dof(0.3), "--out", str(out), "--quiet"]) == 0
+    assert (out / "figures" / "fig4_profiles_z.png").exists()
+    (out / "figures" / "my_sketch.png").write_text("the user's")
+    (out / "notes.txt").write_text("the user's")
+    monkeypatch.undo()
+    assert main(["run", *short_one_dof(0.3), "--out", str(out), "--quiet"]) == 0
+    assert sorted(p.name for p in (out / "figures").iterdir()) == ["my_sketch.png", "one_dof.png"]
+    assert {"notes.txt", "metrics.json", "timeseries.npz", "recording.html"} <= {
+        p.name for p in out.iterdir()
+    }

@@ -313,9 +313,10 @@ def test_real_time_pacing(tmp_path):
     assert record["ticks"] > 250
 
 
-def test_serve_in_one_process_from_the_command_line(tmp_path):
+def test_serve_in_one_process_from_the_command_line(tmp_path, capsys):
     """hlcmp serve --lcm memq:// runs the simulated driver in the same process; a frozen
-    skill keeps its profiles (here the untrained ones: θ stays 0)."""
+    skill keeps its profiles (here the untrained ones: θ stays 0); its last line lists
+    every file it wrote."""
     from hlcmp_drake.cli import main
 
     assert (
@@ -351,6 +352,9 @@ def test_serve_in_one_process_from_the_command_line(tmp_path):
         )
         == 0
     )
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    assert last == f"serve.json, metrics.json, timeseries.npz, recording.html in {out}"
+    assert all((out / name).is_file() for name in last.split(" in ")[0].split(", "))
     record = json.loads((out / "serve.json").read_text())
     assert record["ticks"] == 301 and record["missed_ticks"] == 0 and record["status"] == "ok"
     arrays = np.load(out / "timeseries.npz")

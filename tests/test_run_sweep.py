@@ -330,3 +330,103 @@ def test_the_ray_engine_without_ray_says_how_to_install_it(tmp_path):
         "hlcmp: error: --engine ray needs Ray, which is not installed: pip install -e '.[ray]'"
     )
     assert not (tmp_path / "out").exists()
+
+
+# --- metric paths, checked before any task runs ---------------------------------------
+
+HEAD = """\
+scenario: one_dof
+set:
+  duration_s: 0.1
+grid:
+  controllers.hlcmp.pi: [1.0, 5.0]
+{controllers}metrics:
+- {{label: "x final [mm]", series: hlcmp/x, reduce: final, scale: 1000.0}}
+"""
+
+
+@pytest.mark.parametrize(
+    "entry, expected",
+    [
+        (
+            "path: controllers.hlcmp.final_position",
+            "path 'controllers.hlcmp.final_position': controllers.hlcmp has no 'final_position' "
+            "(position_at_10s_m, final_position_m, reach_time_s, return_time_s)",
+        ),
+        ("path: controllers.hlcpm.reach_time_s", "controllers has no 'hlcpm' (hlcmp)"),
+        ("path: controllers.hlcmp", "controllers.hlcmp is a group (position_at_10s_m"),
+        ("path: controller.hlcmp.reach_time_s", "metrics.json has no 'controller' (scenario,"),
+        ("path: status.ok", "status is a single value, it has no 'ok'"),
+        ("path: claims.hlcmp.C5.holds", "this sweep's tasks judge no claim"),
+        ("series: hlcmp/Kss", "series 'hlcmp/Kss': hlcmp logs no 'Kss' (x, xd, f_ext"),
+        ("series: vic_fd_0.5/x", "no controller 'vic_fd_0.5' runs in the tasks (hlcmp)"),
+        ("{series: hlcmp/x, column: 1}", "column 1: hlcmp/x has 1 column(s)"),
+    ],
+)
+def test_a_metric_no_task_will_write_stops_the_sweep_before_the_first_task(
+    tmp_path, entry, expected
+):
+    entry = entry if entry.startswith("{") else f"{{{entry}}}"
+    sweep = tmp_path / "sweep.yaml"
+    sweep.write_text(HEAD.format(controllers="controllers: [hlcmp]\n") + f"- {entry}\n")
+    result = hlcmp("sweep", sweep, "--out", tmp_path / "out")
+    assert result.returncode == 2 and len(result.stderr.strip().splitlines()) == 1, result.stderr
+    assert result.stderr.startswith(f"hlcmp: error: {sweep}:9: metrics: entry 2: "), result.stderr
+    assert expected in result.stderr
+    assert not (tmp_path / "out").exists()  # no task ran, nothing was written
+
+
+def test_claims_and_kind_dependent_series_are_checked_against_every_task(tmp_path):
+    from hlcmp_drake.io.errors import InputError
+    from hlcmp_drake.run.sweep.planning import check_metrics
+
+    every = tmp_path / "every.yaml"  # every controller: the claims are judged
+    every.write_text(
+        HEAD.format(controllers="")
+        + "- {path: claims.hlcmp_per_step.C5.holds}\n- {path: claims.hlcmp.C6.holds}\n"
+    )
+    with pytest.raises(InputError, match=r"every.yaml:9: metrics: entry 3: .*has no 'C6' \(C5\)"):
+        check_metrics(plan_sweep(every, tmp_path / "out"))
+    # K_s is logged only where hlcmp is an Hl-CMP: one task that has it is enough
+    cases = tmp_path / "cases.yaml"
+    cases.write_text(
+        "scenario: one_dof\nset: {duration_s: 0.1}\ncontrollers: [hlcmp]\ncases:\n"
+        "- {label: learner}\n"
+        "- label: fixed\n  set:\n    controllers.hlcmp: '!ConstantImpedanceConfig "
+        "{stiffness_N_per_m: [100.0], damping_Ns_per_m: [10.0], gain_l: [0.0]}'\n"
+        "metrics:\n- {series: hlcmp/Ks}\n"
+    )
+    check_metrics(plan_sweep(cases, tmp_path / "out"))
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.slow  # the three bundled scenarios' whole runs
+@pytest.mark.parametrize("name", ["one_dof", "insertion", "cutting"])
+def test_the_short_check_run_accepts_every_value_a_whole_run_writes(tmp_path, name, request):
+    """check_metrics' short run has the keys of a whole run's metrics.json and series."""
+    from hlcmp_drake.run.sweep.planning import path_problem, task_outputs
+
+    run_dir = request.getfixturevalue(f"{name}_run")
+    sweep = tmp_path / "sweep.yaml"
+    sweep.write_text(f"scenario: {name}\n")
+    found = task_outputs(plan_sweep(sweep, tmp_path / "out").tasks[0])
+    whole = json.loads((run_dir / "metrics.json").read_text())
+
+    def leaves(node, prefix):
+        for key, value in node.items():
+            if isinstance(value, dict):
+                yield from leaves(value, f"{prefix}{key}.")
+            else:
+                yield f"{prefix}{key}"
+
+    paths = list(
+        leaves({k: whole[k] for k in ("scenario", "status", "controllers", "learners")}, "")
+    )
+    paths += [
+        f"claims.{learner}.{claim}.holds"
+        for learner in whole["claims"]
+        for claim in whole["claims"][learner]
+    ]
+    assert paths and [p for p in paths if path_problem(found, p)] == []
+    with np.load(run_dir / "timeseries.npz") as arrays:
+        assert set(found.series) == set(arrays.files) - {"t"}

@@ -446,6 +446,29 @@ def _check(config: SweepConfig, fail) -> None:
         fail("metrics", f"metrics: two columns share a label: {names}")
 
 
+def metric_line(sweep: Sweep, index: int) -> int | None:
+    """The line of the sweep file that gives metric `index`'s path or series.
+
+    Parameters
+    ----------
+    sweep : Sweep
+    index : int
+        0-based, in `sweep.config.metrics`.
+
+    Returns
+    -------
+    int or None
+        1-based; the `metrics` line when the entry's own line is not found.
+    """
+    metrics = sweep.config.metrics
+    metric = metrics[index]
+    field, value = ("path", metric.path) if metric.path else ("series", metric.series)
+    earlier = sum(1 for m in metrics[:index] if getattr(m, field) == value)  # the same twice
+    pattern = re.compile(rf"\b{field}\s*:\s*['\"]?{re.escape(value)}['\"]?\s*(,|}}|#|$)")
+    rows = [n for n, row in enumerate(sweep.text.splitlines(), 1) if pattern.search(row)]
+    return rows[earlier] if earlier < len(rows) else line_of(sweep.text, "metrics")
+
+
 def short_names(keys: list) -> dict:
     """A short name per parameter key: its last dotted part, or the whole key where two
     keys share their last part.

@@ -8,6 +8,7 @@ from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import AddModel, AddWeld, ModelDirective
 
 from hlcmp_drake.config.scenario import Scenario
+from hlcmp_drake.io.errors import InputError
 
 OWN_IIWA = "package://hlcmp_drake/models/iiwa14.sdf"
 DRAKE_MODELS_IIWA = "package://drake_models/iiwa_description/sdf/iiwa14_no_collision.sdf"
@@ -31,7 +32,20 @@ def use_drake_models_iiwa(scenario: Scenario) -> Scenario:
     Scenario
         A new Scenario with a new directives list; its other fields are shared with
         `scenario`, not copied.
+
+    Raises
+    ------
+    InputError
+        When the scenario has no iiwa of ours to swap (the 1-DOF slider): the option only
+        applies to arm scenarios.
     """
+    if not any(
+        d.add_model is not None and d.add_model.file == OWN_IIWA for d in scenario.directives
+    ):
+        raise InputError(
+            f"--iiwa drake_models: only applies to arm scenarios (with {OWN_IIWA}, e.g. "
+            f"insertion, cutting); '{scenario.name}' has no iiwa"
+        )
     directives = []
     for directive in scenario.directives:
         model, weld = directive.add_model, directive.add_weld

@@ -62,3 +62,20 @@ def experiment_of(scenario: Scenario, path: str | Path | None = None) -> Experim
             f"'{scenario.experiment}' does not fit a {type(scenario.task).__name__}",
         )
     return experiment
+
+
+def claim_names(experiment: Experiment) -> list[str] | None:
+    """The names of the claims an experiment judges (its module's `CLAIMS`), in order.
+
+    Parameters
+    ----------
+    experiment : Experiment
+
+    Returns
+    -------
+    list of str or None
+        None when its module declares no `CLAIMS`.
+    """
+    module = importlib.import_module(experiment.claims.__module__)
+    claims = getattr(module, "CLAIMS", None)
+    return None if claims is None else [claim.name for claim in claims]

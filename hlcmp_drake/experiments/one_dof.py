@@ -1,13 +1,15 @@
 """The 1-DOF comparison (paper Sec. V-B, Fig. 13) and claim C5."""
 
+import numpy as np
+
 from hlcmp_drake.config.scenario import ControllerConfig, Scenario, SliderTask
 from hlcmp_drake.core.metrics import settle_time, value_at
-from hlcmp_drake.experiments.claims import Claim, ClaimInputs, Verdict, judge_claims, learner
+from hlcmp_drake.experiments.claims import Claim, ClaimInputs, Verdict, judge_claims
 from hlcmp_drake.experiments.experiment import Experiment
-from hlcmp_drake.experiments.plots import new_figure
+from hlcmp_drake.experiments.plots import controller_colors, new_figure
 from hlcmp_drake.experiments.table import Table, number
 from hlcmp_drake.io.runs import RunResult
-from hlcmp_drake.worlds.controllers import FORCE_TRACKING, labels_with_role
+from hlcmp_drake.worlds.controllers import FORCE_TRACKING, labels_with_role, learners
 
 DEPTH_TOLERANCE_M = 0.005
 
@@ -214,39 +216,75 @@ def table(metrics: dict) -> Table:
     return result
 
 
+# The learned profiles' panels switch to a symmetric log scale when one learner's profile
+# peaks more than this many times higher than another's (hlcmp_per_step's K_s reaches
+# about 60 times hlcmp's): on a linear axis the smaller one would be a flat line at 0.
+LOG_SCALE_SPREAD = 10.0
+
+
+def _profile_panels(axes, runs: dict, names: list, colors: dict) -> None:
+    """K_s on axes[0] [N/m], K_d on axes[1] [N·s/m], one line per learner in its colour."""
+    panels = (("Ks", "stiffness $K_s$ [N/m]"), ("Kd", "damping $K_d$ [N·s/m]"))
+    for axis, (key, ylabel) in zip(axes, panels):
+        axis.set_ylabel(ylabel)
+        if not names:
+            axis.text(
+                0.5,
+                0.5,
+                "no learning controller",
+                ha="center",
+                va="center",
+                transform=axis.transAxes,
+            )
+            continue
+        peaks = []
+        for name in names:
+            values = runs[name].series[key][:, 0]
+            axis.plot(runs[name].t, values, color=colors[name], label=name)
+            peaks.append(float(np.nanmax(np.abs(values), initial=0.0)))
+        if min(peaks) > 0 and max(peaks) > LOG_SCALE_SPREAD * min(peaks):
+            axis.set_yscale("symlog", linthresh=1.0)
+            axis.set_ylabel(f"{ylabel}\n(symmetric log scale)")
+    axes[0].set_title("learned profiles of the Hl-CMPs", fontsize=10)
+
+
 def figures(runs: dict, scenario: Scenario) -> dict:
-    """Fig. 13: position of every controller and the reference; the contact force; the
-    Hl-CMP's learned stiffness and damping.
+    """Fig. 13: position of every controller and the reference; the contact force; every
+    learner's learned stiffness and damping, each on its own axis with its unit. A
+    controller has one colour in every panel (its place in the scenario, as in the
+    recording).
 
     Parameters
     ----------
     runs : dict of str to RunResult
         Every controller's run, by label.
     scenario : Scenario
+        Its controllers' order sets the colours; its learners (the controller registry's
+        `learners`) get the profile panels.
 
     Returns
     -------
     dict
         {"one_dof.png": the Figure}.
     """
-    fig, axes = new_figure(3, 1, size=(8, 8.5), sharex=True)
+    order = [*scenario.controllers, *(name for name in runs if name not in scenario.controllers)]
+    colors = controller_colors(order)
+    fig, axes = new_figure(4, 1, size=(8, 11), sharex=True)
     first = next(iter(runs.values()))
     axes[0].plot(first.t, first.series["xd"][:, 0], "k--", lw=1.2, label="reference $x_d$")
     for name, run in runs.items():
-        axes[0].plot(run.t, run.series["x"][:, 0], label=name)
-        axes[1].plot(run.t, run.series["f_ext"][:, 0], label=name)
-    hl = runs.get(learner(scenario))
-    if hl is not None:
-        axes[2].plot(hl.t, hl.series["Ks"][:, 0], label="Hl-CMP stiffness $K_s$ [N/m]")
-        axes[2].plot(hl.t, hl.series["Kd"][:, 0], label="Hl-CMP damping $K_d$ [Ns/m]")
+        axes[0].plot(run.t, run.series["x"][:, 0], color=colors[name], label=name)
+        axes[1].plot(run.t, run.series["f_ext"][:, 0], color=colors[name], label=name)
+    _profile_panels(axes[2:], runs, [n for n in learners(scenario) if n in runs], colors)
     axes[0].set_ylabel("position x [m]")
     axes[1].set_ylabel("environment force [N]")
-    axes[2].set_ylabel("learned profile")
-    axes[2].set_xlabel("time [s]")
+    axes[3].set_xlabel("time [s]")
     axes[0].set_title("1-DOF comparison (paper Fig. 13): Hl-CMP vs. variable impedance [21]")
     for axis in axes:
         axis.grid(alpha=0.3)
-        axis.legend(fontsize=8, loc="best")
+    for axis in (axes[0], axes[2]):  # every controller above, the learners in their panels
+        if axis.get_legend_handles_labels()[0]:
+            axis.legend(fontsize=8, loc="best")
     return {"one_dof.png": fig}
 
 

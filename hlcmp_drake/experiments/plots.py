@@ -5,6 +5,8 @@ them needs no display and leaves an interactive session's backend alone."""
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
 from matplotlib.figure import Figure
 
@@ -30,6 +32,25 @@ def new_figure(
     figure = Figure(figsize=size, layout="constrained")
     axes = figure.subplots(rows, cols, sharex=sharex, squeeze=False)
     return figure, axes.ravel()
+
+
+def controller_colors(labels: Iterable[str]) -> dict:
+    """One colour per controller, by its place in `labels` (matplotlib's C0, C1, ...), so
+    that a controller keeps its colour in every panel of a figure, as in the recording.
+
+    Parameters
+    ----------
+    labels : iterable of str
+        The controllers' labels, in the scenario's order.
+
+    Returns
+    -------
+    dict of str to str
+        {label: hex colour}; the cycle of ten colours repeats after the tenth.
+    """
+    from matplotlib.colors import to_hex
+
+    return {label: to_hex(f"C{k % 10}") for k, label in enumerate(labels)}
 
 
 def bar_chart(values: dict, groups: tuple, ylabel: str) -> Figure:

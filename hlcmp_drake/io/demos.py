@@ -2,7 +2,8 @@
 
 Format: a header line `t,x,y,z` -- `t` in seconds first, then 1 to 3 position columns
 named from x, y, z (metres, in that order) -- and one sample per line, time strictly
-increasing, at least MIN_SAMPLES samples. Trajectory files may add velocity columns
+increasing, at least MIN_SAMPLES samples, never faster than MAX_SPEED_M_PER_S (see there).
+Trajectory files may add velocity columns
 `vx,vy,vz` after the positions. Files are UTF-8; a byte-order mark at the start (as
 spreadsheet programs write "CSV UTF-8") is accepted. Every problem is an InputError
 naming file and line.
@@ -21,6 +22,19 @@ from hlcmp_drake.io.errors import InputError, located
 
 MIN_SAMPLES = 10
 AXES = ("x", "y", "z")
+
+# The fastest a demonstration may move [m/s], measured from each sample to the first one
+# SPEED_WINDOW_S or more later. Faster than a hand moves a tool in a demonstration (quick
+# reaches peak near 2 m/s; the bundled demonstrations stay below 0.15 m/s) and than the
+# iiwa's tool can follow (its seven joints at their speed limits add up to at most about
+# 5 m/s at the tip, and only in no single direction): what is faster is a jump -- a dropped
+# marker, a switch of units or frame, a pasted segment -- which the DMP fit's smoothing
+# would otherwise turn into a fast sweep without a word. A 10 cm jump between two 10 ms
+# samples is 10 m/s.
+MAX_SPEED_M_PER_S = 3.0
+# Over 10 ms a sensor's sample-to-sample noise averages out (1 mm of noise at 1 kHz reads as
+# 1 m/s from one sample to the next, 0.1 m/s over 10 ms); a jump does not.
+SPEED_WINDOW_S = 0.01
 
 
 def read_demonstration(path: str | Path, with_lines: bool = False) -> tuple:
@@ -91,9 +105,60 @@ def read_demonstration(path: str | Path, with_lines: bool = False) -> tuple:
             f"{path}: {len(rows)} samples; a demonstration needs at least {MIN_SAMPLES}"
         )
     data = np.array([values for _, values in rows])
+    check_speed(path, data[:, 0], data[:, 1 : 1 + len(axes)], [number for number, _ in rows])
     if with_lines:
         return data[:, 0], data[:, 1 : 1 + len(axes)], axes, [number for number, _ in rows]
     return data[:, 0], data[:, 1 : 1 + len(axes)], axes
+
+
+def check_speed(
+    path: str | Path, t: np.ndarray, positions: np.ndarray, lines: Sequence[int]
+) -> None:
+    """Refuse a demonstration that moves faster than MAX_SPEED_M_PER_S anywhere: the
+    distance from each sample to the first one at least SPEED_WINDOW_S later, over that
+    time (over SPEED_WINDOW_S at the very end, where no sample is that much later).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file, for the message.
+    t : (T,) array
+        Sample times [s], strictly increasing.
+    positions : (T, M) array
+        Positions [m].
+    lines : sequence of T int
+        Each sample's line in the file.
+
+    Raises
+    ------
+    InputError
+        ``FILE:LINE: ...`` naming the sample that jumps (the one after the largest step
+        inside the fastest window) and the line before it.
+    """
+    count = len(t)
+    start = np.arange(count)
+    end = np.minimum(np.searchsorted(t, t + SPEED_WINDOW_S - 1e-12), count - 1)
+    start, end = start[end > start], end[end > start]
+    if not len(start):
+        return
+    distance = np.linalg.norm(positions[end] - positions[start], axis=1)
+    speed = distance / np.maximum(t[end] - t[start], SPEED_WINDOW_S)
+    fastest = int(np.argmax(speed))
+    if speed[fastest] <= MAX_SPEED_M_PER_S:
+        return
+    i, j = start[fastest], end[fastest]
+    steps = np.linalg.norm(np.diff(positions[i : j + 1], axis=0), axis=1)
+    k = i + int(np.argmax(steps))  # the largest step inside that window: k -> k + 1
+    step = float(np.linalg.norm(positions[k + 1] - positions[k]))
+    raise located(
+        path,
+        lines[k + 1],
+        f"the demonstration moves {100 * step:.1f} cm in {1000 * (t[k + 1] - t[k]):.0f} ms "
+        f"from line {lines[k]} (t = {t[k]:g} s to {t[k + 1]:g} s): "
+        f"{speed[fastest]:.1f} m/s over {1000 * max(t[j] - t[i], SPEED_WINDOW_S):.0f} ms, "
+        f"faster than the {MAX_SPEED_M_PER_S:g} m/s a demonstration may move "
+        "(a jump in the recording?); remove or fix those samples",
+    )
 
 
 def _check_header(path, line, header):

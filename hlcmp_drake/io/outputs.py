@@ -4,14 +4,21 @@ every file goes to a temporary name in the same folder and is moved into place.
 `check_output_folder` and `check_output_file` say before any work whether a command's
 output path can be written at all (a file where a folder is needed, a folder where a
 file is needed, a folder that cannot be created or written in), as one InputError.
+
+`replacing_outputs` makes a reused output folder hold only what the last command wrote
+there: each command lists the files it wrote in the folder's manifest (MANIFEST), and the
+next one removes the files of that list it did not write again. A file is removed only
+when this tool's own manifest names it, so a user's files in the folder are never
+touched, whatever their names.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import tempfile
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -25,6 +32,8 @@ if TYPE_CHECKING:
 _UMASK = os.umask(0)
 os.umask(_UMASK)
 WRITTEN: list[Path] = []  # every path written in this process, in order (for the interrupt message)
+# The list of the files the last command wrote in an output folder (relative POSIX paths).
+MANIFEST = ".hlcmp-outputs.json"
 
 
 def _existing_ancestor(path: Path) -> Path:
@@ -262,3 +271,116 @@ def write_diagram_graph(out_dir: str | Path, diagram: Any) -> Path:
         )
         return write_text(Path(out_dir) / "diagram.svg", svg.stdout)
     return write_text(Path(out_dir) / "diagram.dot", dot)
+
+
+def _inside(folder: Path, path: str | Path) -> str | None:
+    """`path` relative to `folder` as a POSIX string, or None when it is not inside it."""
+    relative = os.path.relpath(os.path.abspath(path), os.path.abspath(folder))
+    if relative == os.curdir or relative.split(os.sep)[0] == os.pardir:
+        return None
+    return Path(relative).as_posix()
+
+
+def listed_outputs(out_dir: str | Path) -> set[str]:
+    """The files the folder's manifest says this tool wrote there (relative POSIX paths).
+
+    Anything doubtful counts as not listed: no manifest, one that cannot be read or is not
+    this tool's list, entries that are absolute or climb out of the folder.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        An output folder.
+
+    Returns
+    -------
+    set of str
+    """
+    try:
+        data = json.loads((Path(out_dir) / MANIFEST).read_text())
+    except (OSError, ValueError):
+        return set()
+    files = data.get("files") if isinstance(data, dict) and data.get("tool") == "hlcmp" else None
+    if not isinstance(files, list):
+        return set()
+    return {
+        name
+        for name in files
+        if isinstance(name, str)
+        and name
+        and not Path(name).is_absolute()
+        and os.pardir not in Path(name).parts
+        and name != MANIFEST
+    }
+
+
+def _remove_listed(out_dir: Path, name: str) -> bool:
+    """Remove out_dir/name if it is a regular file whose folders inside out_dir are real
+    folders (no symbolic link is followed or removed), then the folders it leaves empty."""
+    path = out_dir / name
+    real_dir = os.path.realpath(out_dir)
+    if (
+        path.is_symlink()
+        or not path.is_file()
+        or os.path.dirname(os.path.realpath(path)) != os.path.join(real_dir, *Path(name).parts[:-1])
+    ):
+        return False
+    path.unlink()
+    for folder in path.parents:
+        if folder == out_dir or _inside(out_dir, folder) is None:
+            break
+        try:
+            folder.rmdir()  # only when empty
+        except OSError:
+            break
+    return True
+
+
+def _write_manifest(out_dir: Path, files: Iterable[str]) -> None:
+    write_json(out_dir / MANIFEST, {"tool": "hlcmp", "files": sorted(set(files) - {MANIFEST})})
+
+
+@contextlib.contextmanager
+def replacing_outputs(out_dir: str | Path, keep: Iterable[str | Path] = ()) -> Iterator[None]:
+    """Around a command's writes into `out_dir`: when they all succeed, remove the files
+    the previous command listed in the folder's manifest that this one did not write
+    again, and list this command's files (those written through this module under
+    `out_dir`, also in subfolders) in a new manifest.
+
+    Only files the manifest lists are ever removed, and only regular files (not symbolic
+    links); folders they leave empty go too. If the writes fail or are interrupted,
+    nothing is removed and the manifest lists the old files and the new ones.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        The output folder.
+    keep : iterable of str or Path, optional
+        Files never removed, e.g. the command's own input (a skill replayed from the
+        folder it writes to).
+
+    Yields
+    ------
+    None
+    """
+    out_dir = Path(out_dir)
+    previous = listed_outputs(out_dir)
+    start = len(WRITTEN)
+
+    def written() -> set[str]:
+        names = {_inside(out_dir, path) for path in WRITTEN[start:]}
+        return {name for name in names if name is not None} - {MANIFEST}
+
+    try:
+        yield
+    except BaseException:
+        if written():
+            _write_manifest(out_dir, previous | written())
+        raise
+    new = written()
+    if not new:  # a command that wrote nothing here leaves the folder as it was
+        return
+    kept = {_inside(out_dir, path) for path in keep}
+    for name in sorted(previous - new - kept):
+        _remove_listed(out_dir, name)
+    _write_manifest(out_dir, new)

@@ -176,6 +176,12 @@ def _probe_html(out_dir: Path, probe_dir: Path) -> str:
     )
 
 
+def _title(section: ReportSection) -> str:
+    """The experiment's title, and the scenario's name when it is not the bundled one."""
+    title = section.experiment.title
+    return title if section.name == section.experiment.name else f"{title}: {section.name}"
+
+
 def report_page(out_dir: Path, sections: list) -> str:
     """index.html text of the report. Every link and image is relative to out_dir, so the
     page works offline.
@@ -197,16 +203,14 @@ def report_page(out_dir: Path, sections: list) -> str:
         "with it; each claim of the paper is marked reproduced or not.</p>",
         "<h2>Contents</h2><ul>",
     ]
-    parts += [
-        f"<li><a href='#{s.name}'>{html.escape(s.experiment.title)}</a></li>" for s in sections
-    ]
+    parts += [f"<li><a href='#{s.name}'>{html.escape(_title(s))}</a></li>" for s in sections]
     parts.append("</ul>")
     for section in sections:
         name, run_dir, experiment = section.name, section.run_dir, section.experiment
         metrics = json.loads((Path(run_dir) / "metrics.json").read_text())
         rel = Path(run_dir).resolve().relative_to(out_dir.resolve()).as_posix()
         parts.append(
-            f"<h2 id='{name}'>{html.escape(experiment.title)} (paper "
+            f"<h2 id='{name}'>{html.escape(_title(section))} (paper "
             f"{experiment.paper_figures})</h2>"
         )
         parts.append(

@@ -30,6 +30,7 @@ from hlcmp_drake.experiments import experiment_of
 from hlcmp_drake.experiments.claims import learner
 from hlcmp_drake.experiments.plots import new_figure
 from hlcmp_drake.experiments.table import Table, number
+from hlcmp_drake.io import outputs
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.io.runs import RunResult, instability_record
 from hlcmp_drake.io.skill import Skill, SkillWorld, save_skill
@@ -584,9 +585,10 @@ def _learn_or_reproduce(
         figures["trials.png"] = trials_figure(rows)
     out_dir = Path(out_dir)
     saved = None
-    if not unstable and not freeze:
-        saved = save_skill(out_dir / "skill.npz", Skill(dmp, *runs[-1].theta, world=world))
-    write_results(out_dir, scenario, {run.controller: run for run in runs}, metrics, figures)
+    with outputs.replacing_outputs(out_dir, keep=[skill_path] if skill_path else []):
+        if not unstable and not freeze:
+            saved = save_skill(out_dir / "skill.npz", Skill(dmp, *runs[-1].theta, world=world))
+        write_results(out_dir, scenario, {run.controller: run for run in runs}, metrics, figures)
     return LearningResult(metrics, runs, out_dir, saved, warnings)
 
 

@@ -186,10 +186,13 @@ def run_probe(
         "tilt_rad": scenario.probe.tilt_rad,
         "status": status,
     }
-    outputs.write_npz(out_dir / "probe.npz", {"t": t, "tool_position": position, "force": force})
-    outputs.save_figure(
-        out_dir / "probe.png",
-        probe_figure(scenario.name, distance, resisting, lateral, in_push, readings),
-    )
-    outputs.write_json(out_dir / "probe.json", result)
+    with outputs.replacing_outputs(out_dir):
+        outputs.write_npz(
+            out_dir / "probe.npz", {"t": t, "tool_position": position, "force": force}
+        )
+        outputs.save_figure(
+            out_dir / "probe.png",
+            probe_figure(scenario.name, distance, resisting, lateral, in_push, readings),
+        )
+        outputs.write_json(out_dir / "probe.json", result)
     return ProbeResult(result, out_dir)

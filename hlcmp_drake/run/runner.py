@@ -273,9 +273,15 @@ def run_loaded_scenario(
     runs = run_controllers(scenario, reporter=reporter, build=build, live=live)
     metrics = evaluate(runs, scenario, experiment if claims else without_claims(experiment))
     figures = experiment.figures(runs, scenario) if metrics["status"] == "ok" else {}
-    write_results(
-        out_dir, scenario, runs, metrics, figures, build(next(iter(scenario.controllers))).diagram
-    )
+    with outputs.replacing_outputs(out_dir):  # a reused folder keeps no older run's files
+        write_results(
+            out_dir,
+            scenario,
+            runs,
+            metrics,
+            figures,
+            build(next(iter(scenario.controllers))).diagram,
+        )
     return ScenarioResult(
         metrics, out_dir, experiment.table(metrics["controllers"]), experiment, scenario
     )

@@ -515,11 +515,12 @@ def write_served(client: TorqueClient, out_dir: str | Path, lcm_url: str) -> Ser
     )
     metrics = evaluate({run.controller: run}, scenario, without_claims(experiment))
     metrics["status"] = run.status
-    if len(run.t):
-        write_results(out_dir, scenario, {run.controller: run}, metrics, {})
-    else:  # nothing was served: no series to write
-        outputs.write_json(out_dir / "metrics.json", metrics)
-    outputs.write_json(out_dir / "serve.json", record)
+    with outputs.replacing_outputs(out_dir):
+        if len(run.t):
+            write_results(out_dir, scenario, {run.controller: run}, metrics, {})
+        else:  # nothing was served: no series to write
+            outputs.write_json(out_dir / "metrics.json", metrics)
+        outputs.write_json(out_dir / "serve.json", record)
     return ServeResult(run, record, metrics, out_dir)
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -21,6 +22,35 @@ if TYPE_CHECKING:
     from pydrake.multibody.plant import MultibodyPlant
     from pydrake.multibody.tree import Frame
     from pydrake.systems.framework import DiagramBuilder
+
+
+def drake_error_line(error: Exception) -> str:
+    """Drake's error message in one line: its first line, followed by the line after it
+    when it ends in a colon; a failed download as its first candidate's reason, e.g.
+    "All downloads failed: 3 candidates, the first (https://...) with <urlopen error ...>".
+
+    Parameters
+    ----------
+    error : Exception
+        What Drake raised.
+
+    Returns
+    -------
+    str
+    """
+    text = str(error)
+    lines = [line.strip() for line in text.splitlines() if line.strip()]
+    if not lines:
+        return type(error).__name__
+    candidates = re.findall(r"Candidate (\S+) failed:\s*\n\s*(.+)", text)
+    if candidates:
+        url, reason = candidates[0]
+        count = len(candidates)
+        where = f"{count} candidates, the first ({url})" if count > 1 else f"from {url}"
+        return f"{lines[0]} {where} with {reason.strip()}"
+    if lines[0].endswith(":") and len(lines) > 1:
+        return f"{lines[0]} {lines[1]}"
+    return lines[0]
 
 
 def load_models(plant: MultibodyPlant, scenario: Scenario, finalize: bool = True) -> None:
@@ -45,14 +75,13 @@ def load_models(plant: MultibodyPlant, scenario: Scenario, finalize: bool = True
     try:
         ProcessModelDirectives(ModelDirectives(directives=scenario.directives), plant, parser)
     except RuntimeError as error:
-        first = next((line for line in str(error).splitlines() if line.strip()), "")
         hint = (
             " (drake_models is downloaded on first use: is there internet?)"
             if "drake_models" in str(error)
             else ""
         )
         raise InputError(
-            f"{scenario.name}: the models could not be loaded{hint}: {first}"
+            f"{scenario.name}: the models could not be loaded{hint}: {drake_error_line(error)}"
         ) from None
     if finalize:
         plant.Finalize()

@@ -20,7 +20,7 @@ from hlcmp_drake.run.sweep.engines import (
     _run_ray,
     _terminate_is_interrupt,
 )
-from hlcmp_drake.run.sweep.planning import plan_sweep
+from hlcmp_drake.run.sweep.planning import check_metrics, plan_sweep
 from hlcmp_drake.run.sweep.results import SweepResult, _summary, _wall_s, _write_tables, task_values
 
 
@@ -59,7 +59,9 @@ def run_sweep(
     Raises
     ------
     InputError
-        A bad sweep file or override (file:line), an unknown engine, Ray not installed.
+        A bad sweep file or override (file:line), a metric no task will write (checked
+        on a short run before any task: `planning.check_metrics`), an unknown engine, Ray
+        not installed.
     KeyboardInterrupt
         On Ctrl-C or SIGTERM, after the workers are stopped; every finished task is
         kept and listed in sweep.csv.
@@ -74,6 +76,8 @@ def run_sweep(
         _import_ray()  # before anything is written
     start = time.perf_counter()
     plan = plan_sweep(name_or_path, out_dir)
+    reporter.say("checking the metrics on a short run of the scenario ...")
+    check_metrics(plan)  # a typo stops the sweep here, not after every task
     metrics = plan.sweep.config.metrics
     rows, missing = {}, []
 

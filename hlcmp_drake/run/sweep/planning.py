@@ -1,12 +1,24 @@
-"""A sweep's plan: its tasks from the sweep file, and which of them are finished already
-(the resumability rule of `hlcmp_drake.run.sweep`)."""
+"""A sweep's plan: its tasks from the sweep file, which of them are finished already (the
+resumability rule of `hlcmp_drake.run.sweep`), and its metrics checked against what the
+tasks will write (`check_metrics`) before any of them runs."""
 
 from __future__ import annotations
 
 import dataclasses as dc
 from pathlib import Path
 
-from hlcmp_drake.config.sweep import Sweep, SweepTask, load_sweep, plan_tasks
+from hlcmp_drake.config.sweep import (
+    Sweep,
+    SweepMetric,
+    SweepTask,
+    load_sweep,
+    metric_line,
+    plan_tasks,
+)
+from hlcmp_drake.io.errors import located
+
+# The short run `check_metrics` makes of a task's scenario: this many log samples.
+CHECK_RUN_SAMPLES = 5
 
 
 @dc.dataclass
@@ -79,3 +91,190 @@ def plan_sweep(name_or_path: str | Path, out_dir: str | Path | None = None) -> S
     out_dir = Path(out_dir) if out_dir is not None else default_out_dir(sweep)
     tasks = plan_tasks(sweep, out_dir)
     return SweepPlan(sweep, out_dir, tasks, {task.id: task_state(task) for task in tasks})
+
+
+@dc.dataclass
+class TaskOutputs:
+    """What a task's run folder will hold, as far as a sweep's metrics read it.
+
+    Attributes
+    ----------
+    metrics : dict
+        metrics.json of a short run of the task's scenario (its keys, not its values).
+    series : dict of str to int
+        timeseries.npz's "CONTROLLER/NAME" arrays -> their number of columns.
+    learners : list of str
+        The learners the claims are judged for; empty when the task judges no claim.
+    claims : list of str or None
+        The experiment's claim names (None: not known).
+    """
+
+    metrics: dict
+    series: dict
+    learners: list
+    claims: list | None
+
+
+def task_outputs(task: SweepTask) -> TaskOutputs:
+    """Run the task's scenario for CHECK_RUN_SAMPLES log samples (nothing is written) and
+    see what its metrics.json and timeseries.npz hold.
+
+    Parameters
+    ----------
+    task : SweepTask
+
+    Returns
+    -------
+    TaskOutputs
+    """
+    from hlcmp_drake.config.loading import load_scenario_text
+    from hlcmp_drake.experiments import claim_names, experiment_of
+    from hlcmp_drake.run.runner import evaluate, run_controllers, without_claims
+    from hlcmp_drake.worlds.controllers import learners
+
+    scenario = load_scenario_text(task.scenario_yaml, task.scenario_path)
+    scenario.controllers = {label: scenario.controllers[label] for label in task.controllers}
+    experiment = experiment_of(scenario, task.scenario_path)
+    short = dc.replace(
+        scenario,
+        duration_s=min(scenario.duration_s, CHECK_RUN_SAMPLES * scenario.log_period_s),
+    )
+    runs = run_controllers(short)
+    series = {
+        f"{label}/{name}": (values.shape[1] if values.ndim > 1 else 1)
+        for label, run in runs.items()
+        for name, values in run.series.items()
+    }
+    return TaskOutputs(
+        evaluate(runs, short, without_claims(experiment)),
+        series,
+        learners(scenario) if task.claims else [],
+        claim_names(experiment),
+    )
+
+
+def _names(node: dict) -> str:
+    return ", ".join(node) or "nothing"
+
+
+def _walk(node: object, dotted: str) -> str | None:
+    """None when the dotted path names one value in `node` (a key may hold dots, as
+    `results._lookup` reads it); else what is wrong."""
+    parts, i, where = dotted.split("."), 0, []
+    while i < len(parts):
+        if not isinstance(node, dict):
+            return f"{'.'.join(where)} is a single value, it has no '{'.'.join(parts[i:])}'"
+        for j in range(len(parts), i, -1):
+            if ".".join(parts[i:j]) in node:
+                where.append(".".join(parts[i:j]))
+                node, i = node[where[-1]], j
+                break
+        else:
+            return f"{'.'.join(where) or 'metrics.json'} has no '{parts[i]}' ({_names(node)})"
+    if isinstance(node, dict):
+        return f"{dotted} is a group ({_names(node)}), not one value"
+    return None
+
+
+def path_problem(outputs: TaskOutputs, path: str) -> str | None:
+    """What is wrong with a metric's `path` into a task's metrics.json, or None.
+
+    A claim's entry is checked down to the claim's name (its parts and details depend on
+    the run); `instability` down to the controller (it is there only for a run that went
+    unstable).
+
+    Parameters
+    ----------
+    outputs : TaskOutputs
+    path : str
+        A dotted path, e.g. "controllers.hlcmp.reach_time_s".
+
+    Returns
+    -------
+    str or None
+    """
+    head, _, rest = path.partition(".")
+    if head == "claims":
+        if not outputs.learners:
+            return "claims: this sweep's tasks judge no claim (they keep only some controllers)"
+        learner = next((n for n in outputs.learners if rest == n or rest.startswith(n + ".")), "")
+        if not learner:
+            return (
+                f"claims has no '{rest.split('.')[0]}' (the learners: {_names(outputs.learners)})"
+            )
+        claim = rest[len(learner) + 1 :].split(".")[0]
+        if outputs.claims is not None and claim not in outputs.claims:
+            return f"claims.{learner} has no '{claim}' ({_names(outputs.claims)})"
+        return None
+    if head == "instability":
+        labels = outputs.metrics["controllers"]
+        if not any(rest == n or rest.startswith(n + ".") for n in labels):
+            return f"instability has no '{rest.split('.')[0]}' ({_names(labels)})"
+        return None
+    known = {k: v for k, v in outputs.metrics.items() if k not in ("claims", "instability")}
+    return _walk({**known, "claims": {}, "instability": {}} if head not in known else known, path)
+
+
+def series_problem(outputs: TaskOutputs, metric: SweepMetric) -> str | None:
+    """What is wrong with a metric's `series` and `column`, or None.
+
+    Parameters
+    ----------
+    outputs : TaskOutputs
+    metric : SweepMetric
+
+    Returns
+    -------
+    str or None
+    """
+    controller, _, name = metric.series.partition("/")
+    names = [key.split("/", 1)[1] for key in outputs.series if key.startswith(controller + "/")]
+    if not names:
+        labels = list(dict.fromkeys(key.split("/", 1)[0] for key in outputs.series))
+        return f"no controller '{controller}' runs in the tasks ({_names(labels)})"
+    columns = outputs.series.get(metric.series)
+    if columns is None:
+        return f"{controller} logs no '{name}' ({_names(names)})"
+    if metric.column >= columns:
+        return f"column {metric.column}: {metric.series} has {columns} column(s)"
+    return None
+
+
+def check_metrics(plan: SweepPlan) -> None:
+    """Check every metric's path and series against what the tasks will write, on a short
+    run (`task_outputs`) of one task per set of controller kinds, before any task runs. A
+    metric that no task's outputs hold is an error; one that only some hold is left to
+    each task's results (`hlcmp sweep` lists them as not found).
+
+    Parameters
+    ----------
+    plan : SweepPlan
+
+    Raises
+    ------
+    InputError
+        ``sweep.yaml:LINE: metrics: entry K: ...``, naming the entry's line, what is
+        wrong and what is there instead.
+    """
+    from hlcmp_drake.config.loading import load_scenario_text
+
+    if not plan.sweep.config.metrics or not plan.tasks:
+        return
+    kinds = {}
+    for task in plan.tasks:  # one short run per set of controller kinds
+        scenario = load_scenario_text(task.scenario_yaml, task.scenario_path)
+        key = tuple((label, type(scenario.controllers[label])) for label in task.controllers)
+        kinds.setdefault(key, task)
+    found = [task_outputs(task) for task in kinds.values()]
+    for index, metric in enumerate(plan.sweep.config.metrics):
+        problems = [
+            path_problem(outputs, metric.path) if metric.path else series_problem(outputs, metric)
+            for outputs in found
+        ]
+        if all(problems):
+            given = f"path '{metric.path}'" if metric.path else f"series '{metric.series}'"
+            raise located(
+                plan.sweep.path,
+                metric_line(plan.sweep, index),
+                f"metrics: entry {index + 1}: {given}: {problems[0]}",
+            )
