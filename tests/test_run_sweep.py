@@ -351,7 +351,7 @@ grid:
         (
             "path: controllers.hlcmp.final_position",
             "path 'controllers.hlcmp.final_position': controllers.hlcmp has no 'final_position' "
-            "(position_at_10s_m, final_position_m, reach_time_s, return_time_s)",
+            "(position_at_10s_m, final_position_m, reach_time_s, return_time_s, task)",
         ),
         ("path: controllers.hlcpm.reach_time_s", "controllers has no 'hlcpm' (hlcmp)"),
         ("path: controllers.hlcmp", "controllers.hlcmp is a group (position_at_10s_m"),
