@@ -1,16 +1,49 @@
-"""Semantic checks of a loaded scenario that the YAML schema cannot express."""
+"""Semantic checks of a loaded scenario that the YAML schema cannot express: every value,
+before any simulation, and the names of models, frames and bodies against the scenario's
+models, parsed once."""
+
+from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Callable
+from typing import Any, Callable, Mapping
 
+import numpy as np
+from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlant, MultibodyPlantConfig
+from pydrake.systems.analysis import GetIntegrationSchemes, SimulatorConfig
+from pydrake.systems.framework import DiagramBuilder
+
+from hlcmp_drake.config.models import (
+    loading_problem,
+    missing_model,
+    process_directives,
+    tool_mount,
+)
 from hlcmp_drake.config.scenario import (
+    ArmTask,
     DemonstrationConfig,
     Fail,
     Scenario,
     StepReferenceConfig,
+    check_number,
 )
 from hlcmp_drake.io.paths import MODELS_DIR, PACKAGE_NAME
+
+# The kinds of model directive (ModelDirective's fields: one is set in each).
+DIRECTIVE_KINDS = (
+    "add_model",
+    "add_model_instance",
+    "add_frame",
+    "add_weld",
+    "add_collision_filter_group",
+    "add_directives",
+)
+# MultibodyPlantConfig's names that Drake reads as one of a list of options.
+PLANT_OPTIONS = (
+    "contact_model",
+    "discrete_contact_approximation",
+    "contact_surface_representation",
+)
 
 
 def model_file_exists(file: str) -> bool:
@@ -38,9 +71,17 @@ def model_file_exists(file: str) -> bool:
 
 
 def validate_scenario(
-    scenario: Scenario, folder: Path, fail: Fail, fail_model: Callable[[str], None]
+    scenario: Scenario,
+    folder: Path,
+    fail: Fail,
+    fail_model: Callable[[str], None],
+    experiments: Mapping[str, type] | None = None,
 ) -> None:
     """Raise InputError (through `fail(key, problem)`) for the first problem found.
+
+    Every value is checked (finite numbers in their ranges, vectors of the right length,
+    names of options), then the models are parsed once and the frames, bodies and models
+    that the scenario names are looked up in them.
 
     Parameters
     ----------
@@ -50,9 +91,13 @@ def validate_scenario(
         The scenario file's folder, against which the demonstration is looked up.
     fail : callable(key, problem)
         Raises the InputError that names where `key` (a dotted path such as
-        "controllers.hlcmp.q_k") was set: file:line, or the override that set it.
+        "controllers.hlcmp.q_k", or "directives.3.add_weld" for a list's item) was set:
+        file:line, or the override that set it.
     fail_model : callable(file)
         Raises the InputError for a model file that does not exist.
+    experiments : mapping of str to type, optional
+        The experiments a run may name, each to the task class its world needs; given,
+        `experiment` must be one of them and fit the task.
 
     Raises
     ------
@@ -61,27 +106,73 @@ def validate_scenario(
     """
     if not scenario.name:
         fail("name", "must be given")
-    for directive in scenario.directives:
-        if directive.add_model is not None and not model_file_exists(directive.add_model.file):
-            fail_model(directive.add_model.file)
-    for key in ("duration_s", "log_period_s"):
-        value = getattr(scenario, key)
-        if not (math.isfinite(value) and value > 0):
-            fail(key, f"must be a positive number, got {value}")
+    check_directives(scenario, fail, fail_model)
+    for key in ("duration_s", "log_period_s", "max_abs_position_m"):
+        check_number(getattr(scenario, key), key, fail, "> 0")
+    check_plant_config(scenario.plant_config, fail)
+    check_simulator_config(scenario.simulator_config, fail)
     try:
         scenario.dmp.check()
     except ValueError as error:
         fail(f"dmp.{str(error).split()[0]}", str(error))
+    _check_reference(scenario, folder, fail)
+    scenario.task.check_scenario(scenario, fail)
+    if not scenario.controllers:
+        fail("controllers", "at least one controller is needed")
+    for name, config in scenario.controllers.items():
+        config.check(name, scenario.n_axes, fail)
+        config.check_reference(name, scenario.reference, fail)
+    scenario.recording.check(fail)
+    scenario.probe.check(fail)
+    scenario.iiwa_driver.check(fail)
+    if scenario.probe.given and not isinstance(scenario.task, ArmTask):
+        fail("probe.start_m", "a probe carries an arm's tool: it needs an !ArmTask task")
+    if experiments is not None:
+        world = experiments.get(scenario.experiment)
+        if world is None:
+            fail(
+                "experiment",
+                f"must be one of {', '.join(experiments)}, got '{scenario.experiment}'",
+            )
+        if not isinstance(scenario.task, world):
+            fail(
+                "experiment",
+                f"'{scenario.experiment}' needs a !{world.__name__} task, the scenario has "
+                f"!{type(scenario.task).__name__}",
+            )
+    plant = scenario_plant(scenario, fail)
+    scenario.task.check_models(plant, fail)
+    if scenario.probe.given:
+        arm = scenario.probe.arm_model
+        problem = missing_model(plant, arm) or (
+            None
+            if tool_mount(scenario.directives, arm)
+            else f"no tool is welded to model '{arm}' (an add_weld with parent '{arm}::...')"
+        )
+        if problem:
+            fail("probe.arm_model", problem)
+
+
+def _check_reference(scenario: Scenario, folder: Path, fail: Fail) -> None:
+    """The set-points (times from 0, increasing; rows of one length; all finite) or the
+    demonstration (its file, a finite duration >= 0)."""
     reference = scenario.reference
     if isinstance(reference, StepReferenceConfig):
         if len(reference.times_s) != len(reference.positions_m) or not reference.times_s:
             fail("reference.times_s", "needs one entry per row of positions_m")
+        if not all(math.isfinite(t) for t in reference.times_s):
+            fail("reference.times_s", f"every time must be finite, got {reference.times_s}")
         if reference.times_s[0] != 0 or any(
             b <= a for a, b in zip(reference.times_s, reference.times_s[1:])
         ):
             fail("reference.times_s", "must start at 0 and increase")
         if len({len(row) for row in reference.positions_m}) != 1:
             fail("reference.positions_m", "every row needs the same number of axes")
+        if not np.all(np.isfinite(reference.positions_m)):
+            fail(
+                "reference.positions_m",
+                f"every position must be finite, got {reference.positions_m}",
+            )
     if isinstance(reference, DemonstrationConfig):
         demo = Path(folder) / reference.file
         if not reference.file or not demo.is_file():
@@ -89,13 +180,188 @@ def validate_scenario(
                 "reference.file",
                 f"demonstration file '{reference.file}' not found (looked for {demo})",
             )
-        if not reference.duration_s >= 0:
+        if not (math.isfinite(reference.duration_s) and reference.duration_s >= 0):
             fail(
                 "reference.duration_s",
-                "the demonstration's duration_s must be >= 0 (0: as demonstrated)",
+                "the demonstration's duration_s must be finite and >= 0 (0: as demonstrated), "
+                f"got {reference.duration_s}",
             )
-    scenario.task.check_scenario(scenario, fail)
-    if not scenario.controllers:
-        fail("controllers", "at least one controller is needed")
-    for name, config in scenario.controllers.items():
-        config.check(name, scenario.n_axes, fail)
+
+
+def check_directives(scenario: Scenario, fail: Fail, fail_model: Callable[[str], None]) -> None:
+    """What Drake does not check itself, or aborts the process on, before the models are
+    parsed: the model files exist, collision filter groups have names, and every pose
+    (a weld's X_PC, a frame's X_PF, a model's default poses and joint positions) is finite.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        Its `directives`.
+    fail : callable(key, problem)
+        Raises the InputError for "directives.K.KIND" (the K-th directive, 0-based).
+    fail_model : callable(file)
+        Raises the InputError for a model file that does not exist.
+
+    Raises
+    ------
+    InputError
+        Through `fail` or `fail_model`, for the first problem found.
+    """
+    for k, directive in enumerate(scenario.directives):
+        model, weld = directive.add_model, directive.add_weld
+        frame, group = directive.add_frame, directive.add_collision_filter_group
+        if model is not None and not model_file_exists(model.file):
+            fail_model(model.file)
+        if group is not None and not group.name:
+            fail(f"directives.{k}.add_collision_filter_group", "the group needs a name")
+        poses = {
+            "add_weld.X_PC": weld.X_PC if weld is not None else None,
+            "add_frame.X_PF": frame.X_PF if frame is not None else None,
+            **{
+                f"add_model.default_free_body_pose.{body}": pose
+                for body, pose in (model.default_free_body_pose if model else {}).items()
+            },
+        }
+        for key, pose in poses.items():
+            problem = _pose_problem(pose)
+            if problem:
+                fail(f"directives.{k}.{key}", problem)
+        for joint, values in (model.default_joint_positions if model else {}).items():
+            if not np.all(np.isfinite(values)):
+                fail(
+                    f"directives.{k}.add_model.default_joint_positions",
+                    f"joint '{joint}': every position must be finite, got {list(values)}",
+                )
+
+
+def _pose_problem(pose: Any) -> str | None:
+    """What is wrong with a directive's pose (a schema Transform or Drake's default-pose
+    variant), or None: a deterministic pose must be finite."""
+    if pose is None or not hasattr(pose, "IsDeterministic") or not pose.IsDeterministic():
+        return None
+    try:
+        matrix = pose.GetDeterministicValue().GetAsMatrix4()
+    except RuntimeError:  # a NaN in a rotation's angles
+        matrix = np.full((4, 4), np.nan)
+    if not np.all(np.isfinite(matrix)):
+        return "the pose (translation and rotation) must be finite"
+    return None
+
+
+def check_plant_config(config: MultibodyPlantConfig, fail: Fail) -> None:
+    """The plant config's numbers, before Drake sees them (it aborts the process on some):
+    time_step finite and >= 0 (0: continuous), penetration_allowance and
+    stiction_tolerance finite and > 0, sap_near_rigid_threshold finite and >= 0. Its
+    options are checked by Drake when the models are parsed (`scenario_plant`).
+
+    Parameters
+    ----------
+    config : MultibodyPlantConfig
+        The scenario's `plant_config`.
+    fail : callable(key, problem)
+        Raises the InputError that names where the key was set.
+
+    Raises
+    ------
+    InputError
+        Through `fail`, for the first problem found.
+    """
+    for key, rule in (
+        ("time_step", ">= 0"),
+        ("penetration_allowance", "> 0"),
+        ("stiction_tolerance", "> 0"),
+        ("sap_near_rigid_threshold", ">= 0"),
+    ):
+        check_number(getattr(config, key), f"plant_config.{key}", fail, rule)
+
+
+def check_simulator_config(config: SimulatorConfig, fail: Fail) -> None:
+    """The simulator config: a known integration scheme, max_step_size and accuracy finite
+    and > 0, target_realtime_rate finite and >= 0 (0: as fast as it goes), start_time 0
+    (every run starts at t = 0).
+
+    Parameters
+    ----------
+    config : SimulatorConfig
+        The scenario's `simulator_config`.
+    fail : callable(key, problem)
+        Raises the InputError that names where the key was set.
+
+    Raises
+    ------
+    InputError
+        Through `fail`, for the first problem found.
+    """
+    schemes = GetIntegrationSchemes()
+    if config.integration_scheme not in schemes:
+        fail(
+            "simulator_config.integration_scheme",
+            f"must be one of {', '.join(schemes)}, got '{config.integration_scheme}'",
+        )
+    check_number(config.max_step_size, "simulator_config.max_step_size", fail, "> 0")
+    check_number(config.accuracy, "simulator_config.accuracy", fail, "> 0")
+    check_number(config.target_realtime_rate, "simulator_config.target_realtime_rate", fail, ">= 0")
+    if config.start_time != 0:
+        fail(
+            "simulator_config.start_time",
+            f"must be 0 (every run starts at t = 0), got {config.start_time}",
+        )
+
+
+def _parsed(config: MultibodyPlantConfig, directives: list) -> MultibodyPlant:
+    """A finalized plant (with a SceneGraph, so that collision filters are resolved) of
+    `config` and `directives`; Drake's RuntimeError when it cannot be made."""
+    plant, _ = AddMultibodyPlant(config, DiagramBuilder())
+    process_directives(plant, directives)
+    plant.Finalize()
+    return plant
+
+
+def scenario_plant(scenario: Scenario, fail: Fail) -> MultibodyPlant:
+    """The scenario's models parsed into a finalized plant of its plant config: what
+    Drake says about an option of the config or a directive, as the config's or the
+    directive's problem.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        Its `plant_config` (its numbers already checked: `check_plant_config`) and
+        `directives` (their files, names and poses already checked: `check_directives`).
+    fail : callable(key, problem)
+        Raises the InputError that names where the key was set; a directive's key is
+        "directives.K.KIND".
+
+    Returns
+    -------
+    MultibodyPlant
+        Finalized, with every model of the scenario.
+
+    Raises
+    ------
+    InputError
+        Through `fail`: an unknown option of the plant config, or a directive Drake
+        refuses (a weld's frame, a collision filter's body or group that is not there...).
+    """
+    try:
+        _parsed(scenario.plant_config, [])
+    except RuntimeError as error:
+        for key in PLANT_OPTIONS:  # which option Drake does not know
+            alone = MultibodyPlantConfig()
+            setattr(alone, key, getattr(scenario.plant_config, key))
+            try:
+                _parsed(alone, [])
+            except RuntimeError:
+                fail(f"plant_config.{key}", loading_problem(error))
+        fail("plant_config", loading_problem(error))
+    try:
+        return _parsed(scenario.plant_config, scenario.directives)
+    except RuntimeError as error:
+        problem = loading_problem(error)
+    # The first directive that Drake refuses: the shortest list that fails to load.
+    for k, directive in enumerate(scenario.directives):
+        try:
+            _parsed(scenario.plant_config, scenario.directives[: k + 1])
+        except RuntimeError as error:
+            kind = next((n for n in DIRECTIVE_KINDS if getattr(directive, n) is not None), "")
+            fail(f"directives.{k}.{kind}".rstrip("."), loading_problem(error))
+    fail("directives", problem)

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Callable, Sequence
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.scenario import Scenario
 from hlcmp_drake.config.variants import use_drake_models_iiwa
-from hlcmp_drake.experiments import Experiment, experiment_of
+from hlcmp_drake.experiments import EXPERIMENTS, Experiment, experiment_of
 from hlcmp_drake.experiments.table import Table
 from hlcmp_drake.io import outputs
 from hlcmp_drake.io.runs import RunResult, instability_record, timeseries_arrays
@@ -201,7 +201,8 @@ def run_scenario(
     overrides : sequence of str
         ``dotted.key=value`` overrides layered over the file (see `load_scenario`).
     """
-    scenario, path = load_scenario(name_or_path, overrides)
+    worlds = {name: experiment.world for name, experiment in EXPERIMENTS.items()}
+    scenario, path = load_scenario(name_or_path, overrides, worlds)
     return run_loaded_scenario(
         scenario,
         path,
