@@ -10,6 +10,7 @@ works too. Every problem is one InputError naming the file and line, or the over
 from __future__ import annotations
 
 import copy
+import dataclasses as dc
 import re
 import typing
 from pathlib import Path
@@ -240,6 +241,9 @@ def override_yaml(scenario: Scenario, dotted_key: str, value_yaml: str) -> str:
     ------
     KeyError
         With the part (its only argument) that names no field of a dataclass.
+    InputError
+        When the key goes into a controller the scenario does not have (a whole new
+        controller, ``controllers.NAME=!Kind {...}``, is fine).
     """
     parts = dotted_key.split(".")
     lines: list[str] = []
@@ -249,6 +253,8 @@ def override_yaml(scenario: Scenario, dotted_key: str, value_yaml: str) -> str:
         owner = node
         key, i = _split_key(owner, parts, i)
         if isinstance(owner, dict):
+            if owner is scenario.controllers and key not in owner:
+                _check_new_controller(scenario, key, value_yaml)
             node = owner.get(key)
             members = (
                 _union_members(type(scenario), "controllers")
@@ -271,6 +277,23 @@ def override_yaml(scenario: Scenario, dotted_key: str, value_yaml: str) -> str:
         lines.append("  " * depth + f"{_yaml_key(key)}:{tag}" + (f" {value_yaml}" if last else ""))
         depth += 1
     return "\n".join(lines) + "\n"
+
+
+def _check_new_controller(scenario: Scenario, key: str, value_yaml: str) -> None:
+    """A key into `controllers` that is no label of it adds a controller, which takes a
+    whole tagged config (``controllers.NAME=!HlcmpConfig {...}``); anything else names a
+    controller that is not there (an InputError that says which there are)."""
+    if value_yaml.lstrip().startswith("!"):
+        return
+    fields = {
+        f.name for member in _union_members(Scenario, "controllers") for f in dc.fields(member)
+    }
+    name, _, field = key.rpartition(".")
+    name = name if name and field in fields else key
+    raise InputError(
+        f"no controller '{name}' (the scenario has: {', '.join(scenario.controllers) or 'none'}); "
+        "a new one takes a whole config, e.g. controllers.NAME=!HlcmpConfig {q_k: [...], ...}"
+    )
 
 
 def _yaml_key(key: str) -> str:
@@ -389,6 +412,8 @@ def _load_text(
                 raise InputError(
                     f"override '{label}': no field '{error.args[0]}' in the scenario"
                 ) from None
+            except InputError as error:
+                raise InputError(f"override '{label}': {error}") from None
             try:
                 scenario = yaml_load_typed(
                     schema=Scenario, data=data, defaults=copy.deepcopy(scenario)
