@@ -164,11 +164,6 @@ class _Source:
     def fail(self, dotted_key: str, problem: str) -> NoReturn:
         raise self.error(dotted_key, problem)
 
-    def fail_model(self, file: str) -> NoReturn:
-        line = next((n for n, row in enumerate(self.text.splitlines(), 1) if file in row), None)
-        where = f"{self.path}:{line}" if line else f"{self.path}"
-        raise InputError(f"{where}: file: model file '{file}' does not exist")
-
 
 def _yaml_error(path, text, error) -> InputError:
     """One line `file:line: problem` for whatever the YAML parser or the schema raised."""
@@ -423,7 +418,7 @@ def _load_text(
                 raise InputError(f"override '{label}': {message}") from None
             applied.append((label, key))
     source = _Source(path, text, applied)
-    validate_scenario(scenario, path.parent, source.fail, source.fail_model, experiments)
+    validate_scenario(scenario, path.parent, source.fail, experiments)
     if isinstance(scenario.reference, DemonstrationConfig):
         # Resolve the demonstration next to the scenario file, once, for every later user.
         scenario.reference.file = str((path.parent / scenario.reference.file).resolve())

@@ -428,11 +428,9 @@ class SliderTask:
             fail("reference", "the slider world follows a !StepReferenceConfig reference")
         if self.axis not in (0, 1, 2):
             fail("task.axis", f"must be 0 (x), 1 (y) or 2 (z), got {self.axis}")
-        if not (
-            math.isfinite(self.environment_stiffness_N_per_m)
-            and self.environment_stiffness_N_per_m >= 0
-        ):
-            fail("task.environment_stiffness_N_per_m", "must be finite and non-negative")
+        check_number(
+            self.environment_stiffness_N_per_m, "task.environment_stiffness_N_per_m", fail, ">= 0"
+        )
         check_number(self.surface_position_m, "task.surface_position_m", fail, "any")
         if any(len(row) != 1 for row in scenario.reference.positions_m):
             fail(
@@ -516,10 +514,10 @@ class PunctureConfig:
             Raises the InputError that names where the key was set.
         """
         check_number(self.thickness_m, "task.puncture.thickness_m", fail, "> 0")
-        if not 0 < self.depth_m <= self.thickness_m:
+        if not 0 < self.depth_m <= self.thickness_m:  # two fields: the key of their section
             fail(
-                "task.puncture.depth_m",
-                f"must be in (0, thickness_m = {self.thickness_m}], got {self.depth_m}",
+                "task.puncture",
+                f"depth_m must be in (0, thickness_m = {self.thickness_m}], got {self.depth_m}",
             )
         check_number(
             self.hole_friction_N_per_m, "task.puncture.hole_friction_N_per_m", fail, ">= 0"
@@ -716,8 +714,7 @@ class ArmTask:
             "posture_stiffness_Nm_per_rad",
             "posture_damping_Nms_per_rad",
         ):
-            if not (math.isfinite(getattr(self, key)) and getattr(self, key) >= 0):
-                fail(f"task.{key}", f"must be non-negative, got {getattr(self, key)}")
+            check_number(getattr(self, key), f"task.{key}", fail, ">= 0")
         check_number(self.max_contact_force_N, "task.max_contact_force_N", fail, "> 0")
         check_number(self.max_saturation_s, "task.max_saturation_s", fail, "> 0")
         self.puncture.check(fail)
@@ -791,8 +788,9 @@ class RecordingConfig:
             check_vector(getattr(self, key), f"recording.{key}", fail, (3,), " (x, y, z) [m]")
         if self.camera_position_m == self.camera_target_m:
             fail(
-                "recording.camera_position_m",
-                "must differ from camera_target_m: their difference is the view direction",
+                "recording",
+                "camera_position_m must differ from camera_target_m: their difference is the "
+                "view direction",
             )
         check_number(self.frames_per_second, "recording.frames_per_second", fail, "> 0")
 
@@ -862,10 +860,7 @@ class ProbeConfig:
         ):
             check_vector(getattr(self, key), f"probe.{key}", fail, (0, 3), " (x, y, z)", nonzero)
         if bool(self.start_m) != bool(self.push_m):
-            fail(
-                "probe.push_m" if self.start_m else "probe.start_m",
-                "a probe needs both start_m and push_m (or neither: no probe)",
-            )
+            fail("probe", "a probe needs both start_m and push_m (or neither: no probe)")
         check_number(self.speed_m_per_s, "probe.speed_m_per_s", fail, "> 0")
         check_number(self.tilt_rad, "probe.tilt_rad", fail, "any")
 

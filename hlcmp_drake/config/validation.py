@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any, Mapping
 
 import numpy as np
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlant, MultibodyPlantConfig
@@ -74,7 +74,6 @@ def validate_scenario(
     scenario: Scenario,
     folder: Path,
     fail: Fail,
-    fail_model: Callable[[str], None],
     experiments: Mapping[str, type] | None = None,
 ) -> None:
     """Raise InputError (through `fail(key, problem)`) for the first problem found.
@@ -93,8 +92,6 @@ def validate_scenario(
         Raises the InputError that names where `key` (a dotted path such as
         "controllers.hlcmp.q_k", or "directives.3.add_weld" for a list's item) was set:
         file:line, or the override that set it.
-    fail_model : callable(file)
-        Raises the InputError for a model file that does not exist.
     experiments : mapping of str to type, optional
         The experiments a run may name, each to the task class its world needs; given,
         `experiment` must be one of them and fit the task.
@@ -102,19 +99,20 @@ def validate_scenario(
     Raises
     ------
     InputError
-        Through `fail` or `fail_model`, for the first problem found.
+        Through `fail`, for the first problem found.
     """
     if not scenario.name:
         fail("name", "must be given")
-    check_directives(scenario, fail, fail_model)
+    check_directives(scenario, fail)
     for key in ("duration_s", "log_period_s", "max_abs_position_m"):
         check_number(getattr(scenario, key), key, fail, "> 0")
     check_plant_config(scenario.plant_config, fail)
     check_simulator_config(scenario.simulator_config, fail)
     try:
         scenario.dmp.check()
-    except ValueError as error:
-        fail(f"dmp.{str(error).split()[0]}", str(error))
+    except ValueError as error:  # "FIELD must ..."
+        field, _, rule = str(error).partition(" ")
+        fail(f"dmp.{field}", rule)
     _check_reference(scenario, folder, fail)
     scenario.task.check_scenario(scenario, fail)
     if not scenario.controllers:
@@ -159,7 +157,7 @@ def _check_reference(scenario: Scenario, folder: Path, fail: Fail) -> None:
     reference = scenario.reference
     if isinstance(reference, StepReferenceConfig):
         if len(reference.times_s) != len(reference.positions_m) or not reference.times_s:
-            fail("reference.times_s", "needs one entry per row of positions_m")
+            fail("reference", "times_s needs one entry per row of positions_m")
         if not all(math.isfinite(t) for t in reference.times_s):
             fail("reference.times_s", f"every time must be finite, got {reference.times_s}")
         if reference.times_s[0] != 0 or any(
@@ -188,10 +186,11 @@ def _check_reference(scenario: Scenario, folder: Path, fail: Fail) -> None:
             )
 
 
-def check_directives(scenario: Scenario, fail: Fail, fail_model: Callable[[str], None]) -> None:
-    """What Drake does not check itself, or aborts the process on, before the models are
-    parsed: the model files exist, collision filter groups have names, and every pose
-    (a weld's X_PC, a frame's X_PF, a model's default poses and joint positions) is finite.
+def check_directives(scenario: Scenario, fail: Fail) -> None:
+    """What is checked before the models are parsed: the rules of Drake's
+    ModelDirective::IsValid (which ProcessModelDirectives does not apply, and which log
+    rather than raise), the model files exist, and every pose (a weld's X_PC, a frame's
+    X_PF, a model's default free-body poses) and default joint position is finite.
 
     Parameters
     ----------
@@ -199,46 +198,71 @@ def check_directives(scenario: Scenario, fail: Fail, fail_model: Callable[[str],
         Its `directives`.
     fail : callable(key, problem)
         Raises the InputError for "directives.K.KIND" (the K-th directive, 0-based).
-    fail_model : callable(file)
-        Raises the InputError for a model file that does not exist.
 
     Raises
     ------
     InputError
-        Through `fail` or `fail_model`, for the first problem found.
+        Through `fail`, for the first problem found.
     """
     for k, directive in enumerate(scenario.directives):
-        model, weld = directive.add_model, directive.add_weld
-        frame, group = directive.add_frame, directive.add_collision_filter_group
-        if model is not None and not model_file_exists(model.file):
-            fail_model(model.file)
-        if group is not None and not group.name:
-            fail(f"directives.{k}.add_collision_filter_group", "the group needs a name")
-        poses = {
-            "add_weld.X_PC": weld.X_PC if weld is not None else None,
-            "add_frame.X_PF": frame.X_PF if frame is not None else None,
-            **{
-                f"add_model.default_free_body_pose.{body}": pose
-                for body, pose in (model.default_free_body_pose if model else {}).items()
+        kinds = [n for n in DIRECTIVE_KINDS if getattr(directive, n) is not None]
+        if len(kinds) != 1:
+            fail(
+                f"directives.{k}",
+                f"a directive is one of {', '.join(DIRECTIVE_KINDS)}, got "
+                f"{', '.join(kinds) or 'none'}",
+            )
+        kind, item = kinds[0], getattr(directive, kinds[0])
+        key = f"directives.{k}.{kind}"
+        required = {
+            "add_model": ("file", "name"),
+            "add_model_instance": ("name",),
+            "add_frame": ("name",),
+            "add_weld": ("parent", "child"),
+            "add_collision_filter_group": ("name",),
+            "add_directives": ("file",),
+        }[kind]
+        for field in required:
+            if not getattr(item, field):
+                fail(f"{key}.{field}", f"{kind} needs a non-empty {field}")
+        if kind == "add_model" and not model_file_exists(item.file):
+            fail(f"{key}.file", f"model file '{item.file}' does not exist")
+        if kind == "add_collision_filter_group" and not (item.members or item.member_groups):
+            fail(f"{key}.members", "a collision filter group needs members or member_groups")
+        poses = {  # (field, what the message calls the pose): the pose
+            "add_weld": {("X_PC", ""): getattr(item, "X_PC", None)},
+            "add_frame": {("X_PF", ""): getattr(item, "X_PF", None)},
+            "add_model": {
+                ("default_free_body_pose", f"body '{body}': "): pose
+                for body, pose in getattr(item, "default_free_body_pose", {}).items()
             },
-        }
-        for key, pose in poses.items():
-            problem = _pose_problem(pose)
+        }.get(kind, {})
+        for (field, which), pose in poses.items():
+            rule = {"add_frame": "required", "add_weld": "forbidden"}.get(kind, "any")
+            problem = _pose_problem(pose, rule)
             if problem:
-                fail(f"directives.{k}.{key}", problem)
-        for joint, values in (model.default_joint_positions if model else {}).items():
+                fail(f"{key}.{field}", f"{which}{problem}")
+        for joint, values in getattr(item, "default_joint_positions", {}).items():
             if not np.all(np.isfinite(values)):
                 fail(
-                    f"directives.{k}.add_model.default_joint_positions",
-                    f"joint '{joint}': every position must be finite, got {list(values)}",
+                    f"{key}.default_joint_positions",
+                    f"joint '{joint}': every position must be finite, got "
+                    f"{[float(v) for v in values]}",
                 )
 
 
-def _pose_problem(pose: Any) -> str | None:
-    """What is wrong with a directive's pose (a schema Transform or Drake's default-pose
-    variant), or None: a deterministic pose must be finite."""
-    if pose is None or not hasattr(pose, "IsDeterministic") or not pose.IsDeterministic():
+def _pose_problem(pose: Any, base_frame: str) -> str | None:
+    """What is wrong with a directive's pose (a schema Transform), or None: it must be
+    deterministic and finite, and have a base frame as `base_frame` says: "required"
+    (add_frame's X_PF), "forbidden" (a weld's X_PC is in its parent frame) or "any"."""
+    if pose is None:
         return None
+    if base_frame == "required" and not pose.base_frame:
+        return "needs a base_frame, the frame it is given in"
+    if base_frame == "forbidden" and pose.base_frame:
+        return f"must not have a base_frame (got '{pose.base_frame}'): it is in the parent frame"
+    if not pose.IsDeterministic():
+        return "must be one pose, not a random distribution"
     try:
         matrix = pose.GetDeterministicValue().GetAsMatrix4()
     except RuntimeError:  # a NaN in a rotation's angles
