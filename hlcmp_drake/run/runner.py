@@ -28,6 +28,17 @@ from hlcmp_drake.worlds.controllers import learners as learning_controllers
 NO_LEARNER = "without a learner"  # the claims' key when a scenario has no Hl-CMP
 
 
+def experiment_worlds() -> dict[str, type]:
+    """What `load_scenario` checks a scenario's `experiment` against before a run.
+
+    Returns
+    -------
+    dict of str to type
+        Each registered experiment's name to the task class its world needs.
+    """
+    return {name: experiment.world for name, experiment in EXPERIMENTS.items()}
+
+
 def run_one(
     build: Callable,
     scenario: Scenario,
@@ -201,8 +212,7 @@ def run_scenario(
     overrides : sequence of str
         ``dotted.key=value`` overrides layered over the file (see `load_scenario`).
     """
-    worlds = {name: experiment.world for name, experiment in EXPERIMENTS.items()}
-    scenario, path = load_scenario(name_or_path, overrides, worlds)
+    scenario, path = load_scenario(name_or_path, overrides, experiment_worlds())
     return run_loaded_scenario(
         scenario,
         path,
