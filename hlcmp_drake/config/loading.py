@@ -100,7 +100,7 @@ def line_of(text: str, dotted_key: str) -> int | None:
             start, i = found, i + 1  # the item's line may hold its first key ("- add_weld:")
             continue
         for j in range(len(parts), i, -1):  # the longest run of parts that names a key
-            pattern = re.compile(rf"\s*(- )?{re.escape('.'.join(parts[i:j]))}\s*:")
+            pattern = re.compile(rf"\s*(-\s+)?{re.escape('.'.join(parts[i:j]))}\s*:")
             found = next((n for n in range(start, len(lines)) if pattern.match(lines[n])), None)
             if found is not None:
                 start, i = found + 1, j
