@@ -989,8 +989,9 @@ class Scenario:
         round(log_period_s / iiwa_driver.period_s) statuses). Default 0.01.
     directives : list of ModelDirective
         Drake's model directives of the world (add_model, add_weld,
-        add_collision_filter_group, ...); our package://hlcmp_drake/models/ files and plain
-        paths must exist. Default none.
+        add_collision_filter_group, ...); a model file is a URL (package://, file://),
+        and our package://hlcmp_drake/models/ files and file:// paths must exist; every
+        name they use is looked up in the models at load. Default none.
     plant_config : MultibodyPlantConfig
         Drake's plant config (time_step [s], contact model, ...). Default Drake's with
         use_sampled_output_ports false, which an arm world requires; the arm's fast path

@@ -49,8 +49,9 @@ PLANT_OPTIONS = (
 def model_file_exists(file: str) -> bool:
     """Whether a directive's model file exists.
 
-    Our package:// models and plain (or file://) paths are checked; other packages
-    (drake_models, downloaded by Drake on first use) are left to Drake.
+    Our package:// models and file:// paths are checked; other packages (drake_models,
+    downloaded by Drake on first use) are left to Drake. (A plain path is no URL, which
+    Drake refuses: `check_directives` says so first.)
 
     Parameters
     ----------
@@ -60,7 +61,7 @@ def model_file_exists(file: str) -> bool:
     Returns
     -------
     bool
-        False only when a file of ours or a plain path is missing.
+        False only when a file of ours or a file:// (or plain) path is missing.
     """
     prefix = f"package://{PACKAGE_NAME}/models/"
     if file.startswith(prefix):
@@ -225,6 +226,12 @@ def check_directives(scenario: Scenario, fail: Fail) -> None:
         for field in required:
             if not getattr(item, field):
                 fail(f"{key}.{field}", f"{kind} needs a non-empty {field}")
+        if kind in ("add_model", "add_directives") and "://" not in item.file:
+            fail(
+                f"{key}.file",
+                f"'{item.file}' is a plain path; Drake reads a model file from a URL: "
+                "package://PACKAGE/... or file:///absolute/path",
+            )
         if kind == "add_model" and not model_file_exists(item.file):
             fail(f"{key}.file", f"model file '{item.file}' does not exist")
         if kind == "add_collision_filter_group" and not (item.members or item.member_groups):
