@@ -100,7 +100,10 @@ BREAKS = [
     ("max_abs_position_m", _number("> 0")),
     # the model directives (Drake's ModelDirective rules, and what the parse finds)
     ("directives.*.add_model.name", lambda v, s: [""]),
-    ("directives.*.add_model.file", lambda v, s: ["package://hlcmp_drake/models/nope.sdf", ""]),
+    (
+        "directives.*.add_model.file",
+        lambda v, s: ["package://hlcmp_drake/models/nope.sdf", "", v.rsplit("/", 1)[-1]],
+    ),
     ("directives.*.add_model.default_joint_positions", lambda v, s: [{"j": np.array([NAN])}]),
     ("directives.*.add_model.default_free_body_pose", lambda v, s: [{"b": _nan_transform()}]),
     ("directives.*.add_weld.parent", lambda v, s: [_misspelt(v), ""]),
