@@ -153,8 +153,9 @@ def cmd_run(args):
     finally:
         # The live view's replay diagrams keep the Meshcat in reference cycles (pybind keep-alives),
         # so its server would outlive the command until Python's next collection.
-        del meshcat
-        gc.collect()
+        if meshcat is not None:
+            del meshcat
+            gc.collect()
     print_summary(result)
     return EXIT_UNSTABLE if result.metrics["status"] != "ok" else 0
 

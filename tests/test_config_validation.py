@@ -1,9 +1,14 @@
 """hlcmp_drake.config.validation: an arm scenario the fast path cannot run is refused with the
-field named."""
+field named; the issue's cases (a misspelt frame, a short vector, an unknown controller)
+exit 2 at load naming the override; a bad file names the line, a directive's its item's.
+tests/test_config_fields.py breaks every field of the bundled scenarios."""
 
 import pytest
+from conftest import INSERTION_DEMO, one_line_error, run_cli
 
-from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.config.loading import line_of, load_scenario
+from hlcmp_drake.io.errors import InputError
+from hlcmp_drake.io.paths import DIAGRAMS_DIR
 
 
 @pytest.mark.parametrize(
@@ -17,8 +22,86 @@ from hlcmp_drake.config.loading import load_scenario
 def test_an_arm_scenario_the_fast_path_cannot_run_is_refused_with_the_field_named(
     override, expected
 ):
-    from hlcmp_drake.io.errors import InputError
-
     with pytest.raises(InputError, match=expected) as error:
         load_scenario("insertion", [override])
     assert override.split("=")[0] in str(error.value) and "\n" not in str(error.value)
+
+
+@pytest.mark.parametrize(
+    "override, expected",
+    [
+        (
+            "task.tool_frame=insertion_tool::tipp",
+            "tool_frame: no frame 'tipp' in model 'insertion_tool' (its frames: mount, tip, tool)",
+        ),
+        (
+            "task.puncture.object_frame=foam_plank::plnk",
+            "object_frame: no frame 'plnk' in model 'foam_plank'",
+        ),
+        (
+            "recording.camera_position_m=[1.9, -2.2]",
+            "camera_position_m: needs 3 values (x, y, z) [m], got 2",
+        ),
+        (
+            "controllers.nope.q_k=[1,1,1]",
+            "no controller 'nope' (the scenario has: hlcmp, hlcmp_per_step, const_500, "
+            "const_1000, const_2000)",
+        ),
+        ("experiment=one_dof", "experiment: 'one_dof' needs a !SliderTask task"),
+    ],
+)
+def test_the_issues_cases_exit_2_at_load_naming_the_override(tmp_path, override, expected):
+    out = tmp_path / "out"
+    line = one_line_error(run_cli("run", "insertion", "--set", override, "--out", out))
+    assert line.startswith(f"hlcmp: error: override '{override}': ") and expected in line, line
+    assert not out.exists()
+
+
+def _written(tmp_path, old, new):
+    text = (DIAGRAMS_DIR / "insertion.yaml").read_text()
+    assert old in text
+    text = text.replace(old, new, 1).replace(
+        "file: demos/insertion_demo.csv", f"file: {INSERTION_DEMO}"
+    )
+    path = tmp_path / "s.yaml"
+    path.write_text(text)
+    return path, text.splitlines()
+
+
+@pytest.mark.parametrize(
+    "old, new, line_with, expected",
+    [
+        # a directive's problem names its item's line, found by its index in the list
+        (
+            "parent: iiwa::flange",
+            "parent: iiwa::flang",
+            "- add_weld:",
+            "add_weld: GetFrameByName(): There is no Frame named 'flang'",
+        ),
+        (
+            "tool_frame: insertion_tool::tip",
+            "tool_frame: tool::tip",
+            "tool_frame:",
+            "no model 'tool'",
+        ),
+        ("thickness_m: 0.03", "thickness_m: 0.01", "puncture:", "puncture: depth_m must be in"),
+        ("spacing_m: 1.2", "spacing_m: .nan", "spacing_m:", "spacing_m: must be finite and >= 0"),
+    ],
+)
+def test_a_bad_scenario_file_names_the_line(tmp_path, old, new, line_with, expected):
+    path, lines = _written(tmp_path, old, new)
+    with pytest.raises(InputError) as error:
+        load_scenario(path)
+    message = str(error.value)
+    changed = next(n for n, row in enumerate(lines, 1) if new in row)
+    number = max(n for n, row in enumerate(lines[:changed], 1) if line_with in row)
+    assert message.startswith(f"{path}:{number}: ") and expected in message, message
+
+
+def test_a_directives_line_is_its_items_in_the_list():
+    text = (
+        "a: 1\nlist:\n# a comment\n- one: 1\n  two: 2\n-   three: 3\n- four:\n    five: 5\nb: 2\n"
+    )
+    assert [line_of(text, f"list.{k}") for k in range(4)] == [4, 6, 7, None]
+    assert line_of(text, "list.2.four.five") == 8
+    assert line_of(text, "list.1.three") == 6

@@ -87,14 +87,16 @@ def test_a_rotated_weld_is_read_and_told_apart():
 
 
 def test_a_model_counts_by_its_content_not_its_path(tmp_path):
-    """The plank as a plain path: a copy elsewhere is the same world, an edit is not."""
+    """The plank as a file:// path: a copy elsewhere is the same world, an edit is not."""
     text = _insertion_text()
     url = "package://hlcmp_drake/models/foam_plank.sdf"
     assert url in text
 
     def world_with(plank):
         return world_of_scenario(
-            load_scenario_text(text.replace(url, str(plank)), DIAGRAMS_DIR / "insertion.yaml")
+            load_scenario_text(
+                text.replace(url, f"file://{plank}"), DIAGRAMS_DIR / "insertion.yaml"
+            )
         )
 
     for folder in ("a", "b"):

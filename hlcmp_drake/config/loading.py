@@ -10,10 +10,11 @@ works too. Every problem is one InputError naming the file and line, or the over
 from __future__ import annotations
 
 import copy
+import dataclasses as dc
 import re
 import typing
 from pathlib import Path
-from typing import Any, NoReturn, Sequence, Union
+from typing import Any, Mapping, NoReturn, Sequence, Union
 
 from pydrake.common.yaml import yaml_load_typed
 
@@ -72,14 +73,16 @@ def line_of(text: str, dotted_key: str) -> int | None:
     """The 1-based line where the YAML `text` sets `dotted_key`.
 
     Each part of the key is looked for after the line of the part before it; a label with
-    dots in it ("vic_fd_0.5") is matched whole.
+    dots in it ("vic_fd_0.5") is matched whole; a number after a key is the index of an
+    item of the block list under it ("directives.3.add_weld": the fourth directive's
+    add_weld).
 
     Parameters
     ----------
     text : str
         The YAML file's text.
     dotted_key : str
-        A dotted path such as "controllers.hlcmp.q_k".
+        A dotted path such as "controllers.hlcmp.q_k" or "directives.3.add_weld".
 
     Returns
     -------
@@ -90,8 +93,14 @@ def line_of(text: str, dotted_key: str) -> int | None:
     parts = dotted_key.split(".")
     start, found, i = 0, None, 0
     while i < len(parts):
+        if parts[i].isdigit() and found is not None:  # an item of the list under the key
+            found = _list_item(lines, found + 1, int(parts[i]))
+            if found is None:
+                return None
+            start, i = found, i + 1  # the item's line may hold its first key ("- add_weld:")
+            continue
         for j in range(len(parts), i, -1):  # the longest run of parts that names a key
-            pattern = re.compile(rf"\s*(- )?{re.escape('.'.join(parts[i:j]))}\s*:")
+            pattern = re.compile(rf"\s*(-\s+)?{re.escape('.'.join(parts[i:j]))}\s*:")
             found = next((n for n in range(start, len(lines)) if pattern.match(lines[n])), None)
             if found is not None:
                 start, i = found + 1, j
@@ -99,6 +108,36 @@ def line_of(text: str, dotted_key: str) -> int | None:
         else:
             return None
     return None if found is None else found + 1
+
+
+def _list_item(lines: list[str], start: int, index: int) -> int | None:
+    """The 0-based line of item `index` of the block list that begins at or after `start`
+    ("- ..." lines of one indentation; the list ends at a line indented no deeper that is
+    not one of its items)."""
+    indent, count = None, -1
+    for n in range(start, len(lines)):
+        row = lines[n]
+        stripped = row.lstrip()
+        if not stripped or stripped.startswith("#"):
+            continue
+        depth = len(row) - len(stripped)
+        is_item = stripped == "-" or stripped.startswith("- ")
+        if indent is None:
+            if not is_item:
+                return None
+            indent = depth
+        if depth < indent or (depth == indent and not is_item):
+            return None
+        if depth == indent:
+            count += 1
+            if count == index:
+                return n
+    return None
+
+
+def _leaf(dotted_key: str) -> str:
+    """The last part of a dotted key that is a name (not a list index)."""
+    return next((p for p in reversed(dotted_key.split(".")) if not p.isdigit()), dotted_key)
 
 
 class _Source:
@@ -110,7 +149,7 @@ class _Source:
     def error(self, dotted_key: str, problem: str) -> InputError:
         """`override 'k=v': key: problem` when an override set the key, else
         `file:line: key: problem` (the line omitted when it cannot be found)."""
-        leaf = dotted_key.split(".")[-1]
+        leaf = _leaf(dotted_key)
         for label, key in reversed(self.overrides):
             if (
                 key == dotted_key
@@ -124,11 +163,6 @@ class _Source:
 
     def fail(self, dotted_key: str, problem: str) -> NoReturn:
         raise self.error(dotted_key, problem)
-
-    def fail_model(self, file: str) -> NoReturn:
-        line = next((n for n, row in enumerate(self.text.splitlines(), 1) if file in row), None)
-        where = f"{self.path}:{line}" if line else f"{self.path}"
-        raise InputError(f"{where}: file: model file '{file}' does not exist")
 
 
 def _yaml_error(path, text, error) -> InputError:
@@ -202,6 +236,9 @@ def override_yaml(scenario: Scenario, dotted_key: str, value_yaml: str) -> str:
     ------
     KeyError
         With the part (its only argument) that names no field of a dataclass.
+    InputError
+        When the key goes into a controller the scenario does not have (a whole new
+        controller, ``controllers.NAME=!Kind {...}``, is fine).
     """
     parts = dotted_key.split(".")
     lines: list[str] = []
@@ -211,6 +248,8 @@ def override_yaml(scenario: Scenario, dotted_key: str, value_yaml: str) -> str:
         owner = node
         key, i = _split_key(owner, parts, i)
         if isinstance(owner, dict):
+            if owner is scenario.controllers and key not in owner:
+                _check_new_controller(scenario, key, value_yaml)
             node = owner.get(key)
             members = (
                 _union_members(type(scenario), "controllers")
@@ -233,6 +272,23 @@ def override_yaml(scenario: Scenario, dotted_key: str, value_yaml: str) -> str:
         lines.append("  " * depth + f"{_yaml_key(key)}:{tag}" + (f" {value_yaml}" if last else ""))
         depth += 1
     return "\n".join(lines) + "\n"
+
+
+def _check_new_controller(scenario: Scenario, key: str, value_yaml: str) -> None:
+    """A key into `controllers` that is no label of it adds a controller, which takes a
+    whole tagged config (``controllers.NAME=!HlcmpConfig {...}``); anything else names a
+    controller that is not there (an InputError that says which there are)."""
+    if value_yaml.lstrip().startswith("!"):
+        return
+    fields = {
+        f.name for member in _union_members(Scenario, "controllers") for f in dc.fields(member)
+    }
+    name, _, field = key.rpartition(".")
+    name = name if name and field in fields else key
+    raise InputError(
+        f"no controller '{name}' (the scenario has: {', '.join(scenario.controllers) or 'none'}); "
+        "a new one takes a whole config, e.g. controllers.NAME=!HlcmpConfig {q_k: [...], ...}"
+    )
 
 
 def _yaml_key(key: str) -> str:
@@ -263,7 +319,9 @@ def _parse_override(override) -> list[tuple[str, str, str]]:
 
 
 def load_scenario(
-    name_or_path: str | Path, overrides: Sequence[str | dict] = ()
+    name_or_path: str | Path,
+    overrides: Sequence[str | dict] = (),
+    experiments: Mapping[str, type] | None = None,
 ) -> tuple[Scenario, Path]:
     """Load, override and validate a scenario.
 
@@ -274,6 +332,10 @@ def load_scenario(
     overrides : sequence of str or dict
         Each ``dotted.key=YAML value`` (or a dict of them), layered in order over the
         file, e.g. ``["duration_s=4", "controllers.hlcmp.q_k=[300,300,300]"]``.
+    experiments : mapping of str to type, optional
+        The experiments the scenario may name, each to the task class its world needs
+        (what a run evaluates with: `hlcmp_drake.experiments`); given, `experiment` is
+        checked against them.
 
     Returns
     -------
@@ -290,11 +352,14 @@ def load_scenario(
         text = path.read_text()
     except (OSError, UnicodeDecodeError) as error:
         raise InputError(f"{path}: cannot be read as text ({error.__class__.__name__})") from None
-    return _load_text(text, path, overrides), path
+    return _load_text(text, path, overrides, experiments), path
 
 
 def load_scenario_text(
-    text: str, path: str | Path, overrides: Sequence[str | dict] = ()
+    text: str,
+    path: str | Path,
+    overrides: Sequence[str | dict] = (),
+    experiments: Mapping[str, type] | None = None,
 ) -> Scenario:
     """Load, override and validate a scenario given as YAML text (e.g. one that
     `pydrake.common.yaml.yaml_dump_typed` wrote, as a sweep ships it to its workers).
@@ -306,7 +371,7 @@ def load_scenario_text(
     path : str or Path
         The file the text stands for: messages name it, and a relative demonstration file
         is looked up in its folder (the file itself need not exist).
-    overrides : sequence of str or dict
+    overrides, experiments
         As for `load_scenario`.
 
     Returns
@@ -319,10 +384,15 @@ def load_scenario_text(
     InputError
         One line naming `path` and the line, or the override, and what is wrong.
     """
-    return _load_text(text, Path(path), overrides)
+    return _load_text(text, Path(path), overrides, experiments)
 
 
-def _load_text(text: str, path: Path, overrides: Sequence[str | dict]) -> Scenario:
+def _load_text(
+    text: str,
+    path: Path,
+    overrides: Sequence[str | dict],
+    experiments: Mapping[str, type] | None = None,
+) -> Scenario:
     """`load_scenario` after the file is read: parse, override, validate, resolve."""
     try:
         scenario = yaml_load_typed(schema=Scenario, data=text)
@@ -337,6 +407,8 @@ def _load_text(text: str, path: Path, overrides: Sequence[str | dict]) -> Scenar
                 raise InputError(
                     f"override '{label}': no field '{error.args[0]}' in the scenario"
                 ) from None
+            except InputError as error:
+                raise InputError(f"override '{label}': {error}") from None
             try:
                 scenario = yaml_load_typed(
                     schema=Scenario, data=data, defaults=copy.deepcopy(scenario)
@@ -346,7 +418,7 @@ def _load_text(text: str, path: Path, overrides: Sequence[str | dict]) -> Scenar
                 raise InputError(f"override '{label}': {message}") from None
             applied.append((label, key))
     source = _Source(path, text, applied)
-    validate_scenario(scenario, path.parent, source.fail, source.fail_model)
+    validate_scenario(scenario, path.parent, source.fail, experiments)
     if isinstance(scenario.reference, DemonstrationConfig):
         # Resolve the demonstration next to the scenario file, once, for every later user.
         scenario.reference.file = str((path.parent / scenario.reference.file).resolve())

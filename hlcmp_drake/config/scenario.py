@@ -16,14 +16,80 @@ import math
 from typing import Callable, NoReturn, Union
 
 from pydrake.multibody.parsing import ModelDirective
-from pydrake.multibody.plant import MultibodyPlantConfig
+from pydrake.multibody.plant import MultibodyPlant, MultibodyPlantConfig
 from pydrake.systems.analysis import SimulatorConfig
 
+from hlcmp_drake.config.models import body_problem, frame_problem
 from hlcmp_drake.core.dmp import DmpSettings
 
 # fail(key, problem): raises the InputError that names where `key` -- a dotted path such as
 # "controllers.hlcmp.q_k" -- was set (the file's line, or the override).
 Fail = Callable[[str, str], NoReturn]
+
+
+# The rules `check_number` knows, and how a message says each.
+NUMBER_RULES = {"any": "a finite number", ">= 0": "finite and >= 0", "> 0": "finite and > 0"}
+
+
+def check_number(value: float, key: str, fail: Fail, rule: str = "> 0") -> None:
+    """Check that the scenario's number at `key` is finite and keeps `rule`.
+
+    Parameters
+    ----------
+    value : float
+        The field's value.
+    key : str
+        Its dotted path, e.g. "recording.frames_per_second".
+    fail : callable(dotted_key: str, problem: str)
+        Raises the InputError that names where the key was set.
+    rule : str
+        "> 0" (positive, the default), ">= 0" (non-negative) or "any" (finite is enough).
+
+    Raises
+    ------
+    InputError
+        Through `fail`: "must be finite and > 0, got nan".
+    """
+    if not (
+        math.isfinite(value)
+        and (rule == "any" or (rule == ">= 0" and value >= 0) or (rule == "> 0" and value > 0))
+    ):
+        fail(key, f"must be {NUMBER_RULES[rule]}, got {value}")
+
+
+def check_vector(
+    values: list, key: str, fail: Fail, lengths: tuple = (3,), what: str = "", nonzero: bool = False
+) -> None:
+    """Check that the scenario's vector at `key` has one of `lengths` and finite values.
+
+    Parameters
+    ----------
+    values : list of float
+        The field's value.
+    key : str
+        Its dotted path, e.g. "recording.camera_position_m".
+    fail : callable(dotted_key: str, problem: str)
+        Raises the InputError that names where the key was set.
+    lengths : tuple of int
+        The lengths allowed, e.g. (3,) or (0, 3) (empty, or three values).
+    what : str
+        What the values are, for the message, e.g. " (x, y, z) [m]".
+    nonzero : bool
+        A non-empty vector must not be all zeros (a direction).
+
+    Raises
+    ------
+    InputError
+        Through `fail`, e.g. "needs 3 values (x, y, z) [m], got 2".
+    """
+    if len(values) not in lengths:
+        counts = " or ".join("none" if n == 0 else str(n) for n in lengths)
+        fail(key, f"needs {counts} values{what}, got {len(values)}")
+    for value in values:
+        if not math.isfinite(value):
+            fail(key, f"every value must be finite, got {value}")
+    if nonzero and values and not any(values):
+        fail(key, f"must not be all zeros (a direction){what}")
 
 
 def check_per_axis(
@@ -100,12 +166,26 @@ class ControllerChecks:
         for key, rule in self.PER_AXIS.items():
             check_per_axis(self, name, key, m, fail, rule)
 
+    def check_reference(self, name: str, reference: object, fail: Fail) -> None:
+        """Check what this controller needs of the scenario's reference (nothing, unless a
+        config says otherwise).
+
+        Parameters
+        ----------
+        name : str
+            The controller's label in the scenario.
+        reference : StepReferenceConfig or DemonstrationConfig
+            The scenario's reference.
+        fail : callable(dotted_key: str, problem: str)
+            Raises the InputError that names where the key was set.
+        """
+
     def _check_scalars(self, name: str, fail: Fail) -> None:
         """The sliding-surface slope of Eq. 29, for the configs that have one."""
-        if not self.pi > 0:
+        if not (math.isfinite(self.pi) and self.pi > 0):
             fail(
                 f"controllers.{name}.pi",
-                f"controller '{name}': pi must be > 0 (Eq. 29), got {self.pi}",
+                f"controller '{name}': pi must be > 0 (Eq. 29) and finite, got {self.pi}",
             )
 
 
@@ -131,7 +211,8 @@ class StepReferenceConfig:
 class HlcmpConfig(ControllerChecks):
     """The Hl-CMP learner: learning rates Q per axis (Eq. 31), pi (Eq. 29), L (Eq. 34),
     and the initial value of every weight of theta_k, theta_d, theta_v. Checked: pi > 0,
-    L and every Q per axis and non-negative, `q_units` one of Q_UNITS.
+    L and every Q per axis and non-negative, `q_units` one of Q_UNITS, control_step_s > 0,
+    the initial weights finite.
 
     `q_units` says how to read Q, which the paper leaves open: "per_second" integrates
     Eq. 31 as written, theta' = Q eps e g; "per_step" is Table I's "for each time step t:
@@ -171,11 +252,18 @@ class HlcmpConfig(ControllerChecks):
                 f"controller '{name}': q_units must be one of {', '.join(self.Q_UNITS)}, got "
                 f"'{self.q_units}'",
             )
-        if not self.control_step_s > 0:
+        if not (math.isfinite(self.control_step_s) and self.control_step_s > 0):
             fail(
                 f"controllers.{name}.control_step_s",
-                f"controller '{name}': control_step_s must be positive",
+                f"controller '{name}': control_step_s must be positive and finite, got "
+                f"{self.control_step_s}",
             )
+        for key in ("theta_k0", "theta_d0", "theta_v0"):
+            if not math.isfinite(getattr(self, key)):
+                fail(
+                    f"controllers.{name}.{key}",
+                    f"controller '{name}': {key} must be finite, got {getattr(self, key)}",
+                )
 
 
 @dc.dataclass
@@ -216,8 +304,9 @@ class VariableImpedanceConfig(ControllerChecks):
 
     desired_force_N is the desired reaction force per axis while the task asks for force
     (the reference segments listed in `force_segments`); elsewhere f_d = 0. Checked: one
-    value per axis (mass and damping positive, the others non-negative, the force any),
-    sigma >= 0 and a positive sample period."""
+    finite value per axis (mass and damping positive, the others non-negative, the force
+    any), sigma >= 0 and a positive sample period, and a !StepReferenceConfig reference
+    that has every segment `force_segments` lists."""
 
     PER_AXIS = {
         "desired_force_N": "any",
@@ -239,12 +328,46 @@ class VariableImpedanceConfig(ControllerChecks):
     kv: list[float] = dc.field(default_factory=list)
 
     def _check_scalars(self, name: str, fail: Fail) -> None:
-        """sigma >= 0 and a positive sample period (the adaptation's lambda)."""
-        if not (self.sigma >= 0 and self.sample_period_s > 0):
+        """sigma >= 0 and a positive sample period (the adaptation's lambda), both finite."""
+        if not (math.isfinite(self.sigma) and self.sigma >= 0):
             fail(
                 f"controllers.{name}.sigma",
-                f"controller '{name}': sigma >= 0 and sample_period_s > 0 are required",
+                f"controller '{name}': sigma must be finite and >= 0, got {self.sigma}",
             )
+        if not (math.isfinite(self.sample_period_s) and self.sample_period_s > 0):
+            fail(
+                f"controllers.{name}.sample_period_s",
+                f"controller '{name}': sample_period_s must be finite and > 0, got "
+                f"{self.sample_period_s}",
+            )
+
+    def check_reference(self, name: str, reference: object, fail: Fail) -> None:
+        """`force_segments` index the set-points' segments: a step reference is needed, and
+        each index must be one of its segments.
+
+        Parameters
+        ----------
+        name : str
+            The controller's label in the scenario.
+        reference : StepReferenceConfig or DemonstrationConfig
+            The scenario's reference.
+        fail : callable(dotted_key: str, problem: str)
+            Raises the InputError that names where the key was set.
+        """
+        if not isinstance(reference, StepReferenceConfig):
+            fail(
+                f"controllers.{name}",
+                f"controller '{name}': a !VariableImpedanceConfig asks for force during the "
+                "set-points' segments (force_segments): it needs a !StepReferenceConfig reference",
+            )
+        count = len(reference.times_s)
+        for k in self.force_segments:
+            if not 0 <= k < count:
+                fail(
+                    f"controllers.{name}.force_segments",
+                    f"controller '{name}': every segment must be one of 0..{count - 1} (one per "
+                    f"entry of reference.times_s), got {k}",
+                )
 
 
 ControllerConfig = Union[
@@ -305,11 +428,30 @@ class SliderTask:
             fail("reference", "the slider world follows a !StepReferenceConfig reference")
         if self.axis not in (0, 1, 2):
             fail("task.axis", f"must be 0 (x), 1 (y) or 2 (z), got {self.axis}")
-        if not (
-            math.isfinite(self.environment_stiffness_N_per_m)
-            and self.environment_stiffness_N_per_m >= 0
-        ):
-            fail("task.environment_stiffness_N_per_m", "must be finite and non-negative")
+        check_number(
+            self.environment_stiffness_N_per_m, "task.environment_stiffness_N_per_m", fail, ">= 0"
+        )
+        check_number(self.surface_position_m, "task.surface_position_m", fail, "any")
+        if any(len(row) != 1 for row in scenario.reference.positions_m):
+            fail(
+                "reference.positions_m",
+                "the slider moves along one axis: every row needs 1 value, got "
+                f"{scenario.reference.positions_m}",
+            )
+
+    def check_models(self, plant: MultibodyPlant, fail: Fail) -> None:
+        """The body the joint moves is one of the models'.
+
+        Parameters
+        ----------
+        plant : MultibodyPlant
+            Finalized, with the scenario's models.
+        fail : callable(dotted_key: str, problem: str)
+            Raises the InputError that names where the key was set.
+        """
+        problem = body_problem(plant, self.body)
+        if problem:
+            fail("task.body", problem)
 
 
 # How an arm world puts its controller in the diagram (ArmTask.control_path).
@@ -341,7 +483,7 @@ class PunctureConfig:
     object_frame : str
         The object's frame, scoped "model::frame" (e.g. "foam_plank::plank"): origin at the
         centre of its top face, +z out of the object. Default "": no puncture, and the
-        other fields are neither checked nor used.
+        other fields are not used (they are still checked).
     thickness_m : float
         The object's thickness [m], > 0: it caps the length of tool inside the hole.
         Default 0.03, the foam plank's.
@@ -363,25 +505,24 @@ class PunctureConfig:
     sliding_speed_m_per_s: float = 0.002
 
     def check(self, fail: Fail) -> None:
-        """Positive thickness, a tear depth within it, non-negative friction, positive speed.
+        """Positive thickness, a tear depth within it, non-negative friction, positive speed,
+        all finite (checked with or without an object: a scenario's number is never junk).
 
         Parameters
         ----------
         fail : callable(dotted_key: str, problem: str)
             Raises the InputError that names where the key was set.
         """
-        if not self.object_frame:
-            return
-        if not 0 < self.depth_m <= self.thickness_m:
+        check_number(self.thickness_m, "task.puncture.thickness_m", fail, "> 0")
+        if not 0 < self.depth_m <= self.thickness_m:  # two fields: the key of their section
             fail(
-                "task.puncture.depth_m",
-                f"must be in (0, thickness_m = {self.thickness_m}], got {self.depth_m}",
+                "task.puncture",
+                f"depth_m must be in (0, thickness_m = {self.thickness_m}], got {self.depth_m}",
             )
-        if not (self.hole_friction_N_per_m >= 0 and self.sliding_speed_m_per_s > 0):
-            fail(
-                "task.puncture.hole_friction_N_per_m",
-                "hole_friction_N_per_m >= 0 and sliding_speed_m_per_s > 0 are required",
-            )
+        check_number(
+            self.hole_friction_N_per_m, "task.puncture.hole_friction_N_per_m", fail, ">= 0"
+        )
+        check_number(self.sliding_speed_m_per_s, "task.puncture.sliding_speed_m_per_s", fail, "> 0")
 
 
 @dc.dataclass
@@ -485,8 +626,7 @@ class ArmTask:
 
     def check_scenario(self, scenario: "Scenario", fail: Fail) -> None:
         """The checks an arm world needs of the whole scenario: its own values (`check`),
-        a demonstration to follow, the iiwa driver's settings, and a plant the one-call
-        controller can tick with.
+        a demonstration to follow, and a plant the one-call controller can tick with.
 
         Parameters
         ----------
@@ -497,7 +637,6 @@ class ArmTask:
         if not isinstance(scenario.reference, DemonstrationConfig):
             fail("reference", "an arm task needs a !DemonstrationConfig reference")
         self.check(fail)
-        scenario.iiwa_driver.check(fail)
         if self.control_path == "fast" and not scenario.plant_config.time_step > 0:
             fail(
                 "plant_config.time_step",
@@ -513,8 +652,33 @@ class ArmTask:
                 "step)",
             )
 
+    def check_models(self, plant: MultibodyPlant, fail: Fail) -> None:
+        """The frames the task names are the models' (the tool point's, the punctured
+        object's), and the IK seed has one value per joint position of the plant.
+
+        Parameters
+        ----------
+        plant : MultibodyPlant
+            Finalized, with the scenario's models.
+        fail : callable(dotted_key: str, problem: str)
+            Raises the InputError that names where the key was set.
+        """
+        for key, name in (
+            ("task.tool_frame", self.tool_frame),
+            ("task.puncture.object_frame", self.puncture.object_frame),
+        ):
+            problem = frame_problem(plant, name) if name else None
+            if problem:
+                fail(key, problem)
+        if len(self.ik_seed_rad) != plant.num_positions():
+            fail(
+                "task.ik_seed_rad",
+                f"needs {plant.num_positions()} values, one per joint position of the "
+                f"scenario's models, got {len(self.ik_seed_rad)}",
+            )
+
     def check(self, fail: Fail) -> None:
-        """Check the axes [0, 1, 2], the tool direction and orientation, gains >= 0
+        """Check the axes [0, 1, 2], the tool direction and orientation, finite gains >= 0
         and positive safety limits.
 
         Parameters
@@ -535,22 +699,24 @@ class ArmTask:
                 f"an arm task controls the tool point in x, y and z: axes must be [0, 1, 2], "
                 f"got {self.axes}",
             )
+        if not self.tool_frame:
+            fail("task.tool_frame", "must name the tool point's frame, 'model::frame'")
         if len(self.tool_direction) != 3 or not any(self.tool_direction):
             fail("task.tool_direction", "needs a non-zero 3-vector")
+        check_vector(self.tool_direction, "task.tool_direction", fail, (3,), " (x, y, z)")
         if len(self.tool_rpy_rad) not in (0, 3):
             fail("task.tool_rpy_rad", "needs three angles (roll, pitch, yaw), or none")
+        check_vector(self.tool_rpy_rad, "task.tool_rpy_rad", fail, (0, 3), " (roll, pitch, yaw)")
+        check_vector(self.ik_seed_rad, "task.ik_seed_rad", fail, (len(self.ik_seed_rad),), " [rad]")
         for key in (
             "orientation_stiffness_Nm_per_rad",
             "orientation_damping_Nms_per_rad",
             "posture_stiffness_Nm_per_rad",
             "posture_damping_Nms_per_rad",
         ):
-            if not (math.isfinite(getattr(self, key)) and getattr(self, key) >= 0):
-                fail(f"task.{key}", f"must be non-negative, got {getattr(self, key)}")
-        if not self.max_contact_force_N > 0:
-            fail("task.max_contact_force_N", "must be positive")
-        if not self.max_saturation_s > 0:
-            fail("task.max_saturation_s", "must be positive")
+            check_number(getattr(self, key), f"task.{key}", fail, ">= 0")
+        check_number(self.max_contact_force_N, "task.max_contact_force_N", fail, "> 0")
+        check_number(self.max_saturation_s, "task.max_saturation_s", fail, "> 0")
         self.puncture.check(fail)
         if self.control_path not in CONTROL_PATHS:
             fail(
@@ -591,19 +757,42 @@ class RecordingConfig:
     ----------
     spacing_m : float
         The distance between neighbouring copies along +y [m], in the order the scenario
-        lists the controllers (the live view's too); > 0 keeps them apart. Default 0.6.
+        lists the controllers (the live view's too); finite and >= 0, > 0 keeps them
+        apart. Default 0.6.
     camera_position_m, camera_target_m : list of float
-        Two world points (3 values each) [m]: only their difference is used, the direction
-        from which the camera looks at the middle of all copies; its distance is chosen to
-        keep every copy and its sign in view. Defaults [1.6, -1.8, 1.2] and [0, 0, 0.2].
+        Two different world points (3 finite values each) [m]: only their difference is
+        used, the direction from which the camera looks at the middle of all copies; its
+        distance is chosen to keep every copy and its sign in view. Defaults
+        [1.6, -1.8, 1.2] and [0, 0, 0.2].
     frames_per_second : float
-        The recording's frame rate [1/s], > 0: the runs are sampled at it. Default 30.
+        The recording's frame rate [1/s], finite and > 0: the runs are sampled at it.
+        Default 30.
     """
 
     spacing_m: float = 0.6
     camera_position_m: list[float] = dc.field(default_factory=lambda: [1.6, -1.8, 1.2])
     camera_target_m: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.2])
     frames_per_second: float = 30.0
+
+    def check(self, fail: Fail) -> None:
+        """Finite, non-negative spacing; two different camera points of 3 finite values; a
+        positive frame rate.
+
+        Parameters
+        ----------
+        fail : callable(dotted_key: str, problem: str)
+            Raises the InputError that names where the key was set.
+        """
+        check_number(self.spacing_m, "recording.spacing_m", fail, ">= 0")
+        for key in ("camera_position_m", "camera_target_m"):
+            check_vector(getattr(self, key), f"recording.{key}", fail, (3,), " (x, y, z) [m]")
+        if self.camera_position_m == self.camera_target_m:
+            fail(
+                "recording",
+                "camera_position_m must differ from camera_target_m: their difference is the "
+                "view direction",
+            )
+        check_number(self.frames_per_second, "recording.frames_per_second", fail, "> 0")
 
 
 @dc.dataclass
@@ -647,6 +836,33 @@ class ProbeConfig:
     lateral_axis: list[float] = dc.field(default_factory=list)
     speed_m_per_s: float = 0.03
     tilt_rad: float = 0.0
+
+    @property
+    def given(self) -> bool:
+        """Whether the scenario has a probe (start_m given)."""
+        return bool(self.start_m)
+
+    def check(self, fail: Fail) -> None:
+        """Each vector empty or 3 finite values (the push and the lateral axis not all
+        zeros), start_m and push_m both given or neither, a positive speed and a finite
+        tilt; checked whether or not the scenario has a probe.
+
+        Parameters
+        ----------
+        fail : callable(dotted_key: str, problem: str)
+            Raises the InputError that names where the key was set.
+        """
+        for key, nonzero in (
+            ("start_m", False),
+            ("approach_m", False),
+            ("push_m", True),
+            ("lateral_axis", True),
+        ):
+            check_vector(getattr(self, key), f"probe.{key}", fail, (0, 3), " (x, y, z)", nonzero)
+        if bool(self.start_m) != bool(self.push_m):
+            fail("probe", "a probe needs both start_m and push_m (or neither: no probe)")
+        check_number(self.speed_m_per_s, "probe.speed_m_per_s", fail, "> 0")
+        check_number(self.tilt_rad, "probe.tilt_rad", fail, "any")
 
 
 # Where `hlcmp serve` reads the wrist force from (IiwaDriverConfig.force_source).
@@ -763,8 +979,8 @@ class Scenario:
     experiment : str
         The name of an experiment registered in `hlcmp_drake.experiments` whose world
         fits `task`: "one_dof" (a SliderTask), "insertion" or "cutting" (an ArmTask) as
-        bundled. The default "" names none and is refused (`experiment_of`) when the
-        scenario is run.
+        bundled. The default "" names none and is refused when the scenario is run (at
+        load: `load_scenario`'s `experiments`).
     duration_s : float
         The simulated (or served) time of every run [s], > 0; for set-points also the
         phase's time constant tau. Default 1.
@@ -773,8 +989,9 @@ class Scenario:
         round(log_period_s / iiwa_driver.period_s) statuses). Default 0.01.
     directives : list of ModelDirective
         Drake's model directives of the world (add_model, add_weld,
-        add_collision_filter_group, ...); our package://hlcmp_drake/models/ files and plain
-        paths must exist. Default none.
+        add_collision_filter_group, ...); a model file is a URL (package://, file://),
+        and our package://hlcmp_drake/models/ files and file:// paths must exist; every
+        name they use is looked up in the models at load. Default none.
     plant_config : MultibodyPlantConfig
         Drake's plant config (time_step [s], contact model, ...). Default Drake's with
         use_sampled_output_ports false, which an arm world requires; the arm's fast path
@@ -797,15 +1014,15 @@ class Scenario:
         !VariableImpedanceConfig), each per-axis list checked to hold M values. At least
         one is required (the default is empty).
     max_abs_position_m : float
-        The bound on every |q| [m or rad]: a run whose joint positions go beyond it stops
-        with status "unstable". Default 10.
+        The bound on every |q| [m or rad], finite and > 0: a run whose joint positions go
+        beyond it stops with status "unstable". Default 10.
     recording : RecordingConfig
         The 3-D recording's layout and camera. Default RecordingConfig().
     probe : ProbeConfig
         `hlcmp probe`'s carriage path (arm scenarios). Default: no probe.
     iiwa_driver : IiwaDriverConfig
-        `hlcmp serve`'s LCM channels, period and watchdogs, checked for arm scenarios.
-        Default IiwaDriverConfig().
+        `hlcmp serve`'s LCM channels, period and watchdogs (arm scenarios; checked in every
+        scenario). Default IiwaDriverConfig().
     """
 
     name: str = ""

@@ -1,23 +1,57 @@
-"""Semantic checks of a loaded scenario that the YAML schema cannot express."""
+"""Semantic checks of a loaded scenario that the YAML schema cannot express: every value,
+before any simulation, and the names of models, frames and bodies against the scenario's
+models, parsed once."""
+
+from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Callable
+from typing import Any, Mapping
 
+import numpy as np
+from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlant, MultibodyPlantConfig
+from pydrake.systems.analysis import GetIntegrationSchemes, SimulatorConfig
+from pydrake.systems.framework import DiagramBuilder
+
+from hlcmp_drake.config.models import (
+    loading_problem,
+    missing_model,
+    process_directives,
+    tool_mount,
+)
 from hlcmp_drake.config.scenario import (
+    ArmTask,
     DemonstrationConfig,
     Fail,
     Scenario,
     StepReferenceConfig,
+    check_number,
 )
 from hlcmp_drake.io.paths import MODELS_DIR, PACKAGE_NAME
+
+# The kinds of model directive (ModelDirective's fields: one is set in each).
+DIRECTIVE_KINDS = (
+    "add_model",
+    "add_model_instance",
+    "add_frame",
+    "add_weld",
+    "add_collision_filter_group",
+    "add_directives",
+)
+# MultibodyPlantConfig's names that Drake reads as one of a list of options.
+PLANT_OPTIONS = (
+    "contact_model",
+    "discrete_contact_approximation",
+    "contact_surface_representation",
+)
 
 
 def model_file_exists(file: str) -> bool:
     """Whether a directive's model file exists.
 
-    Our package:// models and plain (or file://) paths are checked; other packages
-    (drake_models, downloaded by Drake on first use) are left to Drake.
+    Our package:// models and file:// paths are checked; other packages (drake_models,
+    downloaded by Drake on first use) are left to Drake. (A plain path is no URL, which
+    Drake refuses: `check_directives` says so first.)
 
     Parameters
     ----------
@@ -27,7 +61,7 @@ def model_file_exists(file: str) -> bool:
     Returns
     -------
     bool
-        False only when a file of ours or a plain path is missing.
+        False only when a file of ours or a file:// (or plain) path is missing.
     """
     prefix = f"package://{PACKAGE_NAME}/models/"
     if file.startswith(prefix):
@@ -38,9 +72,16 @@ def model_file_exists(file: str) -> bool:
 
 
 def validate_scenario(
-    scenario: Scenario, folder: Path, fail: Fail, fail_model: Callable[[str], None]
+    scenario: Scenario,
+    folder: Path,
+    fail: Fail,
+    experiments: Mapping[str, type] | None = None,
 ) -> None:
     """Raise InputError (through `fail(key, problem)`) for the first problem found.
+
+    Every value is checked (finite numbers in their ranges, vectors of the right length,
+    names of options), then the models are parsed once and the frames, bodies and models
+    that the scenario names are looked up in them.
 
     Parameters
     ----------
@@ -50,38 +91,87 @@ def validate_scenario(
         The scenario file's folder, against which the demonstration is looked up.
     fail : callable(key, problem)
         Raises the InputError that names where `key` (a dotted path such as
-        "controllers.hlcmp.q_k") was set: file:line, or the override that set it.
-    fail_model : callable(file)
-        Raises the InputError for a model file that does not exist.
+        "controllers.hlcmp.q_k", or "directives.3.add_weld" for a list's item) was set:
+        file:line, or the override that set it.
+    experiments : mapping of str to type, optional
+        The experiments a run may name, each to the task class its world needs; given,
+        `experiment` must be one of them and fit the task.
 
     Raises
     ------
     InputError
-        Through `fail` or `fail_model`, for the first problem found.
+        Through `fail`, for the first problem found.
     """
     if not scenario.name:
         fail("name", "must be given")
-    for directive in scenario.directives:
-        if directive.add_model is not None and not model_file_exists(directive.add_model.file):
-            fail_model(directive.add_model.file)
-    for key in ("duration_s", "log_period_s"):
-        value = getattr(scenario, key)
-        if not (math.isfinite(value) and value > 0):
-            fail(key, f"must be a positive number, got {value}")
+    check_directives(scenario, fail)
+    for key in ("duration_s", "log_period_s", "max_abs_position_m"):
+        check_number(getattr(scenario, key), key, fail, "> 0")
+    check_plant_config(scenario.plant_config, fail)
+    check_simulator_config(scenario.simulator_config, fail)
     try:
         scenario.dmp.check()
-    except ValueError as error:
-        fail(f"dmp.{str(error).split()[0]}", str(error))
+    except ValueError as error:  # "FIELD must ..."
+        field, _, rule = str(error).partition(" ")
+        fail(f"dmp.{field}", rule)
+    _check_reference(scenario, folder, fail)
+    scenario.task.check_scenario(scenario, fail)
+    if not scenario.controllers:
+        fail("controllers", "at least one controller is needed")
+    for name, config in scenario.controllers.items():
+        config.check(name, scenario.n_axes, fail)
+        config.check_reference(name, scenario.reference, fail)
+    scenario.recording.check(fail)
+    scenario.probe.check(fail)
+    scenario.iiwa_driver.check(fail)
+    if scenario.probe.given and not isinstance(scenario.task, ArmTask):
+        fail("probe.start_m", "a probe carries an arm's tool: it needs an !ArmTask task")
+    if experiments is not None:
+        world = experiments.get(scenario.experiment)
+        if world is None:
+            fail(
+                "experiment",
+                f"must be one of {', '.join(experiments)}, got '{scenario.experiment}'",
+            )
+        if not isinstance(scenario.task, world):
+            fail(
+                "experiment",
+                f"'{scenario.experiment}' needs a !{world.__name__} task, the scenario has "
+                f"!{type(scenario.task).__name__}",
+            )
+    plant = scenario_plant(scenario, fail)
+    scenario.task.check_models(plant, fail)
+    if scenario.probe.given:
+        arm = scenario.probe.arm_model
+        problem = missing_model(plant, arm) or (
+            None
+            if tool_mount(scenario.directives, arm)
+            else f"no tool is welded to model '{arm}' (an add_weld with parent '{arm}::...')"
+        )
+        if problem:
+            fail("probe.arm_model", problem)
+
+
+def _check_reference(scenario: Scenario, folder: Path, fail: Fail) -> None:
+    """The set-points (times from 0, increasing; rows of one length; all finite) or the
+    demonstration (its file, a finite duration >= 0)."""
     reference = scenario.reference
     if isinstance(reference, StepReferenceConfig):
         if len(reference.times_s) != len(reference.positions_m) or not reference.times_s:
-            fail("reference.times_s", "needs one entry per row of positions_m")
+            fail("reference", "times_s needs one entry per row of positions_m")
+        if not all(math.isfinite(t) for t in reference.times_s):
+            fail("reference.times_s", f"every time must be finite, got {reference.times_s}")
         if reference.times_s[0] != 0 or any(
             b <= a for a, b in zip(reference.times_s, reference.times_s[1:])
         ):
             fail("reference.times_s", "must start at 0 and increase")
         if len({len(row) for row in reference.positions_m}) != 1:
             fail("reference.positions_m", "every row needs the same number of axes")
+        if not np.all(np.isfinite(reference.positions_m)):
+            fail(
+                "reference.positions_m",
+                f"every position must be finite, got {reference.positions_m}",
+            )
     if isinstance(reference, DemonstrationConfig):
         demo = Path(folder) / reference.file
         if not reference.file or not demo.is_file():
@@ -89,13 +179,220 @@ def validate_scenario(
                 "reference.file",
                 f"demonstration file '{reference.file}' not found (looked for {demo})",
             )
-        if not reference.duration_s >= 0:
+        if not (math.isfinite(reference.duration_s) and reference.duration_s >= 0):
             fail(
                 "reference.duration_s",
-                "the demonstration's duration_s must be >= 0 (0: as demonstrated)",
+                "the demonstration's duration_s must be finite and >= 0 (0: as demonstrated), "
+                f"got {reference.duration_s}",
             )
-    scenario.task.check_scenario(scenario, fail)
-    if not scenario.controllers:
-        fail("controllers", "at least one controller is needed")
-    for name, config in scenario.controllers.items():
-        config.check(name, scenario.n_axes, fail)
+
+
+def check_directives(scenario: Scenario, fail: Fail) -> None:
+    """What is checked before the models are parsed: the rules of Drake's
+    ModelDirective::IsValid (which ProcessModelDirectives does not apply, and which log
+    rather than raise), the model files exist, and every pose (a weld's X_PC, a frame's
+    X_PF, a model's default free-body poses) and default joint position is finite.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        Its `directives`.
+    fail : callable(key, problem)
+        Raises the InputError for "directives.K.KIND" (the K-th directive, 0-based).
+
+    Raises
+    ------
+    InputError
+        Through `fail`, for the first problem found.
+    """
+    for k, directive in enumerate(scenario.directives):
+        kinds = [n for n in DIRECTIVE_KINDS if getattr(directive, n) is not None]
+        if len(kinds) != 1:
+            fail(
+                f"directives.{k}",
+                f"a directive is one of {', '.join(DIRECTIVE_KINDS)}, got "
+                f"{', '.join(kinds) or 'none'}",
+            )
+        kind, item = kinds[0], getattr(directive, kinds[0])
+        key = f"directives.{k}.{kind}"
+        required = {
+            "add_model": ("file", "name"),
+            "add_model_instance": ("name",),
+            "add_frame": ("name",),
+            "add_weld": ("parent", "child"),
+            "add_collision_filter_group": ("name",),
+            "add_directives": ("file",),
+        }[kind]
+        for field in required:
+            if not getattr(item, field):
+                fail(f"{key}.{field}", f"{kind} needs a non-empty {field}")
+        if kind in ("add_model", "add_directives") and "://" not in item.file:
+            fail(
+                f"{key}.file",
+                f"'{item.file}' is a plain path; Drake reads a model file from a URL: "
+                "package://PACKAGE/... or file:///absolute/path",
+            )
+        if kind == "add_model" and not model_file_exists(item.file):
+            fail(f"{key}.file", f"model file '{item.file}' does not exist")
+        if kind == "add_collision_filter_group" and not (item.members or item.member_groups):
+            fail(f"{key}.members", "a collision filter group needs members or member_groups")
+        poses = {  # (field, what the message calls the pose): the pose
+            "add_weld": {("X_PC", ""): getattr(item, "X_PC", None)},
+            "add_frame": {("X_PF", ""): getattr(item, "X_PF", None)},
+            "add_model": {
+                ("default_free_body_pose", f"body '{body}': "): pose
+                for body, pose in getattr(item, "default_free_body_pose", {}).items()
+            },
+        }.get(kind, {})
+        for (field, which), pose in poses.items():
+            rule = {"add_frame": "required", "add_weld": "forbidden"}.get(kind, "any")
+            problem = _pose_problem(pose, rule)
+            if problem:
+                fail(f"{key}.{field}", f"{which}{problem}")
+        for joint, values in getattr(item, "default_joint_positions", {}).items():
+            if not np.all(np.isfinite(values)):
+                fail(
+                    f"{key}.default_joint_positions",
+                    f"joint '{joint}': every position must be finite, got "
+                    f"{[float(v) for v in values]}",
+                )
+
+
+def _pose_problem(pose: Any, base_frame: str) -> str | None:
+    """What is wrong with a directive's pose (a schema Transform), or None: it must be
+    deterministic and finite, and have a base frame as `base_frame` says: "required"
+    (add_frame's X_PF), "forbidden" (a weld's X_PC is in its parent frame) or "any"."""
+    if pose is None:
+        return None
+    if base_frame == "required" and not pose.base_frame:
+        return "needs a base_frame, the frame it is given in"
+    if base_frame == "forbidden" and pose.base_frame:
+        return f"must not have a base_frame (got '{pose.base_frame}'): it is in the parent frame"
+    if not pose.IsDeterministic():
+        return "must be one pose, not a random distribution"
+    try:
+        matrix = pose.GetDeterministicValue().GetAsMatrix4()
+    except RuntimeError:  # a NaN in a rotation's angles
+        matrix = np.full((4, 4), np.nan)
+    if not np.all(np.isfinite(matrix)):
+        return "the pose (translation and rotation) must be finite"
+    return None
+
+
+def check_plant_config(config: MultibodyPlantConfig, fail: Fail) -> None:
+    """The plant config's numbers, before Drake sees them (it aborts the process on some):
+    time_step finite and >= 0 (0: continuous), penetration_allowance and
+    stiction_tolerance finite and > 0, sap_near_rigid_threshold finite and >= 0. Its
+    options are checked by Drake when the models are parsed (`scenario_plant`).
+
+    Parameters
+    ----------
+    config : MultibodyPlantConfig
+        The scenario's `plant_config`.
+    fail : callable(key, problem)
+        Raises the InputError that names where the key was set.
+
+    Raises
+    ------
+    InputError
+        Through `fail`, for the first problem found.
+    """
+    for key, rule in (
+        ("time_step", ">= 0"),
+        ("penetration_allowance", "> 0"),
+        ("stiction_tolerance", "> 0"),
+        ("sap_near_rigid_threshold", ">= 0"),
+    ):
+        check_number(getattr(config, key), f"plant_config.{key}", fail, rule)
+
+
+def check_simulator_config(config: SimulatorConfig, fail: Fail) -> None:
+    """The simulator config: a known integration scheme, max_step_size and accuracy finite
+    and > 0, target_realtime_rate finite and >= 0 (0: as fast as it goes), start_time 0
+    (every run starts at t = 0).
+
+    Parameters
+    ----------
+    config : SimulatorConfig
+        The scenario's `simulator_config`.
+    fail : callable(key, problem)
+        Raises the InputError that names where the key was set.
+
+    Raises
+    ------
+    InputError
+        Through `fail`, for the first problem found.
+    """
+    schemes = GetIntegrationSchemes()
+    if config.integration_scheme not in schemes:
+        fail(
+            "simulator_config.integration_scheme",
+            f"must be one of {', '.join(schemes)}, got '{config.integration_scheme}'",
+        )
+    check_number(config.max_step_size, "simulator_config.max_step_size", fail, "> 0")
+    check_number(config.accuracy, "simulator_config.accuracy", fail, "> 0")
+    check_number(config.target_realtime_rate, "simulator_config.target_realtime_rate", fail, ">= 0")
+    if config.start_time != 0:
+        fail(
+            "simulator_config.start_time",
+            f"must be 0 (every run starts at t = 0), got {config.start_time}",
+        )
+
+
+def _parsed(config: MultibodyPlantConfig, directives: list) -> MultibodyPlant:
+    """A finalized plant (with a SceneGraph, so that collision filters are resolved) of
+    `config` and `directives`; Drake's RuntimeError when it cannot be made."""
+    plant, _ = AddMultibodyPlant(config, DiagramBuilder())
+    process_directives(plant, directives)
+    plant.Finalize()
+    return plant
+
+
+def scenario_plant(scenario: Scenario, fail: Fail) -> MultibodyPlant:
+    """The scenario's models parsed into a finalized plant of its plant config: what
+    Drake says about an option of the config or a directive, as the config's or the
+    directive's problem.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        Its `plant_config` (its numbers already checked: `check_plant_config`) and
+        `directives` (their files, names and poses already checked: `check_directives`).
+    fail : callable(key, problem)
+        Raises the InputError that names where the key was set; a directive's key is
+        "directives.K.KIND".
+
+    Returns
+    -------
+    MultibodyPlant
+        Finalized, with every model of the scenario.
+
+    Raises
+    ------
+    InputError
+        Through `fail`: an unknown option of the plant config, or a directive Drake
+        refuses (a weld's frame, a collision filter's body or group that is not there...).
+    """
+    try:
+        _parsed(scenario.plant_config, [])
+    except RuntimeError as error:
+        for key in PLANT_OPTIONS:  # which option Drake does not know
+            alone = MultibodyPlantConfig()
+            setattr(alone, key, getattr(scenario.plant_config, key))
+            try:
+                _parsed(alone, [])
+            except RuntimeError:
+                fail(f"plant_config.{key}", loading_problem(error))
+        fail("plant_config", loading_problem(error))
+    try:
+        return _parsed(scenario.plant_config, scenario.directives)
+    except RuntimeError as error:
+        problem = loading_problem(error)
+    # The first directive that Drake refuses: the shortest list that fails to load.
+    for k, directive in enumerate(scenario.directives):
+        try:
+            _parsed(scenario.plant_config, scenario.directives[: k + 1])
+        except RuntimeError as error:
+            kind = next((n for n in DIRECTIVE_KINDS if getattr(directive, n) is not None), "")
+            fail(f"directives.{k}.{kind}".rstrip("."), loading_problem(error))
+    fail("directives", problem)

@@ -60,12 +60,12 @@ class DmpSettings:
         """Raise ValueError, naming the field, if a value is out of its range."""
         if self.n_basis < 2:
             raise ValueError(f"n_basis must be at least 2, got {self.n_basis}")
-        if not (self.alpha > 0 and self.alpha_s > 0):
-            raise ValueError("alpha and alpha_s must be positive")
-        if self.beta is not None and not self.beta > 0:
-            raise ValueError("beta must be positive")
-        if not self.smoothing_s >= 0:
-            raise ValueError("smoothing_s must be >= 0")
+        for name in ("alpha", "alpha_s", "beta"):
+            value = getattr(self, name)
+            if value is not None and not (np.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be positive and finite, got {value}")
+        if not (np.isfinite(self.smoothing_s) and self.smoothing_s >= 0):
+            raise ValueError(f"smoothing_s must be >= 0 and finite, got {self.smoothing_s}")
 
     @property
     def beta_value(self) -> float:

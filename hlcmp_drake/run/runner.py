@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Callable, Sequence
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.scenario import Scenario
 from hlcmp_drake.config.variants import use_drake_models_iiwa
-from hlcmp_drake.experiments import Experiment, experiment_of
+from hlcmp_drake.experiments import EXPERIMENTS, Experiment, experiment_of
 from hlcmp_drake.experiments.table import Table
 from hlcmp_drake.io import outputs
 from hlcmp_drake.io.runs import RunResult, instability_record, timeseries_arrays
@@ -26,6 +26,17 @@ from hlcmp_drake.worlds.build import diagram_factory
 from hlcmp_drake.worlds.controllers import learners as learning_controllers
 
 NO_LEARNER = "without a learner"  # the claims' key when a scenario has no Hl-CMP
+
+
+def experiment_worlds() -> dict[str, type]:
+    """What `load_scenario` checks a scenario's `experiment` against before a run.
+
+    Returns
+    -------
+    dict of str to type
+        Each registered experiment's name to the task class its world needs.
+    """
+    return {name: experiment.world for name, experiment in EXPERIMENTS.items()}
 
 
 def run_one(
@@ -201,7 +212,7 @@ def run_scenario(
     overrides : sequence of str
         ``dotted.key=value`` overrides layered over the file (see `load_scenario`).
     """
-    scenario, path = load_scenario(name_or_path, overrides)
+    scenario, path = load_scenario(name_or_path, overrides, experiment_worlds())
     return run_loaded_scenario(
         scenario,
         path,

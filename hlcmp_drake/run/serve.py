@@ -46,7 +46,7 @@ from hlcmp_drake.io.runs import RunResult
 from hlcmp_drake.io.skill import Skill
 from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.run.learning import check_skill_world, learning_scenario
-from hlcmp_drake.run.runner import evaluate, without_claims, write_results
+from hlcmp_drake.run.runner import evaluate, experiment_worlds, without_claims, write_results
 from hlcmp_drake.run.sim_driver import DriverSummary, SimulatedIiwaDriver
 from hlcmp_drake.systems.monitor import plant_state_check
 from hlcmp_drake.worlds.arm import ArmSetup, arm_check, arm_tick, prepare
@@ -601,7 +601,7 @@ def serve_scenario(
     """
     from hlcmp_drake.config.loading import load_scenario
 
-    scenario, _ = load_scenario(name_or_path, overrides)
+    scenario, _ = load_scenario(name_or_path, overrides, experiment_worlds())
     warning = check_skill_world(skill, scenario, any_scenario) if skill is not None else None
     scenario, controller, theta0 = served_scenario(scenario, controller, skill, freeze)
     if warning is not None and warn is not None:

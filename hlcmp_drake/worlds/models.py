@@ -2,55 +2,30 @@
 
 from __future__ import annotations
 
-import re
 from typing import TYPE_CHECKING
 
 import numpy as np
 from pydrake.math import RollPitchYaw, RotationMatrix
 from pydrake.multibody.inverse_kinematics import InverseKinematics
-from pydrake.multibody.parsing import ModelDirectives, Parser, ProcessModelDirectives
 from pydrake.multibody.plant import AddMultibodyPlant
 from pydrake.solvers import Solve
 
+from hlcmp_drake.config.models import (
+    drake_error_line,
+    loading_problem,
+    process_directives,
+    scoped_frame,
+)
 from hlcmp_drake.config.scenario import ArmTask, Scenario
 from hlcmp_drake.io.errors import InputError
-from hlcmp_drake.io.paths import register_package
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
     from pydrake.geometry import SceneGraph
     from pydrake.multibody.plant import MultibodyPlant
-    from pydrake.multibody.tree import Frame
     from pydrake.systems.framework import DiagramBuilder
 
-
-def drake_error_line(error: Exception) -> str:
-    """Drake's error message in one line: its first line, followed by the line after it
-    when it ends in a colon; a failed download as its first candidate's reason, e.g.
-    "All downloads failed: 3 candidates, the first (https://...) with <urlopen error ...>".
-
-    Parameters
-    ----------
-    error : Exception
-        What Drake raised.
-
-    Returns
-    -------
-    str
-    """
-    text = str(error)
-    lines = [line.strip() for line in text.splitlines() if line.strip()]
-    if not lines:
-        return type(error).__name__
-    candidates = re.findall(r"Candidate (\S+) failed:\s*\n\s*(.+)", text)
-    if candidates:
-        url, reason = candidates[0]
-        count = len(candidates)
-        where = f"{count} candidates, the first ({url})" if count > 1 else f"from {url}"
-        return f"{lines[0]} {where} with {reason.strip()}"
-    if lines[0].endswith(":") and len(lines) > 1:
-        return f"{lines[0]} {lines[1]}"
-    return lines[0]
+__all__ = ["add_plant", "drake_error_line", "load_models", "scoped_frame", "solve_ik_for_tool"]
 
 
 def load_models(plant: MultibodyPlant, scenario: Scenario, finalize: bool = True) -> None:
@@ -70,18 +45,11 @@ def load_models(plant: MultibodyPlant, scenario: Scenario, finalize: bool = True
     InputError
         When Drake cannot load a model (the first line of Drake's message).
     """
-    parser = Parser(plant)
-    register_package(parser.package_map())
     try:
-        ProcessModelDirectives(ModelDirectives(directives=scenario.directives), plant, parser)
+        process_directives(plant, scenario.directives)
     except RuntimeError as error:
-        hint = (
-            " (drake_models is downloaded on first use: is there internet?)"
-            if "drake_models" in str(error)
-            else ""
-        )
         raise InputError(
-            f"{scenario.name}: the models could not be loaded{hint}: {drake_error_line(error)}"
+            f"{scenario.name}: the models could not be loaded: {loading_problem(error)}"
         ) from None
     if finalize:
         plant.Finalize()
@@ -114,29 +82,6 @@ def add_plant(
     plant, scene_graph = AddMultibodyPlant(scenario.plant_config, builder)
     load_models(plant, scenario, finalize)
     return plant, scene_graph
-
-
-def scoped_frame(plant: MultibodyPlant, scoped_name: str) -> Frame:
-    """The frame named 'model::frame' (or a unique 'frame') of a finalized `plant`.
-
-    Parameters
-    ----------
-    plant : MultibodyPlant
-        Finalized.
-    scoped_name : str
-        E.g. "insertion_tool::tip"; the part after the last "::" is the frame.
-
-    Returns
-    -------
-    Frame
-        The frame (Drake raises RuntimeError when there is no such model or frame).
-    """
-    model, _, name = scoped_name.rpartition("::")
-    return (
-        plant.GetFrameByName(name, plant.GetModelInstanceByName(model))
-        if model
-        else plant.GetFrameByName(name)
-    )
 
 
 def solve_ik_for_tool(

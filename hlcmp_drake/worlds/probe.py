@@ -19,6 +19,7 @@ from pydrake.systems.framework import Context, DiagramBuilder
 from pydrake.systems.primitives import LogVectorOutput, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
+from hlcmp_drake.config.models import tool_mount
 from hlcmp_drake.config.scenario import ArmTask, ProbeConfig, Scenario
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.worlds.extras import add_tool_sensing
@@ -46,7 +47,7 @@ class ProbeWorld:
 def _without_arm(scenario: Scenario, arm: str) -> tuple[list, str]:
     """The scenario's directives less the arm (its model, welds, collision filters), and
     the tool's frame that was welded to the arm."""
-    kept, mount = [], None
+    kept, mount = [], tool_mount(scenario.directives, arm)
     for directive in scenario.directives:
         model, weld, group = (
             directive.add_model,
@@ -58,7 +59,6 @@ def _without_arm(scenario: Scenario, arm: str) -> tuple[list, str]:
         if weld is not None and (
             weld.parent.startswith(f"{arm}::") or weld.child.startswith(f"{arm}::")
         ):
-            mount = weld.child if weld.parent.startswith(f"{arm}::") else mount
             continue
         if group is not None and any(m.startswith(f"{arm}::") for m in group.members):
             continue
