@@ -35,6 +35,7 @@ DEFAULTS = DmpSettings()
 EXIT_BAD_INPUT = 2
 EXIT_UNSTABLE = 3
 EXIT_DRIVER_ABORT = 4
+EXIT_DEGRADED = 5  # served to the end, but missed more ticks than iiwa_driver allows
 
 
 class _Parser(argparse.ArgumentParser):
@@ -413,6 +414,8 @@ def cmd_serve(args):
     print(f"{record['status']}: {record['stopped_because']}")
     served = ", timeseries.npz, recording.html" if len(result.run.t) else ""
     print(f"serve.json, metrics.json{served} in {result.out_dir}")
+    if record["status"] == "degraded":
+        return EXIT_DEGRADED
     return 0 if record["status"] == "ok" else EXIT_UNSTABLE
 
 

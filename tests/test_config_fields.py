@@ -201,6 +201,9 @@ BREAKS = [
     ("probe.tilt_rad", _number("any")),
     ("iiwa_driver.*_channel", lambda v, s: [""]),
     ("iiwa_driver.force_source", lambda v, s: ["nope"]),
+    ("iiwa_driver.max_missed_fraction", lambda v, s: [-0.1, 1.0, float("nan")]),
+    ("iiwa_driver.max_consecutive_missed", lambda v, s: [0, -3]),
+    ("iiwa_driver.period_tolerance", lambda v, s: [0.0, 1.0, float("nan")]),
     ("iiwa_driver.*", _number("> 0")),  # the periods, the timeouts and the tolerance
 ]
 

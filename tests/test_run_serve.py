@@ -39,9 +39,10 @@ def hlcmp(*args):
     )
 
 
-def serve_two_processes(tmp_path, driver_args, duration):
+def serve_two_processes(tmp_path, driver_args, duration, client_codes=(0,)):
     """hlcmp sim-driver and hlcmp serve insertion as two processes on a udpm:// group of their
-    own; both must exit 0. Returns the driver's output and serve.json."""
+    own; the driver must exit 0, the client with one of `client_codes`. Returns the driver's
+    output and serve.json."""
     url = f"udpm://239.255.76.{random.randint(100, 250)}:{random.randint(20000, 60000)}?ttl=0"
     driver = hlcmp("sim-driver", "insertion", "--lcm", url, "--quiet", *driver_args)
     client = hlcmp(
@@ -59,7 +60,7 @@ def serve_two_processes(tmp_path, driver_args, duration):
     )  # a driver may start slowly
     client_out, client_err = client.communicate(timeout=300)
     driver_out, driver_err = driver.communicate(timeout=60)
-    assert client.returncode == 0, client_err + client_out
+    assert client.returncode in client_codes, client_err + client_out
     assert driver.returncode == 0, driver_err
     return driver_out, json.loads((tmp_path / "serve" / "serve.json").read_text())
 
@@ -306,11 +307,17 @@ def test_bad_serve_input_is_one_line_and_exit_2(args, message, tmp_path):
 def test_real_time_pacing(tmp_path):
     """The simulated driver in real time: a status every millisecond whether or not the
     client keeps up. Every status the client did not answer is counted as missed."""
-    driver_out, record = serve_two_processes(tmp_path, ["--realtime", "--duration", 0.8], 0.5)
+    driver_out, record = serve_two_processes(
+        tmp_path, ["--realtime", "--duration", 0.8], 0.5, client_codes=(0, 5)
+    )
     assert "reached --duration 0.8 s" in driver_out
-    assert record["status"] == "ok"
     assert record["ticks"] + record["missed_ticks"] == 501  # every status from t = 0 to 0.5 s
     assert record["ticks"] > 250
+    # A run that missed more than the driver config allows says so (exit 5), never "ok".
+    fraction = record["missed_ticks"] / 501
+    too_many = fraction > 0.01 or record["longest_missed_run"] >= 10
+    assert record["status"] == ("degraded" if too_many else "ok"), record
+    assert record["status_period_s"] == pytest.approx(0.001)
 
 
 def test_serve_in_one_process_from_the_command_line(tmp_path, capsys):
@@ -413,3 +420,70 @@ def test_a_skill_from_another_world_is_not_served(tmp_path, capsys, monkeypatch)
     with pytest.raises(Opened):
         main([*args, "--any-scenario", "--out", str(tmp_path / "o")])
     assert "used here all the same" in capsys.readouterr().err
+
+
+def test_a_status_period_other_than_the_configured_one_stops_before_any_command():
+    """A driver publishing every 5 ms to a client configured for 1 ms: said from the stamps
+    during the start guard, with the fix, before a command goes out."""
+    client, send, commands = _client_fed_by_hand(["iiwa_driver.start_guard_s=5.0"])
+    for utime in (0, 5000, 10000):
+        send(utime, client.q0)
+    assert client.status == STOPPED and not commands
+    assert client.stopped_because.startswith("the driver's statuses come every 5 ms")
+    assert "--set iiwa_driver.period_s=0.005" in client.stopped_because
+    assert client.record("memq://")["status_period_s"] == pytest.approx(0.005)
+
+
+def _served_with_gaps(skipped, overrides=()):
+    """A hand-fed client over 0.1 s of 1 ms statuses, the statuses whose index is in
+    `skipped` never sent; returns the client after its assessment and the commands."""
+    client, send, commands = _client_fed_by_hand(["duration_s=0.1", *overrides])
+    send(0, client.q0)
+    time.sleep(0.002)  # past the start guard: the next status starts the run
+    for k in range(0, 102):
+        if k not in skipped:
+            send(1000 * (k + 1), client.q0)
+    client.assess()
+    return client, commands
+
+
+def test_missed_ticks_above_the_allowed_share_make_the_run_degraded():
+    client, _ = _served_with_gaps(set())
+    assert client.status == "ok" and client.missed_ticks == 0
+    client, _ = _served_with_gaps({10, 30, 50, 70})  # 4 of 101: 4 %
+    assert client.status == "degraded" and client.missed_ticks == 4
+    assert client.stopped_because.startswith("missed 4 of 101 ticks (4.0 %), above")
+    client, _ = _served_with_gaps(set(range(20, 32)), ["iiwa_driver.max_missed_fraction=0.5"])
+    assert client.status == "degraded" and client.longest_missed_run == 12
+    assert "missed 12 ticks in a row" in client.stopped_because
+
+
+def test_a_gap_is_not_integrated_as_one_long_step_and_a_status_is_answered_once():
+    client, send, commands = _client_fed_by_hand()
+    send(0, client.q0)
+    time.sleep(0.002)
+    send(0, client.q0)
+    displaced = client.q0 + 0.01  # a tracking error, so θ moves
+    send(1000, displaced)
+    theta, rate = client.theta.copy(), client._rate
+    send(6000, displaced)  # four statuses missed
+    np.testing.assert_allclose(client.theta, theta + 0.001 * rate)  # one period's step
+    answered = len(commands)
+    send(6000, displaced)  # the same status again: its command re-sent, no new tick
+    assert len(commands) == answered + 1 and commands[-1] == commands[-2]
+    ticks = client.ticks
+    send(3000, displaced)  # older than one answered: ignored
+    assert len(commands) == answered + 1 and client.ticks == ticks
+
+
+def test_a_driver_that_goes_quiet_before_any_logged_tick_ends_in_one_line(tmp_path):
+    """Statuses come, but none is answered before the driver goes quiet: no traceback,
+    serve.json and metrics.json say it stopped."""
+    client, send, commands = _client_fed_by_hand(["iiwa_driver.start_guard_s=5.0"])
+    send(0, client.q0)
+    send(1000, client.q0)
+    serve(client, client._lcm, "memq://")  # the stale watchdog ends it
+    assert client.status == STOPPED and "stale" in client.stopped_because and not commands
+    result = write_served(client, tmp_path, "memq://")
+    assert result.metrics["status"] == "stopped" and result.metrics["controllers"] == {}
+    assert json.loads((tmp_path / "serve.json").read_text())["ticks"] == 0

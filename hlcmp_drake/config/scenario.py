@@ -918,6 +918,16 @@ class IiwaDriverConfig:
         statuses before the first command (further: the client stops). Default 0.05.
     force_source : str
         "wrist_sensor" (default) or "external_torque", as above (FORCE_SOURCES).
+    max_missed_fraction : float
+        The share of the duration's ticks that may go unanswered, in [0, 1), before a run
+        that finished counts as "degraded" (a non-zero exit). Default 0.01.
+    max_consecutive_missed : int
+        The longest run of unanswered ticks, >= 1, before a run that finished counts as
+        "degraded". Default 10: 10 ms at 1 kHz, a fifth of the driver's 50 ms hold.
+    period_tolerance : float
+        How far the status period measured from the statuses' stamps may be from
+        `period_s`, relative, in (0, 1). Further, the client stops before it commands at
+        the wrong rate. Default 0.1.
     """
 
     status_channel: str = "IIWA_STATUS"
@@ -929,9 +939,13 @@ class IiwaDriverConfig:
     first_status_timeout_s: float = 30.0
     start_tolerance_rad: float = 0.05
     force_source: str = "wrist_sensor"
+    max_missed_fraction: float = 0.01
+    max_consecutive_missed: int = 10
+    period_tolerance: float = 0.1
 
     def check(self, fail: Fail) -> None:
-        """Known force source, non-empty channels, positive times and tolerance.
+        """Known force source, non-empty channels, positive times and tolerance, the
+        limits of a degraded run.
 
         Parameters
         ----------
@@ -956,6 +970,18 @@ class IiwaDriverConfig:
             value = getattr(self, key)
             if not (math.isfinite(value) and value > 0):
                 fail(f"iiwa_driver.{key}", f"must be a positive number, got {value}")
+        if not 0 <= self.max_missed_fraction < 1:
+            fail(
+                "iiwa_driver.max_missed_fraction",
+                f"must be in [0, 1), got {self.max_missed_fraction}",
+            )
+        if not self.max_consecutive_missed >= 1:
+            fail(
+                "iiwa_driver.max_consecutive_missed",
+                f"must be at least 1, got {self.max_consecutive_missed}",
+            )
+        if not 0 < self.period_tolerance < 1:
+            fail("iiwa_driver.period_tolerance", f"must be in (0, 1), got {self.period_tolerance}")
 
 
 @dc.dataclass

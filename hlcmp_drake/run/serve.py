@@ -58,7 +58,7 @@ from hlcmp_drake.worlds.models import load_models, scoped_frame
 
 # The statuses a served run may end with: "ok" (served its duration), "unstable" (a
 # safety watchdog), "stopped" (the driver went quiet or sent something unreadable).
-FINISHED, UNSAFE, STOPPED = "ok", "unstable", "stopped"
+FINISHED, UNSAFE, STOPPED, DEGRADED = "ok", "unstable", "stopped", "degraded"
 
 
 def served_scenario(
@@ -189,6 +189,12 @@ class TorqueClient:
         self._utime0 = self._last_utime = None
         self._last_command = None
         self.ticks = self.missed_ticks = 0
+        self.longest_missed_run = 0
+        # The status period as the driver's stamps say: the smallest step between two
+        # statuses decoded one after the other (a status skipped only makes a step longer).
+        self.status_period_s: float | None = None
+        self._previous_stamp: int | None = None
+        self._stamp_steps = 0
         self.tick_seconds: list[float] = []
         self.log_t: list[float] = []
         self.log_rows: dict[str, list] = {
@@ -253,7 +259,55 @@ class TorqueClient:
         except ProtocolError as error:
             self.stop(STOPPED, f"the driver sent {error}")
             return
+        if self._period_mismatch(status.utime):
+            return
         self._answer(status, received)
+
+    def _period_mismatch(self, utime: int) -> bool:
+        """Measure the status period from the stamps; stop (True) when it is not the
+        configured one, since the reference is sampled and θ stepped at `period_s`."""
+        previous, self._previous_stamp = self._previous_stamp, utime
+        if previous is None or utime <= previous:
+            return False  # the first, a duplicate or an older status: no step to measure
+        step = (utime - previous) / 1e6
+        self.status_period_s = (
+            step if self.status_period_s is None else min(self.status_period_s, step)
+        )
+        self._stamp_steps += 1
+        configured = self.config.period_s
+        if self._stamp_steps < 2 or abs(self.status_period_s - configured) <= (
+            self.config.period_tolerance * configured
+        ):
+            return False
+        self.stop(
+            STOPPED,
+            f"the driver's statuses come every {self.status_period_s * 1000:g} ms (their "
+            f"stamps), iiwa_driver.period_s is {configured * 1000:g} ms: set --set "
+            f"iiwa_driver.period_s={self.status_period_s:g}",
+        )
+        return True
+
+    def assess(self) -> None:
+        """After serving: a run that finished but missed more ticks than
+        `max_missed_fraction` of its duration's, or `max_consecutive_missed` in a row, is
+        DEGRADED, with the numbers in its reason."""
+        if self.status != FINISHED:
+            return
+        config = self.config
+        total = self.ticks + self.missed_ticks
+        fraction = self.missed_ticks / total if total else 0.0
+        if fraction > config.max_missed_fraction:
+            self.status = DEGRADED
+            self.stopped_because = (
+                f"missed {self.missed_ticks} of {total} ticks ({100 * fraction:.1f} %), above "
+                f"iiwa_driver.max_missed_fraction = {100 * config.max_missed_fraction:g} %"
+            )
+        elif self.longest_missed_run >= config.max_consecutive_missed:
+            self.status = DEGRADED
+            self.stopped_because = (
+                f"missed {self.longest_missed_run} ticks in a row, at least "
+                f"iiwa_driver.max_consecutive_missed = {config.max_consecutive_missed}"
+            )
 
     def _served_time(self) -> float:
         return 0.0 if self._last_utime is None else (self._last_utime - self._utime0) / 1e6
@@ -281,13 +335,18 @@ class TorqueClient:
             # Statuses between the last answered one and this one (up to the duration) went
             # unanswered.
             previous = int(round((self._last_utime - self._utime0) / 1e6 / self.config.period_s))
-            self.missed_ticks += max(0, min(k, last + 1) - previous - 1)
+            gap = max(0, min(k, last + 1) - previous - 1)
+            self.missed_ticks += gap
+            self.longest_missed_run = max(self.longest_missed_run, gap)
         if k > last:
             self.stop(FINISHED, f"served {self.duration:g} s")
             return
         if self._last_utime is not None and self._rate is not None:
-            # θ' held since the last tick: the explicit-Euler step of the fast path
-            self.theta = self.theta + (status.utime - self._last_utime) / 1e6 * self._rate
+            # θ' held for one period after the tick that computed it: the explicit-Euler step
+            # of the fast path. Over statuses missed in between no rate was computed, so a
+            # gap is not integrated as if it were one long step of the old rate.
+            step = min((status.utime - self._last_utime) / 1e6, self.config.period_s)
+            self.theta = self.theta + step * self._rate
         result = self.tick.evaluate(
             state, tuple(values[k] for values in self._reference), self.theta
         )
@@ -389,7 +448,8 @@ class TorqueClient:
             Status "ok", "unstable" (a safety watchdog) or "stopped" (the driver).
         """
         series = {
-            name: np.array(rows).reshape(len(rows), -1) for name, rows in self.log_rows.items()
+            name: np.array(rows, dtype=float).reshape(len(rows), -1) if rows else np.zeros((0, 0))
+            for name, rows in self.log_rows.items()
         }
         theta = self.law.unflatten(self.theta) if self.theta is not None else None
         stop_time = None if self.status == FINISHED else self._served_time()
@@ -433,8 +493,10 @@ class TorqueClient:
             "lcm_url": lcm_url,
             "force_source": self.config.force_source,
             "period_s": self.config.period_s,
+            "status_period_s": self.status_period_s,
             "ticks": self.ticks,
             "missed_ticks": self.missed_ticks,
+            "longest_missed_run": self.longest_missed_run,
             "tick_us": percentiles,
             "served_s": self._served_time(),
             "status": self.status,
@@ -472,6 +534,7 @@ def serve(client: TorqueClient, lcm: DrakeLcm, lcm_url: str, reporter: Progress 
                     f"no status on {config.status_channel} at {lcm_url} within "
                     f"{config.first_status_timeout_s:g} s: is the driver running?",
                 )
+    client.assess()
 
 
 @contextlib.contextmanager
@@ -513,7 +576,10 @@ def write_served(client: TorqueClient, out_dir: str | Path, lcm_url: str) -> Ser
         client.scenario,
         controllers={client.controller: client.scenario.controllers[client.controller]},
     )
-    metrics = evaluate({run.controller: run}, scenario, without_claims(experiment))
+    if len(run.t):
+        metrics = evaluate({run.controller: run}, scenario, without_claims(experiment))
+    else:  # no tick was logged: nothing to measure
+        metrics = {"scenario": scenario.name, "controllers": {}, "learners": {}, "claims": {}}
     metrics["status"] = run.status
     with outputs.replacing_outputs(out_dir):
         if len(run.t):
@@ -553,6 +619,7 @@ def lockstep(driver: SimulatedIiwaDriver, client: TorqueClient, lcm: DrakeLcm) -
                 steps += 1
             elif not client.done:
                 time.sleep(driver.period)  # the start guards count wall time
+    client.assess()
     return DriverSummary(
         steps, steps, 0, 0, driver.time, time.perf_counter() - start, client.stopped_because
     )
