@@ -97,7 +97,7 @@ def test_renamed_labels_give_the_same_verdicts(request, tmp_path, name, experime
     scenario = _renamed_scenario(tmp_path, name, renames)
     runs = _runs_from(run_dir, renames)
     metrics = {
-        new: experiment.controller_metrics(runs[new], scenario.controllers[new], scenario)
+        new: experiment.EXPERIMENT.metrics_of(runs[new], scenario.controllers[new], scenario)
         for new in runs
     }
     for old, new in renames.items():

@@ -54,7 +54,7 @@ def test_run_writes_the_contract_and_its_metrics_agree(cutting_run):
         }
         assert series["f_ext"].shape == (len(data["t"]), 3)
         assert (
-            cutting.controller_metrics(
+            cutting.EXPERIMENT.metrics_of(
                 SimpleNamespace(t=data["t"], series=series), scenario.controllers[name], scenario
             )
             == metrics["controllers"][name]

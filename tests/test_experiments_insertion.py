@@ -115,10 +115,10 @@ def test_run_metrics_agree_with_its_time_series(insertion_run):
             key.split("/", 1)[1]: data[key] for key in data.files if key.startswith(f"{name}/")
         }
         run = SimpleNamespace(t=data["t"], series=series)
-        assert {
-            **insertion.controller_metrics(run, scenario.controllers[name], scenario),
-            "task": insertion.went_through(run, scenario),
-        } == metrics["controllers"][name]
+        assert (
+            insertion.EXPERIMENT.metrics_of(run, scenario.controllers[name], scenario)
+            == metrics["controllers"][name]
+        )
 
 
 def test_build_insertion_diagram_by_hand(tmp_path):

@@ -30,7 +30,9 @@ def test_outputs_follow_the_contract(run_dir):
             "final_position_m",
             "reach_time_s",
             "return_time_s",
+            "task",
         }
+        assert values["task"]["done"]  # every run reaches the return command at 10 s
     c5 = metrics["claims"]["hlcmp"]["C5"]
     assert isinstance(c5["holds"], bool) and "x(10 s)" in c5["evidence"]
     data = np.load(run_dir / "timeseries.npz")
@@ -52,7 +54,7 @@ def test_metrics_agree_with_the_time_series(run_dir):
     for name in CONTROLLERS:
         run = SimpleNamespace(t=data["t"], series={"x": data[f"{name}/x"]})
         assert (
-            one_dof.controller_metrics(run, scenario.controllers[name], scenario)
+            one_dof.EXPERIMENT.metrics_of(run, scenario.controllers[name], scenario)
             == metrics["controllers"][name]
         )
     for learner in ("hlcmp", "hlcmp_per_step"):

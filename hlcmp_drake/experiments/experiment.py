@@ -53,3 +53,24 @@ class Experiment:
     table: Callable[[dict[str, dict[str, Any]]], Table]
     figures: Callable[[dict[str, RunResult], Scenario], dict[str, Figure]]
     task_done: Callable[[RunResult, Scenario], dict[str, Any]]
+
+    def metrics_of(
+        self, run: RunResult, config: ControllerConfig, scenario: Scenario
+    ) -> dict[str, Any]:
+        """One controller's entry of metrics.json: its metrics and whether it did the task.
+
+        Parameters
+        ----------
+        run : RunResult
+        config : controller config
+        scenario : Scenario
+
+        Returns
+        -------
+        dict
+            `controller_metrics`, and `task` (`task_done`).
+        """
+        return {
+            **self.controller_metrics(run, config, scenario),
+            "task": self.task_done(run, scenario),
+        }

@@ -124,11 +124,7 @@ def evaluate(runs: dict[str, RunResult], scenario: Scenario, experiment: Experim
         "scenario": scenario.name,
         "status": "unstable" if unstable else "ok",
         "controllers": {
-            n: {
-                **experiment.controller_metrics(r, scenario.controllers[n], scenario),
-                "task": experiment.task_done(r, scenario),
-            }
-            for n, r in runs.items()
+            n: experiment.metrics_of(r, scenario.controllers[n], scenario) for n, r in runs.items()
         },
     }
     learners = learning_controllers(scenario)
