@@ -121,9 +121,7 @@ def test_two_processes_over_udpm(tmp_path):
 
     scenario, _ = load_scenario("insertion", ["duration_s=1.5"])
     run = simulate(diagram_factory(scenario)("hlcmp"), scenario, "hlcmp")
-    simulated = experiment_of(scenario).controller_metrics(
-        run, scenario.controllers["hlcmp"], scenario
-    )
+    simulated = experiment_of(scenario).metrics_of(run, scenario.controllers["hlcmp"], scenario)
     served = json.loads((tmp_path / "serve" / "metrics.json").read_text())["controllers"]["hlcmp"]
     assert_metrics_match(served, json.loads(json.dumps(simulated)))
 
