@@ -71,15 +71,14 @@ def add_puncture(
     tool_axis : (3,) array
         The tool's axis in the world, pointing into the object.
     """
-    context = plant.CreateDefaultContext()
-    top = scoped_frame(plant, config.object_frame).CalcPoseInWorld(context)
+    top_point, top_normal = _top_face(plant, config)
     system = builder.AddSystem(
         HoleFriction(
             plant,
             tool_frame,
             tool_axis,
-            top.translation(),
-            top.rotation().matrix()[:, 2],
+            top_point,
+            top_normal,
             config.thickness_m,
             config.depth_m,
             config.hole_friction_N_per_m,
@@ -121,5 +120,10 @@ def object_top(scenario: Scenario) -> tuple[np.ndarray, np.ndarray] | None:
         return None
     plant = MultibodyPlant(0.0)
     load_models(plant, scenario)
+    return _top_face(plant, config)
+
+
+def _top_face(plant: MultibodyPlant, config: PunctureConfig) -> tuple[np.ndarray, np.ndarray]:
+    """The object's top-face point and outward normal, world, at the plant's default pose."""
     top = scoped_frame(plant, config.object_frame).CalcPoseInWorld(plant.CreateDefaultContext())
     return top.translation(), top.rotation().matrix()[:, 2]
