@@ -2,8 +2,15 @@
 runs (session fixtures, slow) and small helpers. Test files import the constants and
 helpers by name (`from conftest import REPO_ROOT`); pytest finds the fixtures itself."""
 
+import contextlib
+import dataclasses
+import fcntl
+import logging
+import os
 import subprocess
 import sys
+import tempfile
+import traceback
 from pathlib import Path
 
 import numpy as np
@@ -22,20 +29,36 @@ DEMO_CSV = "t,x,y,z\n" + "".join(
     f"{0.1 * k:.1f},{0.01 * k:.2f},0,{0.2 - 0.01 * k:.2f}\n" for k in range(20)
 )
 
-# --- the slow marker -------------------------------------------------------------------
+# --- the slow marker, and what stays on one worker ------------------------------------------
 
 # Tests that use a whole bundled scenario's run are slow (tens of seconds each). Every slow
 # test says so itself with @pytest.mark.slow; one that uses these runs and forgets is
 # still deselected by -m "not slow", and collecting it warns.
 SCENARIO_RUNS = {"one_dof_run", "insertion_run", "cutting_run"}
 
+# The costly fixtures, costliest first. pytest-xdist (-n, with --dist loadgroup) sends the
+# tests that use one of them to one worker, so that a module's fixture is made once and a
+# worker does not sit waiting for a run the other is computing.
+COSTLY_FIXTURES = (
+    "report",
+    "served_insertion",
+    "learned",
+    "insertion_skill",
+    "insertion_run",
+    "cutting_run",
+    "one_dof_run",
+)
+
 
 def pytest_collection_modifyitems(items):
     for item in items:
-        uses_a_run = SCENARIO_RUNS & set(getattr(item, "fixturenames", ()))
-        if uses_a_run and not item.get_closest_marker("slow"):
+        used = set(getattr(item, "fixturenames", ()))
+        if SCENARIO_RUNS & used and not item.get_closest_marker("slow"):
             item.add_marker(pytest.mark.slow)
             item.warn(pytest.PytestWarning(f"{item.name} uses a whole run: mark it slow"))
+        costly = next((name for name in COSTLY_FIXTURES if name in used), None)
+        if costly:
+            item.add_marker(pytest.mark.xdist_group(costly))
 
 
 # --- fixtures ----------------------------------------------------------------------------
@@ -56,34 +79,38 @@ def smooth_demo():
     return t, np.column_stack([x, y, z])
 
 
+def _shared_run(tmp_path_factory, scenario):
+    """`hlcmp run SCENARIO` once for the whole session, however many pytest-xdist workers
+    ask: the first computes it under a lock in the folder the workers share, the others
+    wait and read it."""
+    from hlcmp_drake.cli import main
+
+    base = tmp_path_factory.getbasetemp()
+    shared = base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+    out = shared / f"run_{scenario}"
+    with open(shared / f"run_{scenario}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not (out / "metrics.json").exists():
+            assert main(["run", scenario, "--out", str(out), "--quiet"]) == 0
+    return out
+
+
 @pytest.fixture(scope="session")
 def one_dof_run(tmp_path_factory):
     """`hlcmp run one_dof` once for the whole test session (about 25 s)."""
-    from hlcmp_drake.cli import main
-
-    out = tmp_path_factory.mktemp("one_dof")
-    assert main(["run", "one_dof", "--out", str(out), "--quiet"]) == 0
-    return out
+    return _shared_run(tmp_path_factory, "one_dof")
 
 
 @pytest.fixture(scope="session")
 def insertion_run(tmp_path_factory):
     """`hlcmp run insertion` once for the whole session (the full scenario, about 35 s)."""
-    from hlcmp_drake.cli import main
-
-    out = tmp_path_factory.mktemp("insertion")
-    assert main(["run", "insertion", "--out", str(out), "--quiet"]) == 0
-    return out
+    return _shared_run(tmp_path_factory, "insertion")
 
 
 @pytest.fixture(scope="session")
 def cutting_run(tmp_path_factory):
     """`hlcmp run cutting` once for the whole session (the full scenario, about 30 s)."""
-    from hlcmp_drake.cli import main
-
-    out = tmp_path_factory.mktemp("cutting")
-    assert main(["run", "cutting", "--out", str(out), "--quiet"]) == 0
-    return out
+    return _shared_run(tmp_path_factory, "cutting")
 
 
 @pytest.fixture(scope="session")
@@ -132,19 +159,105 @@ def arm():
 # --- helpers ---------------------------------------------------------------------------
 
 
-def run_cli(*args):
-    return subprocess.run(
-        [sys.executable, "-m", "hlcmp_drake.cli", *map(str, args)],
-        capture_output=True,
-        text=True,
-        timeout=600,
-    )
+@dataclasses.dataclass(frozen=True)
+class CliResult:
+    """What `hlcmp ARGS` ended with: its exit code and everything it printed."""
+
+    returncode: int
+    stdout: str
+    stderr: str
+
+
+def run_cli(*args, cwd=None, separate_process=False, env=None, timeout=600):
+    """`hlcmp ARGS`. By default in this process: the `main` the console script calls, its
+    output taken at file descriptors 1 and 2 (so Drake's C++ messages and its Python log
+    count as lines too) and an escaping exception turned into the traceback and exit code 1
+    that Python would give; a new interpreter costs about a second of imports. A test that
+    needs its own process (an environment, a signal, the module's entry point) says
+    `separate_process=True`."""
+    args = [str(a) for a in args]
+    if separate_process or env is not None:
+        done = subprocess.run(
+            [sys.executable, "-m", "hlcmp_drake.cli", *args],
+            capture_output=True,
+            text=True,
+            cwd=cwd,
+            env=env,
+            timeout=timeout,
+        )
+        return CliResult(done.returncode, done.stdout, done.stderr)
+    from hlcmp_drake.cli import main
+
+    with _output_captured() as read, _working_directory(cwd):
+        try:
+            code = main(args)
+        except SystemExit as exit_:
+            code = exit_.code if isinstance(exit_.code, int) or exit_.code is None else 1
+            if not isinstance(exit_.code, int | None):
+                print(exit_.code, file=sys.stderr)
+        except Exception:
+            traceback.print_exc()
+            code = 1
+    stdout, stderr = read()
+    return CliResult(code or 0, stdout, stderr)
+
+
+@contextlib.contextmanager
+def _working_directory(folder):
+    """`folder` as the working directory for the block (contextlib.chdir is Python 3.11+)."""
+    before = Path.cwd()
+    os.chdir(folder or before)
+    try:
+        yield
+    finally:
+        os.chdir(before)
+
+
+@contextlib.contextmanager
+def _output_captured():
+    """Descriptors 1 and 2, sys.stdout/sys.stderr and the log's stream handlers (pydrake
+    routes Drake's messages through Python's logging) all into two files; yields the reader
+    of what was written."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err:
+        saved_fds = os.dup(1), os.dup(2)
+        saved_streams = sys.stdout, sys.stderr
+        os.dup2(out.fileno(), 1)
+        os.dup2(err.fileno(), 2)
+        sys.stdout = open(1, "w", closefd=False, buffering=1, encoding="utf-8")
+        sys.stderr = open(2, "w", closefd=False, buffering=1, encoding="utf-8")
+        handlers = [
+            h
+            for name in (None, "drake")
+            for h in logging.getLogger(name).handlers
+            if type(h) is logging.StreamHandler
+        ]
+        saved_handler_streams = [h.setStream(sys.stderr) for h in handlers]
+        texts = []
+        try:
+            yield lambda: tuple(texts)
+        finally:
+            sys.stdout.flush()
+            sys.stderr.flush()
+            for handler, stream in zip(handlers, saved_handler_streams):
+                handler.setStream(stream)
+            sys.stdout, sys.stderr = saved_streams
+            os.dup2(saved_fds[0], 1)
+            os.dup2(saved_fds[1], 2)
+            for fd in saved_fds:
+                os.close(fd)
+            for file in (out, err):
+                file.seek(0)
+                texts.append(file.read().decode("utf-8", errors="replace"))
 
 
 def one_line_error(result, code=2):
+    """The one line a refused command printed (exit `code`, no traceback)."""
     assert result.returncode == code, result.stderr
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in result.stderr, result.stderr
+    assert lines[0].startswith("hlcmp"), result.stderr
     return lines[0]
 
 

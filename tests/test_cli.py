@@ -7,25 +7,13 @@ import gc
 import io
 import re
 import socket
-import subprocess
-import sys
 import time
 
 import numpy as np
 import pytest
-from conftest import DEMO_CSV
+from conftest import DEMO_CSV, one_line_error, run_cli
 
 from hlcmp_drake.io.demos import read_demonstration
-
-
-def hlcmp(*args, cwd=None):
-    return subprocess.run(
-        [sys.executable, "-m", "hlcmp_drake.cli", *map(str, args)],
-        capture_output=True,
-        text=True,
-        cwd=cwd,
-        timeout=120,
-    )
 
 
 def write_demo(path, t, positions, header="t,x,y,z"):
@@ -36,10 +24,10 @@ def write_demo(path, t, positions, header="t,x,y,z"):
 
 def test_fit_then_rollout_with_new_goal_and_duration(tmp_path, smooth_demo):
     demo = write_demo(tmp_path / "demo.csv", *smooth_demo)
-    fit = hlcmp("fit", demo, "--out", tmp_path / "skill.npz", "--basis", 25)
+    fit = run_cli("fit", demo, "--out", tmp_path / "skill.npz", "--basis", 25)
     assert fit.returncode == 0, fit.stderr
     out = tmp_path / "traj.csv"
-    roll = hlcmp(
+    roll = run_cli(
         "rollout",
         tmp_path / "skill.npz",
         "--out",
@@ -86,7 +74,7 @@ def test_bad_demonstrations_exit_2_with_one_line(tmp_path, content, expected):
     demo = tmp_path / "demo.csv"
     if content is not None:
         demo.write_text(content)
-    result = hlcmp("fit", demo, "--out", tmp_path / "skill.npz")
+    result = run_cli("fit", demo, "--out", tmp_path / "skill.npz")
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1, result.stderr
@@ -98,7 +86,7 @@ def test_bad_demonstrations_exit_2_with_one_line(tmp_path, content, expected):
 def test_good_one_axis_demo_is_accepted(tmp_path):
     demo = tmp_path / "demo.csv"
     demo.write_text(GOOD)
-    assert hlcmp("fit", demo, "--out", tmp_path / "s.npz").returncode == 0
+    assert run_cli("fit", demo, "--out", tmp_path / "s.npz").returncode == 0
 
 
 @pytest.mark.parametrize(
@@ -126,7 +114,7 @@ def test_good_one_axis_demo_is_accepted(tmp_path):
 )
 def test_bad_arguments_exit_2_with_one_line(tmp_path, smooth_demo, args, expected):
     demo = write_demo(tmp_path / "demo.csv", *smooth_demo)
-    assert hlcmp("fit", demo, "--out", tmp_path / "skill.npz").returncode == 0
+    assert run_cli("fit", demo, "--out", tmp_path / "skill.npz").returncode == 0
     names = {
         "SKILL": tmp_path / "skill.npz",
         "T": tmp_path / "t.csv",
@@ -134,7 +122,7 @@ def test_bad_arguments_exit_2_with_one_line(tmp_path, smooth_demo, args, expecte
         "S": tmp_path / "s2.npz",
         "NOSKILL": tmp_path / "missing.npz",
     }
-    result = hlcmp(*[names.get(a, a) for a in args])
+    result = run_cli(*[names.get(a, a) for a in args])
     assert result.returncode == 2
     assert len(result.stderr.strip().splitlines()) == 1, result.stderr
     assert expected in result.stderr
@@ -145,12 +133,12 @@ def test_existing_output_survives_a_failed_run(tmp_path):
     out.write_bytes(b"previous result")
     bad = tmp_path / "bad.csv"
     bad.write_text("t,x\n0,abc\n")
-    assert hlcmp("fit", bad, "--out", out).returncode == 2
+    assert run_cli("fit", bad, "--out", out).returncode == 2
     assert out.read_bytes() == b"previous result"
 
 
 def test_drake_models_without_internet_is_one_clear_line(tmp_path):
-    result = hlcmp("run", "insertion", "--iiwa", "drake_models", "--out", tmp_path / "o")
+    result = run_cli("run", "insertion", "--iiwa", "drake_models", "--out", tmp_path / "o")
     if result.returncode == 0:
         pytest.skip("drake_models could be downloaded here: the offline path cannot be checked")
     assert result.returncode == 2
@@ -161,7 +149,7 @@ def test_drake_models_without_internet_is_one_clear_line(tmp_path):
 
 
 def test_debug_shows_the_traceback(tmp_path):
-    result = hlcmp("--debug", "fit", tmp_path / "missing.csv", "--out", tmp_path / "s.npz")
+    result = run_cli("--debug", "fit", tmp_path / "missing.csv", "--out", tmp_path / "s.npz")
     assert result.returncode != 0
     assert (
         "Traceback" in result.stderr
@@ -187,7 +175,7 @@ def test_an_output_folder_that_is_a_file_is_refused_before_any_work(tmp_path, co
     blocker.write_text("keep me")
     demo = write_demo(tmp_path / "demo.csv", np.linspace(0, 1, 20), np.linspace(0, 1, 20)[:, None])
     start = time.perf_counter()
-    result = hlcmp(*[demo if a == "DEMO" else a for a in command], "--out", blocker)
+    result = run_cli(*[demo if a == "DEMO" else a for a in command], "--out", blocker)
     assert result.returncode == 2 and time.perf_counter() - start < 10
     assert result.stderr.strip().splitlines() == [
         f"hlcmp: error: --out {blocker}: is a file, not a folder"
@@ -197,7 +185,7 @@ def test_an_output_folder_that_is_a_file_is_refused_before_any_work(tmp_path, co
 
 def test_fit_refuses_a_folder_as_its_output_file(tmp_path, smooth_demo):
     demo = write_demo(tmp_path / "demo.csv", *smooth_demo)
-    result = hlcmp("fit", demo, "--out", tmp_path)
+    result = run_cli("fit", demo, "--out", tmp_path)
     assert result.returncode == 2 and "is a folder, not a file" in result.stderr
 
 
@@ -206,13 +194,13 @@ def test_a_demonstration_with_a_byte_order_mark_is_read(tmp_path, smooth_demo):
     plain = write_demo(tmp_path / "plain.csv", t, positions)
     bom = tmp_path / "bom.csv"
     bom.write_bytes(b"\xef\xbb\xbf" + plain.read_bytes())
-    assert hlcmp("fit", bom, "--out", tmp_path / "skill.npz").returncode == 0
+    assert run_cli("fit", bom, "--out", tmp_path / "skill.npz").returncode == 0
 
 
 def test_a_text_file_given_as_a_skill_gets_its_own_message(tmp_path):
     fake = tmp_path / "skill.npz"
     fake.write_text("t,x\n0,1\n")
-    result = hlcmp("rollout", fake, "--out", tmp_path / "t.csv")
+    result = run_cli("rollout", fake, "--out", tmp_path / "t.csv")
     assert (
         result.returncode == 2
         and "not a skill file" in result.stderr
@@ -220,18 +208,11 @@ def test_a_text_file_given_as_a_skill_gets_its_own_message(tmp_path):
     )
 
 
-def one_error_line(result):
-    assert result.returncode == 2, result.stderr
-    lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("hlcmp: error: "), result.stderr
-    return lines[0]
-
-
 def test_run_refuses_an_existing_file_as_out_within_seconds(tmp_path):
     blocker = tmp_path / "results"
     blocker.write_text("keep me")
     start = time.perf_counter()
-    line = one_error_line(hlcmp("run", "one_dof", "--out", blocker))
+    line = one_line_error(run_cli("run", "one_dof", "--out", blocker))
     assert time.perf_counter() - start < 10
     assert line == f"hlcmp: error: --out {blocker}: is a file, not a folder"
     assert blocker.read_text() == "keep me"
@@ -248,13 +229,13 @@ def test_run_refuses_an_existing_file_as_out_within_seconds(tmp_path):
 def test_a_default_output_folder_is_checked_too(tmp_path, command, default):
     (tmp_path / default).parent.mkdir(parents=True)
     (tmp_path / default).write_text("not a folder")
-    line = one_error_line(hlcmp(*command, cwd=tmp_path))
+    line = one_line_error(run_cli(*command, cwd=tmp_path))
     assert line == f"hlcmp: error: output folder {default}: is a file, not a folder"
 
 
 def test_report_checks_each_scenario_folder(tmp_path):
     (tmp_path / "one_dof").write_text("not a folder")
-    line = one_error_line(hlcmp("report", "--out", tmp_path, "--scenarios", "one_dof"))
+    line = one_line_error(run_cli("report", "--out", tmp_path, "--scenarios", "one_dof"))
     assert line.endswith("one_dof: is a file, not a folder")
 
 
@@ -263,39 +244,39 @@ def test_fit_and_rollout_refuse_bad_output_files(tmp_path):
     demo.write_text(DEMO_CSV)
     blocker = tmp_path / "a_file"
     blocker.write_text("")
-    assert "is a file, not a folder" in one_error_line(
-        hlcmp("fit", demo, "--out", blocker / "skill.npz")
+    assert "is a file, not a folder" in one_line_error(
+        run_cli("fit", demo, "--out", blocker / "skill.npz")
     )
-    assert hlcmp("fit", demo, "--out", tmp_path / "skill.npz").returncode == 0
-    assert "is a folder, not a file" in one_error_line(
-        hlcmp("rollout", tmp_path / "skill.npz", "--out", tmp_path)
+    assert run_cli("fit", demo, "--out", tmp_path / "skill.npz").returncode == 0
+    assert "is a folder, not a file" in one_line_error(
+        run_cli("rollout", tmp_path / "skill.npz", "--out", tmp_path)
     )
 
 
 def test_a_dry_run_sweep_writes_nothing_so_needs_no_writable_folder(tmp_path):
-    assert hlcmp("sweep", "tiny", "--dry-run", "--out", "/proc/hlcmp_sweep").returncode == 0
+    assert run_cli("sweep", "tiny", "--dry-run", "--out", "/proc/hlcmp_sweep").returncode == 0
 
 
 def test_the_cli_names_a_text_skill_in_one_line(tmp_path):
     text = tmp_path / "demo.csv"
     text.write_text(DEMO_CSV)
-    line = one_error_line(
-        hlcmp("reproduce", text, "--scenario", "insertion", "--out", tmp_path / "o")
+    line = one_line_error(
+        run_cli("reproduce", text, "--scenario", "insertion", "--out", tmp_path / "o")
     )
     assert line == (
         f"hlcmp: error: {text}: not a skill file (a .npz written by hlcmp fit/learn); "
         "this is a text file (a demonstration CSV becomes a skill with hlcmp fit)"
     )
-    folder = one_error_line(hlcmp("rollout", tmp_path, "--out", tmp_path / "t.csv"))
+    folder = one_line_error(run_cli("rollout", tmp_path, "--out", tmp_path / "t.csv"))
     assert "is a folder, not a skill file" in folder
 
 
 def test_version_debug_anywhere_bench_default_and_bundled_names_in_help(tmp_path):
-    assert re.fullmatch(r"hlcmp_drake \S+\n", hlcmp("--version").stdout)
-    late = hlcmp("fit", tmp_path / "missing.csv", "--out", tmp_path / "s.npz", "--debug")
+    assert re.fullmatch(r"hlcmp_drake \S+\n", run_cli("--version").stdout)
+    late = run_cli("fit", tmp_path / "missing.csv", "--out", tmp_path / "s.npz", "--debug")
     assert "Traceback" in late.stderr and "no such file" in late.stderr
-    assert "default out/bench" in hlcmp("bench", "--help").stdout
-    run_help = " ".join(hlcmp("run", "--help").stdout.split())
+    assert "default out/bench" in run_cli("bench", "--help").stdout
+    run_help = " ".join(run_cli("run", "--help").stdout.split())
     assert "(cutting, insertion, one_dof)" in run_help
 
 
@@ -344,9 +325,18 @@ def test_every_positional_argument_has_help():
 
 
 def test_drake_models_on_a_scenario_without_the_arm_is_one_line_and_runs_nothing(tmp_path):
-    result = hlcmp("run", "one_dof", "--iiwa", "drake_models", "--out", tmp_path / "o")
-    assert one_error_line(result) == (
+    result = run_cli("run", "one_dof", "--iiwa", "drake_models", "--out", tmp_path / "o")
+    assert one_line_error(result) == (
         "hlcmp: error: --iiwa drake_models: only applies to arm scenarios (with "
         "package://hlcmp_drake/models/iiwa14.sdf, e.g. insertion, cutting); 'one_dof' has no iiwa"
     )
     assert not (tmp_path / "o").exists()
+
+
+def test_the_module_run_as_a_process_says_what_it_says_in_process(tmp_path):
+    """The tests run `main` in the test process (conftest.run_cli); the entry point a user
+    runs, in a process of its own, gives the same exit code and the same lines."""
+    args = ("fit", tmp_path / "missing.csv", "--out", tmp_path / "s.npz")
+    alone = run_cli(*args, separate_process=True)
+    assert alone == run_cli(*args)
+    assert alone.returncode == 2 and "no such file" in one_line_error(alone)

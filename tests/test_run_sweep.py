@@ -12,22 +12,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import tiny
+from conftest import run_cli, tiny
 
 from hlcmp_drake.config.loading import load_scenario_text
 from hlcmp_drake.config.sweep import load_sweep, plan_tasks
 from hlcmp_drake.run.sweep import plan_sweep, run_sweep, task_state, task_values
-
-
-def hlcmp(*args, **kwargs):
-    return subprocess.run(
-        [sys.executable, "-m", "hlcmp_drake.cli", *map(str, args)],
-        capture_output=True,
-        text=True,
-        timeout=300,
-        **kwargs,
-    )
-
 
 # --- loading -------------------------------------------------------------------------
 
@@ -290,7 +279,7 @@ def test_the_ray_engine_runs_the_tiny_sweep(tmp_path):
 
 
 def test_the_command_lists_tasks_with_dry_run_and_writes_nothing(tmp_path):
-    result = hlcmp("sweep", tiny(tmp_path), "--out", tmp_path / "out", "--dry-run")
+    result = run_cli("sweep", tiny(tmp_path), "--out", tmp_path / "out", "--dry-run")
     assert result.returncode == 0, result.stderr
     lines = result.stdout.splitlines()
     assert "2 tasks of one_dof.yaml" in lines[0] and "2 to run" in lines[0]
@@ -311,7 +300,7 @@ def test_the_command_lists_tasks_with_dry_run_and_writes_nothing(tmp_path):
     ],
 )
 def test_bad_sweep_arguments_exit_2_with_one_line(tmp_path, args, expected):
-    result = hlcmp("sweep", *args, "--out", tmp_path / "out")
+    result = run_cli("sweep", *args, "--out", tmp_path / "out")
     assert result.returncode == 2 and len(result.stderr.strip().splitlines()) == 1, result.stderr
     assert expected in result.stderr
     assert not (tmp_path / "out").exists()
@@ -324,7 +313,7 @@ def test_the_ray_engine_without_ray_says_how_to_install_it(tmp_path):
         pytest.skip("Ray is installed")
     except ImportError:
         pass
-    result = hlcmp("sweep", tiny(tmp_path), "--out", tmp_path / "out", "--engine", "ray")
+    result = run_cli("sweep", tiny(tmp_path), "--out", tmp_path / "out", "--engine", "ray")
     assert result.returncode == 2, result.stderr
     assert result.stderr.strip() == (
         "hlcmp: error: --engine ray needs Ray, which is not installed: pip install -e '.[ray]'"
@@ -369,7 +358,7 @@ def test_a_metric_no_task_will_write_stops_the_sweep_before_the_first_task(
     entry = entry if entry.startswith("{") else f"{{{entry}}}"
     sweep = tmp_path / "sweep.yaml"
     sweep.write_text(HEAD.format(controllers="controllers: [hlcmp]\n") + f"- {entry}\n")
-    result = hlcmp("sweep", sweep, "--out", tmp_path / "out")
+    result = run_cli("sweep", sweep, "--out", tmp_path / "out")
     assert result.returncode == 2 and len(result.stderr.strip().splitlines()) == 1, result.stderr
     assert result.stderr.startswith(f"hlcmp: error: {sweep}:9: metrics: entry 2: "), result.stderr
     assert expected in result.stderr
