@@ -15,8 +15,9 @@ from hlcmp_drake.present.report import ReportSection, report_page
 
 
 @pytest.fixture(scope="session")
-def report(one_dof_run, insertion_run, cutting_run, tmp_path_factory):
-    base = tmp_path_factory.getbasetemp()  # the three run folders live below it
+def report(one_dof_run, insertion_run, cutting_run):
+    base = one_dof_run.parent  # the three run folders live in it
+    assert insertion_run.parent == base == cutting_run.parent
     sections = [
         ReportSection(name, run, 1.0, EXPERIMENTS[name])
         for name, run in [
