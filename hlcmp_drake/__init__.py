@@ -54,8 +54,8 @@ _EXPORTS = {
     "TaskForceToJointTorque": "hlcmp_drake.systems.task_space",
     "NullSpaceImpedance": "hlcmp_drake.systems.arm",
     "ToolContactForce": "hlcmp_drake.systems.arm",
-    "ArmControlLoop": "hlcmp_drake.systems.arm_loop",
-    "ArmTick": "hlcmp_drake.systems.arm_loop",
+    "ControlLoop": "hlcmp_drake.systems.control_loop",
+    "ControlTick": "hlcmp_drake.systems.control_loop",
     "SafetyMonitor": "hlcmp_drake.systems.monitor",
     # building and running diagrams
     "diagram_factory": "hlcmp_drake.worlds.build",

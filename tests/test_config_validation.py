@@ -3,6 +3,8 @@ field named; the issue's cases (a misspelt frame, a short vector, an unknown con
 exit 2 at load naming the override; a bad file names the line, a directive's its item's.
 tests/test_config_fields.py breaks every field of the bundled scenarios."""
 
+import re
+
 import pytest
 from conftest import INSERTION_DEMO, one_line_error, run_cli
 
@@ -105,3 +107,23 @@ def test_a_directives_line_is_its_items_in_the_list():
     assert [line_of(text, f"list.{k}") for k in range(4)] == [4, 6, 7, None]
     assert line_of(text, "list.2.four.five") == 8
     assert line_of(text, "list.1.three") == 6
+
+
+@pytest.mark.parametrize(
+    "overrides, expected",
+    [
+        (
+            ["controllers.vic_fd_0.5.sample_period_s=0.002"],
+            "sample_period_s: the slider's fast path updates Φ once per plant step: it must "
+            "equal plant_config.time_step (0.001 s), got 0.002, or task.control_path: modular",
+        ),
+        (["task.control_path=fastest"], "control_path: must be one of fast, modular"),
+    ],
+)
+def test_the_sliders_control_path_is_checked_at_load(overrides, expected):
+    with pytest.raises(InputError, match=re.escape(expected)):
+        load_scenario("one_dof", overrides)
+    # the modular path samples Φ at any period
+    load_scenario(
+        "one_dof", ["task.control_path=modular", "controllers.vic_fd_0.5.sample_period_s=0.002"]
+    )

@@ -1,13 +1,19 @@
 """hlcmp_drake.systems.references: the DMP source (state, ports and derivatives; simulated
 against the numpy rollout; the compiled C++ source against the Python one) and the step
-reference."""
+reference (the Python one against the compiled one)."""
 
 import numpy as np
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
 from hlcmp_drake.core.dmp import Dmp
-from hlcmp_drake.systems.references import DmpSource, StepReference, linear_dmp_source
+from hlcmp_drake.systems.ports import REFERENCE_PORTS
+from hlcmp_drake.systems.references import (
+    DmpSource,
+    StepReference,
+    compiled_step_reference,
+    linear_dmp_source,
+)
 
 
 def test_dmp_source_state_ports_and_derivatives(smooth_demo):
@@ -84,3 +90,20 @@ def test_the_compiled_dmp_source_follows_the_python_one(insertion):
         logs["python"], logs["compiled"], (1e-6, 1e-5, 1e-4, 1e-9)
     ):
         assert np.abs(python - compiled).max() < tolerance * max(1.0, np.abs(python).max())
+
+
+def test_the_compiled_step_reference_gives_the_step_references_values():
+    times, positions = [0.0, 4.0, 10.0], [[-0.15], [-0.05], [0.0]]
+    python, compiled = (
+        StepReference(times, positions, 20.0, 4.0),
+        compiled_step_reference(times, positions, 20.0, 4.0),
+    )
+    simulators = [Simulator(system) for system in (python, compiled)]
+    for t in [0.0, 3.999, 4.0, 7.5, 10.0, 19.0, 25.0]:
+        values = []
+        for system, simulator in zip((python, compiled), simulators):
+            simulator.AdvanceTo(t)
+            context = simulator.get_context()
+            values.append([system.GetOutputPort(n).Eval(context) for n in REFERENCE_PORTS])
+        for name, a, b in zip(REFERENCE_PORTS, *values):
+            np.testing.assert_allclose(b, a, rtol=1e-6, atol=0, err_msg=f"{name} at {t}")

@@ -6,22 +6,26 @@ import pytest
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.core.laws import ConstantImpedanceLaw
+from hlcmp_drake.systems.control_loop import ControlLoop
 from hlcmp_drake.systems.law_controller import LawController
 from hlcmp_drake.worlds.build import diagram_factory
 
 
-def test_a_new_label_builds_its_controller_by_kind():
+@pytest.mark.parametrize("path, system_type", [("modular", LawController), ("fast", ControlLoop)])
+def test_a_new_label_builds_its_controller_by_kind(path, system_type):
     scenario, _ = load_scenario(
         "one_dof",
         [
+            f"task.control_path={path}",
             "controllers.soft=!ConstantImpedanceConfig {stiffness_N_per_m: [100], "
-            "damping_Ns_per_m: [20], gain_l: [10]}"
+            "damping_Ns_per_m: [20], gain_l: [10]}",
         ],
     )
     built = diagram_factory(scenario)("soft")
-    assert isinstance(built.controller.system, LawController)
-    assert isinstance(built.controller.system.law, ConstantImpedanceLaw)
-    assert built.controller.system.get_name() == "soft" and built.controller.read_theta is None
+    system = built.controller.system
+    assert isinstance(system, system_type)
+    assert isinstance(system.law, ConstantImpedanceLaw)
+    assert system.get_name() == "soft" and built.controller.read_theta is None
     assert "Ks" not in built.loggers  # only a learning controller logs its profiles
 
 

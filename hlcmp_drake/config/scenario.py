@@ -375,6 +375,11 @@ ControllerConfig = Union[
 ]
 
 
+# How a world puts its controller in the diagram (ArmTask.control_path,
+# SliderTask.control_path).
+CONTROL_PATHS = ("fast", "modular")
+
+
 @dc.dataclass
 class SliderTask:
     """A single-joint world (the 1-DOF experiment): the task space is the joint's body
@@ -394,12 +399,21 @@ class SliderTask:
         Where the object's surface is, in the joint's position q [m] (for the bundled
         slider, the body's x); the object fills q < surface and pushes the body out with
         k (surface - q) there (`UnilateralSpring`). Default 0.
+    control_path : str
+        How the controller is put in the diagram (CONTROL_PATHS): "fast" (default) -- one
+        Python evaluation per plant step (`systems.control_loop.ControlLoop` with
+        `PrismaticTaskModel`, the set-points and the phase in C++, the law's state in a
+        C++ Integrator) -- or "modular" -- the task-space, controller and torque-map
+        systems, each evaluated by Drake port by port. "fast" needs a discrete plant and,
+        for a variable impedance, sample_period_s equal to the plant's time step (Φ is
+        updated once per tick).
     """
 
     body: str = "body"
     axis: int = 0
     environment_stiffness_N_per_m: float = 10.0
     surface_position_m: float = 0.0
+    control_path: str = "fast"
 
     def axis_count(self, reference: object) -> int:
         """M, the task-space axes: one per column of the set-points.
@@ -432,6 +446,28 @@ class SliderTask:
             self.environment_stiffness_N_per_m, "task.environment_stiffness_N_per_m", fail, ">= 0"
         )
         check_number(self.surface_position_m, "task.surface_position_m", fail, "any")
+        if self.control_path not in CONTROL_PATHS:
+            fail(
+                "task.control_path",
+                f"must be one of {', '.join(CONTROL_PATHS)}, got '{self.control_path}'",
+            )
+        step = scenario.plant_config.time_step
+        if self.control_path == "fast":
+            if not step > 0:
+                fail(
+                    "plant_config.time_step",
+                    "the slider's fast path ticks once per plant step: it needs a discrete "
+                    "plant (time_step > 0), or task.control_path: modular",
+                )
+            for name, config in scenario.controllers.items():
+                period = getattr(config, "sample_period_s", step)
+                if not math.isclose(period, step, rel_tol=1e-12):
+                    fail(
+                        f"controllers.{name}.sample_period_s",
+                        f"the slider's fast path updates Φ once per plant step: it must "
+                        f"equal plant_config.time_step ({step:g} s), got {period:g}, or "
+                        "task.control_path: modular",
+                    )
         if any(len(row) != 1 for row in scenario.reference.positions_m):
             fail(
                 "reference.positions_m",
@@ -452,10 +488,6 @@ class SliderTask:
         problem = body_problem(plant, self.body)
         if problem:
             fail("task.body", problem)
-
-
-# How an arm world puts its controller in the diagram (ArmTask.control_path).
-CONTROL_PATHS = ("fast", "modular")
 
 
 @dc.dataclass
@@ -537,7 +569,7 @@ class ArmTask:
 
     `control_path` says how the controller is put in the diagram: "fast" (default) -- the
     C++ DMP source, one Python evaluation of the whole controller per plant step
-    (`systems.arm_loop.ArmControlLoop`, θ in a C++ Integrator) -- or "modular" -- one
+    (`systems.control_loop.ControlLoop`, θ in a C++ Integrator) -- or "modular" -- one
     system per role (DmpSource, TaskSpaceDynamics, the controller, NullSpaceImpedance,
     TaskForceToJointTorque), evaluated port by port. Both evaluate the same laws; a
     controller kind without a `core.laws` law (the variable impedance) is always modular.

@@ -30,6 +30,8 @@
 
 import numpy as np
 
+from hlcmp_drake.core.control_law import tracking_errors
+
 
 def duan_adaptation_step(
     phi: np.ndarray, delta_f: np.ndarray, sigma: float, b: np.ndarray
@@ -157,3 +159,82 @@ def inner_position_loop(
         + gravity
         - f_ext
     )
+
+
+def duan_commanded_motion(
+    xc: np.ndarray,
+    xc_dot: np.ndarray,
+    phi: np.ndarray,
+    xr: np.ndarray,
+    xr_dot: np.ndarray,
+    xr_ddot: np.ndarray,
+    f_desired: np.ndarray,
+    f_measured: np.ndarray,
+    mass: np.ndarray,
+    damping: np.ndarray,
+    free_stiffness: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The admittance of Duan et al. 2018 at one instant, per axis: where a force is asked
+    for (f_d != 0) the force-tracking impedance with zero stiffness and Phi, elsewhere the
+    plain impedance about x_r with `free_stiffness` and Phi and Delta_f taken as 0.
+
+    Parameters
+    ----------
+    xc, xc_dot : (M,) arrays
+        The commanded position x_c [m] and velocity x_c' [m/s].
+    phi : (M,) array
+        Phi [m/s].
+    xr, xr_dot, xr_ddot : (M,) arrays
+        The reference [m], [m/s], [m/s^2].
+    f_desired, f_measured : (M,) arrays
+        f_d and the measured reaction f_e [N].
+    mass, damping, free_stiffness : (M,) arrays
+        m [kg], b [N s/m], k where f_d = 0 [N/m].
+
+    Returns
+    -------
+    xc_ddot : (M,) array
+        x_c'' = x_r'' + e_c'' [m/s^2].
+    delta_f : (M,) array
+        Delta_f where a force is tracked, 0 elsewhere [N].
+    tracking : (M,) bool array
+        Where a force is asked for.
+    """
+    tracking = np.asarray(f_desired) != 0
+    delta_f = np.where(tracking, duan_force_error(f_desired, f_measured), 0.0)
+    e_c, e_c_dot = tracking_errors(xc, xc_dot, xr, xr_dot)
+    ec_ddot = duan_admittance_acceleration(
+        e_c,
+        e_c_dot,
+        np.where(tracking, phi, 0.0),
+        delta_f,
+        mass,
+        damping,
+        np.where(tracking, 0.0, free_stiffness),
+    )
+    return xr_ddot + ec_ddot, delta_f, tracking
+
+
+def duan_phi_update(
+    phi: np.ndarray, delta_f: np.ndarray, tracking: np.ndarray, sigma: float, b: np.ndarray
+) -> np.ndarray:
+    """Phi after one sample period: `duan_adaptation_step` where a force is tracked, 0
+    (held) elsewhere.
+
+    Parameters
+    ----------
+    phi, delta_f : (M,) arrays
+        Phi(t - lambda) [m/s] and Delta_f(t - lambda) [N].
+    tracking : (M,) bool array
+        Where a force is asked for.
+    sigma : float
+        Update rate [-].
+    b : (M,) array
+        Target damping [N s/m].
+
+    Returns
+    -------
+    (M,) array
+        Phi(t) [m/s].
+    """
+    return np.where(tracking, duan_adaptation_step(phi, delta_f, sigma, b), 0.0)

@@ -1,10 +1,11 @@
 """The task-space control laws at one instant: the Hl-CMP (Eqs. 4-5, 14, 16, 29, 31,
-33-34) and the constant impedance it is compared with, composed from the functions that
+33-34), the constant impedance and the variable impedance (Duan et al. 2018) it is
+compared with, composed from the functions that
 hold those equations. Pure numpy.
 
 Every law has the shape of `ControlLaw`. Both ways of putting a law in a Drake diagram
 evaluate these objects: the modular system `systems.law_controller.LawController` (θ its
-continuous state) and the arm's one-call control loop (`systems.arm_loop`). A new law is a
+continuous state) and the arm's one-call control loop (`systems.control_loop`). A new law is a
 class here and an entry in the controller registry (`worlds.controllers`); it needs no
 LeafSystem of its own.
 """
@@ -20,6 +21,11 @@ import numpy as np
 from hlcmp_drake.core.adaptation import adaptation_rates, compliant_profiles, forgetting_rates
 from hlcmp_drake.core.control_law import commanded_force, impedance_force, nominal_command
 from hlcmp_drake.core.dmp import normalized_basis
+from hlcmp_drake.core.duan2018 import (
+    duan_commanded_motion,
+    duan_phi_update,
+    inner_position_loop,
+)
 
 
 @dataclass(frozen=True)
@@ -42,6 +48,11 @@ class TaskSpaceInstant:
         path passes `systems.task_space.CoriolisProduct`.
     gravity : (M,) array
         Task-space gravity force [N].
+    time : float
+        The instant [s] (read by a law with a schedule: the variable impedance's f_d(t)).
+    external_force : (M,) array or None
+        The measured reaction force of the environment on the robot [N], for a law that
+        reads it (`reads_external_force`).
     """
 
     x: np.ndarray
@@ -53,6 +64,8 @@ class TaskSpaceInstant:
     inertia: np.ndarray
     coriolis: np.ndarray
     gravity: np.ndarray
+    time: float = 0.0
+    external_force: np.ndarray | None = None
 
 
 @dataclass
@@ -86,17 +99,21 @@ class ControlLaw(Protocol):
     Attributes
     ----------
     learns : bool
-        Whether it has weights θ that adapt (then `command` returns their rates).
+        Whether its state θ is weights learned online (read back as a skill).
+    reads_external_force : bool
+        Whether it reads `TaskSpaceInstant.external_force`.
     log_fields : dict of str to str
         Its own series: the key in `LawOutput.logs` (and the modular system's output
         port) -> the series name in timeseries.npz.
     n_axes : int
         M, the task-space axes.
     theta_size : int
-        The length of the flattened θ (0 for a law that does not learn).
+        The length of the flattened θ, the state Drake integrates from the law's rates (0
+        for a law without one).
     """
 
     learns: bool
+    reads_external_force: bool
     log_fields: dict[str, str]
     n_axes: int
 
@@ -150,6 +167,7 @@ class HlcmpLaw:
     """
 
     learns = True
+    reads_external_force = False
     # The law's own series: its output name -> the series name in timeseries.npz.
     log_fields = {
         "stiffness": "Ks",
@@ -286,6 +304,7 @@ class ConstantImpedanceLaw:
     """
 
     learns = False
+    reads_external_force = False
     log_fields: dict[str, str] = {}
 
     def __init__(self, stiffness: np.ndarray, damping: np.ndarray, pi: float, gain_l: np.ndarray):
@@ -337,3 +356,127 @@ class ConstantImpedanceLaw:
             ),
             {},
         )
+
+
+class VariableImpedanceLaw:
+    """The force-tracking variable impedance of Duan et al. 2018 (`core.duan2018`) at one
+    instant, for a one-call loop: its state θ = [x_c, x_c', Φ] (M each) is integrated by
+    Drake from the rates this law returns, held over the loop's period h.
+
+    x_c and x_c' follow the admittance (`duan_commanded_motion`); Φ's update of one
+    sample period λ (`duan_phi_update`) becomes the rate (Φ(t + λ) - Φ(t)) / λ, so that
+    with h = λ Drake's step lands on exactly the discrete update of the modular
+    `VariableImpedanceController` (the slider world checks h = λ). The force is the inner
+    position loop's (`inner_position_loop`).
+
+    Parameters
+    ----------
+    mass, damping, free_stiffness : (M,) arrays
+        m [kg], b [N s/m], k where f_d = 0 [N/m].
+    sigma : float
+        Φ's update rate [-].
+    sample_period : float
+        λ [s].
+    kp, kv : (M,) arrays
+        Inner-loop gains [1/s^2], [1/s].
+    desired_force : callable(t) -> (M,) array
+        f_d at time t [N].
+    """
+
+    learns = False
+    reads_external_force = True
+    log_fields: dict[str, str] = {}
+
+    def __init__(
+        self,
+        mass: np.ndarray,
+        damping: np.ndarray,
+        free_stiffness: np.ndarray,
+        sigma: float,
+        sample_period: float,
+        kp: np.ndarray,
+        kv: np.ndarray,
+        desired_force: Callable[[float], np.ndarray],
+    ):
+        self.mass, self.damping = np.asarray(mass, float), np.asarray(damping, float)
+        self.free_stiffness = np.asarray(free_stiffness, float)
+        self.sigma, self.sample_period = float(sigma), float(sample_period)
+        self.kp, self.kv = np.asarray(kp, float), np.asarray(kv, float)
+        self.desired_force = desired_force
+        self.n_axes = len(self.mass)
+
+    @property
+    def theta_size(self) -> int:
+        """3 M: x_c, x_c' and Φ."""
+        return 3 * self.n_axes
+
+    def initial_state(self, initial_position: np.ndarray) -> np.ndarray:
+        """θ(0) = [x_c(0) = the start position, x_c'(0) = 0, Φ(0) = 0].
+
+        Parameters
+        ----------
+        initial_position : (M,) array
+            The task-space position at t = 0 [m].
+        """
+        m = self.n_axes
+        return np.concatenate([np.asarray(initial_position, float), np.zeros(2 * m)])
+
+    def unflatten(self, theta: np.ndarray) -> tuple[np.ndarray, ...]:
+        """(x_c, x_c', Φ), each (M,).
+
+        Parameters
+        ----------
+        theta : (3 M,) array
+        """
+        xc, xc_dot, phi = np.asarray(theta, float).reshape(3, self.n_axes)
+        return xc, xc_dot, phi
+
+    def command(self, now: TaskSpaceInstant, theta: np.ndarray) -> LawOutput:
+        """The inner loop's force and the rates of [x_c, x_c', Φ].
+
+        Parameters
+        ----------
+        now : TaskSpaceInstant
+            With `time` and `external_force`.
+        theta : (3 M,) array
+            [x_c, x_c', Φ].
+
+        Returns
+        -------
+        LawOutput
+            force f [N], no logs, rates [x_c', x_c'', (Φ(t + λ) - Φ(t)) / λ].
+        """
+        assert now.external_force is not None, "the variable impedance reads the force"
+        xc, xc_dot, phi = self.unflatten(theta)
+        xc_ddot, delta_f, tracking = duan_commanded_motion(
+            xc,
+            xc_dot,
+            phi,
+            now.xd,
+            now.xd_dot,
+            now.xd_ddot,
+            self.desired_force(now.time),
+            now.external_force,
+            self.mass,
+            self.damping,
+            self.free_stiffness,
+        )
+        force = inner_position_loop(
+            now.inertia,
+            now.coriolis,
+            now.gravity,
+            xc_ddot,
+            xc_dot,
+            xc,
+            now.x,
+            now.xdot,
+            self.kp,
+            self.kv,
+            now.external_force,
+        )
+
+        def rates() -> np.ndarray:
+            next_phi = duan_phi_update(phi, delta_f, tracking, self.sigma, self.damping)
+            return np.concatenate([xc_dot, xc_ddot, (next_phi - phi) / self.sample_period])
+
+        return LawOutput(force, {}, rates)

@@ -2,7 +2,7 @@
 protocol -- the same controller a run simulates, for drake-iiwa-driver on a real arm or
 for `hlcmp sim-driver`.
 
-Every status is answered with one tick of `ArmTick`, the function the simulated runs
+Every status is answered with one tick of `ControlTick`, the function the simulated runs
 evaluate once per plant step: the task-space terms at the measured state, the law
 (Hl-CMP learning online, a constant impedance, or a frozen skill), the torque below the
 task, the saturation at the effort limits. The driver compensates gravity itself, so the
@@ -111,7 +111,8 @@ def served_scenario(
             f"--controller: scenario '{scenario.name}' has no controller '{controller}' "
             f"(it has {', '.join(scenario.controllers)})"
         )
-    if controller_kind(scenario, controller).law is None:
+    kind = controller_kind(scenario, controller)
+    if kind.law is None or kind.uses_contact_force:
         raise InputError(
             f"--controller: '{controller}' ({type(scenario.controllers[controller]).__name__}) "
             "has no one-tick law to serve; serve an Hl-CMP or a constant impedance"

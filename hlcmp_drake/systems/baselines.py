@@ -5,11 +5,9 @@ controller of Duan et al. 2018 standing in for the paper's ref. [21] (see
 import numpy as np
 from pydrake.systems.framework import BasicVector, LeafSystem
 
-from hlcmp_drake.core.control_law import tracking_errors
 from hlcmp_drake.core.duan2018 import (
-    duan_adaptation_step,
-    duan_admittance_acceleration,
-    duan_force_error,
+    duan_commanded_motion,
+    duan_phi_update,
     inner_position_loop,
 )
 from hlcmp_drake.systems.ports import declare_task_space_inputs
@@ -101,29 +99,31 @@ class VariableImpedanceController(LeafSystem):
         )
 
     def _admittance(self, context):
-        """(x_c, x_c', x_c'', Delta_f, f_d) at this context."""
+        """(x_c, x_c', x_c'', Delta_f, tracking) at this context."""
         xc_all = context.get_continuous_state_vector().CopyToVector()
         xc, xc_dot = xc_all[: self._m], xc_all[self._m :]
         _, _, xr, xr_dot, xr_ddot = self.inputs.errors_and_reference(context)
-        f_d = self._desired_force(context.get_time())
-        delta_f = duan_force_error(f_d, self.external_force.Eval(context))
-        tracking_force = f_d != 0
-        phi = np.where(tracking_force, context.get_discrete_state(self._phi).get_value(), 0.0)
-        stiffness = np.where(tracking_force, 0.0, self._free_stiffness)
-        delta_f = np.where(tracking_force, delta_f, 0.0)
-        e_c, e_c_dot = tracking_errors(xc, xc_dot, xr, xr_dot)
-        ec_ddot = duan_admittance_acceleration(
-            e_c, e_c_dot, phi, delta_f, self._mass, self._damping, stiffness
+        xc_ddot, delta_f, tracking = duan_commanded_motion(
+            xc,
+            xc_dot,
+            context.get_discrete_state(self._phi).get_value(),
+            xr,
+            xr_dot,
+            xr_ddot,
+            self._desired_force(context.get_time()),
+            self.external_force.Eval(context),
+            self._mass,
+            self._damping,
+            self._free_stiffness,
         )
-        return xc, xc_dot, xr_ddot + ec_ddot, delta_f, f_d
+        return xc, xc_dot, xc_ddot, delta_f, tracking
 
     def _update_phi(self, context, discrete_state):
-        _, _, _, delta_f, f_d = self._admittance(context)
+        _, _, _, delta_f, tracking = self._admittance(context)
         phi = context.get_discrete_state(self._phi).get_value()
-        new_phi = np.where(
-            f_d != 0, duan_adaptation_step(phi, delta_f, self._sigma, self._damping), 0.0
+        discrete_state.get_mutable_vector(self._phi).SetFromVector(
+            duan_phi_update(phi, delta_f, tracking, self._sigma, self._damping)
         )
-        discrete_state.get_mutable_vector(self._phi).SetFromVector(new_phi)
 
     def DoCalcTimeDerivatives(self, context, derivatives):
         _, xc_dot, xc_ddot, _, _ = self._admittance(context)

@@ -246,3 +246,59 @@ class StepReference(LeafSystem):
 
     def _calc_phase(self, context, output):
         output.SetFromVector([context.get_continuous_state_vector()[0]])
+
+
+def compiled_step_reference(
+    times: np.ndarray, positions: np.ndarray, tau: float, alpha_s: float
+) -> Diagram:
+    """`StepReference` as Drake's own C++ systems, with its ports and values: the set-points
+    as a zero-order-hold trajectory (right-continuous at a switch time, as
+    `StepReference.position_at`), zero x_d' and x_d'', and the phase of Eq. 8 as the
+    state of an AffineSystem (A read off `canonical_phase_rate`). No Python runs while it
+    is simulated.
+
+    Parameters
+    ----------
+    times, positions, tau, alpha_s
+        As for `StepReference`.
+
+    Returns
+    -------
+    Diagram
+        Named "reference", without input ports; output ports ``desired_position``,
+        ``desired_velocity``, ``desired_acceleration`` (M) and ``phase`` (1), as
+        `StepReference`'s.
+    """
+    times = np.asarray(times, dtype=float)
+    positions = np.asarray(positions, dtype=float).reshape(len(times), -1)
+    m = positions.shape[1]
+    # One more break after the last switch, so that the last set-point holds for ever
+    # (a zero-order hold's last sample only marks where its last segment ends).
+    breaks = np.append(times, times[-1] + 1.0)
+    samples = np.vstack([positions, positions[-1:]]).T
+    builder = DiagramBuilder()
+    set_points = builder.AddSystem(
+        TrajectorySource(PiecewisePolynomial.ZeroOrderHold(breaks, samples))
+    )
+    set_points.set_name("set_points")
+    builder.ExportOutput(set_points.get_output_port(), "desired_position")
+    # State s; outputs [x_d' (M), x_d'' (M), s] = [0, 0, s].
+    phase = builder.AddSystem(
+        AffineSystem(
+            A=[[canonical_phase_rate(1.0, tau, alpha_s)]],
+            B=np.zeros((1, 0)),
+            f0=[0.0],
+            C=np.vstack([np.zeros((2 * m, 1)), [[1.0]]]),
+            D=np.zeros((2 * m + 1, 0)),
+            y0=np.zeros(2 * m + 1),
+        )
+    )
+    phase.set_name("phase")
+    phase.configure_default_state([1.0])
+    split = builder.AddSystem(Demultiplexer([m, m, 1]))
+    builder.Connect(phase.get_output_port(), split.get_input_port())
+    for k, name in enumerate(("desired_velocity", "desired_acceleration", "phase")):
+        builder.ExportOutput(split.get_output_port(k), name)
+    diagram = builder.Build()
+    diagram.set_name("reference")
+    return diagram

@@ -162,6 +162,92 @@ class CoriolisProduct:
         return product if np.ndim(w) == 2 else product[:, 0]
 
 
+class PrismaticTaskModel:
+    """`TaskSpaceModel`'s terms for a plant made only of prismatic joints whose task axes
+    are its joints, at a fraction of its cost (the slider world's one-call loop). With no
+    rotation the mass matrix is constant, so C(q, v) = 0, and J is constant and square
+    (Jdot = 0): Lambda = J^-T M(q) J^-1, G_x = J^-T G(q), C_x = 0, no null space. M(q) and
+    G(q) come from the plant at every state; J once, and C(q, v) v = 0 is checked once
+    against Drake's bias term.
+
+    Parameters
+    ----------
+    plant : MultibodyPlant
+        Finalized, every joint prismatic, as many velocities as task axes.
+    frame : Frame
+        The frame whose origin's translation is the task position.
+    axes : sequence of int
+        The world axes of the task space, as many as the plant's velocities.
+
+    Raises
+    ------
+    ValueError
+        When the plant has another joint type, or not one velocity per task axis.
+    """
+
+    def __init__(self, plant, frame, axes=(0,)):
+        self.plant, self._frame, self._axes = plant, frame, list(axes)
+        self._context = plant.CreateDefaultContext()
+        self._world = plant.world_frame()
+        self.nq, self.nv, self.n_axes = (
+            plant.num_positions(),
+            plant.num_velocities(),
+            len(self._axes),
+        )
+        kinds = {plant.get_joint(j).type_name() for j in plant.GetJointIndices()}
+        if not kinds <= {"prismatic", "weld"} or self.nv != self.n_axes:
+            raise ValueError(
+                f"PrismaticTaskModel needs prismatic joints only, one per task axis; "
+                f"the plant has {sorted(kinds)} joints, {self.nv} velocities, "
+                f"{self.n_axes} axes"
+            )
+        self._jacobian = plant.CalcJacobianTranslationalVelocity(
+            self._context, JacobianWrtVariable.kV, frame, np.zeros(3), self._world, self._world
+        )[self._axes]
+        self._inverse = np.linalg.inv(self._jacobian)
+        plant.SetVelocities(self._context, np.ones(self.nv))
+        assert not np.any(plant.CalcBiasTerm(self._context)), "prismatic joints: C(q, v) = 0"
+        self._coriolis = np.zeros((self.n_axes, self.n_axes))
+        self._null_space = np.zeros((self.nv, self.nv))
+
+    @property
+    def context(self) -> Context:
+        """The control-side plant context, at the state of the last `terms` call."""
+        return self._context
+
+    def terms(self, state: np.ndarray, coriolis_matrix: bool = True) -> TaskSpaceTerms:
+        """All task-space terms at the plant state `state`, as `TaskSpaceModel.terms`.
+
+        Parameters
+        ----------
+        state : (nq + nv,) array
+            The joints' positions [m] and velocities [m/s].
+        coriolis_matrix : bool
+            Unused: C_x = 0 is a matrix either way.
+
+        Returns
+        -------
+        TaskSpaceTerms
+        """
+        plant, ctx = self.plant, self._context
+        plant.SetPositionsAndVelocities(ctx, state)
+        position = plant.CalcPointsPositions(ctx, self._frame, np.zeros((3, 1)), self._world)[
+            self._axes, 0
+        ]
+        inverse = self._inverse
+        joint_gravity = -plant.CalcGravityGeneralizedForces(ctx)
+        return TaskSpaceTerms(
+            position,
+            self._jacobian @ state[self.nq :],
+            self._jacobian,
+            inverse.T @ plant.CalcMassMatrix(ctx) @ inverse,
+            self._coriolis,
+            inverse.T @ joint_gravity,
+            self._null_space,
+            joint_gravity,
+        )
+
+
 class TaskSpaceDynamics(LeafSystem):
     """Reads the plant state; outputs the task-space position, velocity, Jacobian and the
     task-space inertia, Coriolis matrix and gravity of a point P fixed on `frame`, as

@@ -12,18 +12,17 @@ import numpy as np
 from pydrake.math import RotationMatrix
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import Integrator, MatrixGain
 
 from hlcmp_drake.config.scenario import ArmTask, Scenario
 from hlcmp_drake.core.dmp import Dmp
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.systems.arm import BelowTaskImpedance, NullSpaceImpedance, ToolContactForce
-from hlcmp_drake.systems.arm_loop import ArmControlLoop, ArmTick
-from hlcmp_drake.systems.ports import REFERENCE_PORTS
+from hlcmp_drake.systems.control_loop import ControlTick
 from hlcmp_drake.systems.task_space import TaskSpaceDynamics, TaskSpaceModel
 from hlcmp_drake.worlds.checks import check_demonstration_feasible
 from hlcmp_drake.worlds.common import (
     BuiltDiagram,
+    add_control_loop,
     add_loggers,
     add_reference,
     add_safety_monitor,
@@ -32,11 +31,9 @@ from hlcmp_drake.worlds.common import (
     read_scenario_demonstration,
 )
 from hlcmp_drake.worlds.controllers import (
-    AddedController,
     WorldPorts,
     add_controller,
     controller_kind,
-    initial_theta,
 )
 from hlcmp_drake.worlds.extras import ToolSensing, add_tool_sensing
 from hlcmp_drake.worlds.models import add_plant, load_models, scoped_frame, solve_ik_for_tool
@@ -376,57 +373,26 @@ def _add_modular_controller(
 def _add_fast_controller(
     builder, scenario, name, *, plant, tool_frame, setup, contact_force, theta0
 ):
-    """The C++ DMP source -> ArmControlLoop (one Python call per plant step) -> plant, θ in
-    a C++ Integrator fed the loop's held rate."""
-    config = scenario.controllers[name]
-    kind = controller_kind(scenario, name)
+    """The C++ DMP source -> ControlLoop (one Python call per plant step) -> plant, θ in
+    a C++ Integrator fed the loop's held rate (`add_control_loop`)."""
     reference = add_reference(builder, scenario, dmp=setup.dmp, compiled=True)
-    tick = arm_tick(scenario, name, plant=plant, setup=setup)
-    law = tick.law
-    loop = builder.AddSystem(ArmControlLoop(tick, plant.time_step()))
-    loop.set_name(name)
-    builder.Connect(plant.get_state_output_port(), loop.plant_state)
-    for port in REFERENCE_PORTS:
-        builder.Connect(reference.GetOutputPort(port), loop.GetInputPort(port))
-    builder.Connect(loop.GetOutputPort("joint_torque"), plant.get_actuation_input_port())
-    read_theta = None
-    if law.learns:
-        integrator = builder.AddSystem(Integrator(law.theta_size))
-        integrator.set_name(f"{name}_theta")
-        integrator.set_default_integral_value(initial_theta(config, scenario, theta0))
-        builder.Connect(loop.GetOutputPort("theta_rate"), integrator.get_input_port())
-        builder.Connect(integrator.get_output_port(), loop.GetInputPort("theta"))
-
-        def read_theta(root_context):
-            flat = (
-                integrator.GetMyContextFromRoot(root_context)
-                .get_continuous_state_vector()
-                .CopyToVector()
-            )
-            return law.unflatten(flat)
-
-    logs = loop.GetOutputPort("logs")
-    controller = AddedController(
-        loop,
-        {series: (logs, loop.log_columns[field]) for field, series in kind.logs.items()},
-        read_theta,
+    return add_control_loop(
+        builder,
+        scenario,
+        name,
+        tick=arm_tick(scenario, name, plant=plant, setup=setup),
+        plant=plant,
+        reference=reference,
+        contact_force=contact_force,
+        theta0=theta0,
+        initial_position=setup.dmp.start,
     )
-    ports = {
-        "x": (logs, loop.log_columns["position"]),
-        "xd": reference.GetOutputPort("desired_position"),
-        "f_ext": contact_force,
-        "fc": (logs, loop.log_columns["force"]),
-        "plant_state": plant.get_state_output_port(),
-        "saturated_joints": (logs, loop.log_columns["saturated"]),
-        **controller.logs,
-    }
-    return controller, ports, _saturated_column(builder, loop, logs)
 
 
 def arm_tick(
     scenario: Scenario, controller_name: str, *, plant: MultibodyPlant, setup: ArmSetup
-) -> ArmTick:
-    """The arm's whole controller at one instant (`ArmTick`): the controller's law, the tool
+) -> ControlTick:
+    """The arm's whole controller at one instant (`ControlTick`): the controller's law, the tool
     point's task-space terms, the orientation and posture held below the task, and the
     actuators' effort limits.
 
@@ -444,7 +410,7 @@ def arm_tick(
 
     Returns
     -------
-    ArmTick
+    ControlTick
     """
     task: ArmTask = scenario.task
     tool_frame = scoped_frame(plant, task.tool_frame)
@@ -452,7 +418,7 @@ def arm_tick(
         scenario.controllers[controller_name], scenario
     )
     effort = [plant.get_joint_actuator(i).effort_limit() for i in plant.GetJointActuatorIndices()]
-    return ArmTick(
+    return ControlTick(
         TaskSpaceModel(plant, tool_frame, axes=task.axes),
         BelowTaskImpedance(
             plant, tool_frame, setup.tool_orientation, setup.q0, *_below_task_gains(task)
@@ -460,15 +426,6 @@ def arm_tick(
         law,
         effort,
     )
-
-
-def _saturated_column(builder, loop, logs):
-    """The loop's saturated-joint count alone, for the safety monitor (a C++ selection)."""
-    columns = loop.log_columns["saturated"]
-    select = builder.AddSystem(MatrixGain(np.eye(logs.size())[columns]))
-    select.set_name("saturated_joints")
-    builder.Connect(logs, select.get_input_port())
-    return select.get_output_port()
 
 
 def _below_task_gains(task: ArmTask) -> tuple[float, float, float, float]:

@@ -16,21 +16,27 @@ from typing import TYPE_CHECKING, Callable
 import numpy as np
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import LogVectorOutput
+from pydrake.systems.primitives import Integrator, LogVectorOutput, MatrixGain
 
 from hlcmp_drake.config.scenario import DemonstrationConfig, Scenario, StepReferenceConfig
 from hlcmp_drake.core.dmp import Dmp
 from hlcmp_drake.io.demos import read_demonstration
 from hlcmp_drake.io.errors import InputError
+from hlcmp_drake.systems.control_loop import ControlLoop, ControlTick
 from hlcmp_drake.systems.monitor import SafetyMonitor, plant_state_check
 from hlcmp_drake.systems.ports import REFERENCE_PORTS
-from hlcmp_drake.systems.references import DmpSource, StepReference, linear_dmp_source
+from hlcmp_drake.systems.references import (
+    DmpSource,
+    StepReference,
+    compiled_step_reference,
+    linear_dmp_source,
+)
 from hlcmp_drake.systems.task_space import TaskForceToJointTorque
-from hlcmp_drake.worlds.controllers import AddedController
+from hlcmp_drake.worlds.controllers import AddedController, controller_kind, initial_theta
 
 if TYPE_CHECKING:
     from pydrake.multibody.plant import MultibodyPlant
-    from pydrake.systems.framework import Context, Diagram, LeafSystem, OutputPort
+    from pydrake.systems.framework import Context, Diagram, LeafSystem, OutputPort, System
     from pydrake.systems.primitives import VectorLogSink
 
     from hlcmp_drake.systems.task_space import TaskSpaceDynamics
@@ -121,8 +127,8 @@ def add_reference(
     dmp : Dmp, optional
         Needed for a DemonstrationConfig reference; ignored for set-points.
     compiled : bool
-        The DMP as Drake's C++ systems (`linear_dmp_source`, no Python per step) instead
-        of the Python `DmpSource`.
+        The source as Drake's C++ systems (`linear_dmp_source`, `compiled_step_reference`:
+        no Python per step) instead of the Python `DmpSource` or `StepReference`.
 
     Returns
     -------
@@ -131,7 +137,8 @@ def add_reference(
     """
     reference = scenario.reference
     if isinstance(reference, StepReferenceConfig):
-        system = StepReference(
+        step = compiled_step_reference if compiled else StepReference
+        system = step(
             reference.times_s, reference.positions_m, scenario.duration_s, scenario.dmp.alpha_s
         )
     elif compiled:
@@ -225,6 +232,103 @@ def add_torque_map(
         builder.Connect(extra_torque_port, torque_map.extra)
     builder.Connect(torque_map.GetOutputPort("joint_torque"), plant.get_actuation_input_port())
     return torque_map
+
+
+def add_control_loop(
+    builder: DiagramBuilder,
+    scenario: Scenario,
+    name: str,
+    *,
+    tick: ControlTick,
+    plant: MultibodyPlant,
+    reference: System,
+    contact_force: OutputPort,
+    theta0: tuple[np.ndarray, ...] | None,
+    initial_position: np.ndarray,
+) -> tuple[AddedController, dict, OutputPort]:
+    """A world's fast path: `tick` as a `ControlLoop` (one Python call per plant step)
+    between the reference and the plant's actuation, the law's state θ in a C++
+    Integrator fed the loop's held rate.
+
+    Parameters
+    ----------
+    builder : DiagramBuilder
+    scenario : Scenario
+    name : str
+        The controller's label (the loop's name).
+    tick : ControlTick
+        The world's controller at one instant.
+    plant : MultibodyPlant
+    reference : System
+        The compiled reference: x_d, x_d', x_d'', s.
+    contact_force : OutputPort
+        The measured environment force (M,) [N]: logged as f_ext, and read by a law that
+        reads it.
+    theta0 : tuple of (M, N) arrays, optional
+        A learner's initial weights.
+    initial_position : (M,) array
+        The task-space position at t = 0 [m] (a variable impedance's x_c(0)).
+
+    Returns
+    -------
+    controller : AddedController
+    ports : dict
+        {series name: port or (port, columns)} of the timeseries.npz contract.
+    saturated : OutputPort
+        The number of saturated joints, for the safety monitor.
+    """
+    config = scenario.controllers[name]
+    kind = controller_kind(scenario, name)
+    law = tick.law
+    loop = builder.AddSystem(ControlLoop(tick, plant.time_step()))
+    loop.set_name(name)
+    builder.Connect(plant.get_state_output_port(), loop.plant_state)
+    for port in REFERENCE_PORTS:
+        builder.Connect(reference.GetOutputPort(port), loop.GetInputPort(port))
+    builder.Connect(loop.GetOutputPort("joint_torque"), plant.get_actuation_input_port())
+    if loop.external_force is not None:
+        builder.Connect(contact_force, loop.external_force)
+    read_theta = None
+    if law.theta_size:
+        integrator = builder.AddSystem(Integrator(law.theta_size))
+        integrator.set_name(f"{name}_theta")
+        integrator.set_default_integral_value(
+            initial_theta(config, scenario, theta0)
+            if law.learns
+            else law.initial_state(initial_position)
+        )
+        builder.Connect(loop.GetOutputPort("theta_rate"), integrator.get_input_port())
+        builder.Connect(integrator.get_output_port(), loop.GetInputPort("theta"))
+
+        def read_weights(root_context):
+            flat = (
+                integrator.GetMyContextFromRoot(root_context)
+                .get_continuous_state_vector()
+                .CopyToVector()
+            )
+            return law.unflatten(flat)
+
+        read_theta = read_weights if law.learns else None
+    logs = loop.GetOutputPort("logs")
+    controller = AddedController(
+        loop,
+        {series: (logs, loop.log_columns[field]) for field, series in kind.logs.items()},
+        read_theta,
+    )
+    ports = {
+        "x": (logs, loop.log_columns["position"]),
+        "xd": reference.GetOutputPort("desired_position"),
+        "f_ext": contact_force,
+        "fc": (logs, loop.log_columns["force"]),
+        "plant_state": plant.get_state_output_port(),
+        "saturated_joints": (logs, loop.log_columns["saturated"]),
+        **controller.logs,
+    }
+    # The saturated-joint count alone, for the safety monitor (a C++ selection).
+    select = builder.AddSystem(MatrixGain(np.eye(logs.size())[loop.log_columns["saturated"]]))
+    select.set_name("saturated_joints")
+    builder.Connect(logs, select.get_input_port())
+    return controller, ports, select.get_output_port()
 
 
 def modular_log_ports(

@@ -34,6 +34,7 @@ from hlcmp_drake.core.laws import (
     HlcmpForgettingLaw,
     HlcmpGains,
     HlcmpLaw,
+    VariableImpedanceLaw,
 )
 from hlcmp_drake.systems.baselines import VariableImpedanceController
 from hlcmp_drake.systems.law_controller import LawController
@@ -248,6 +249,33 @@ def desired_force_schedule(
     return schedule
 
 
+def variable_impedance_law(
+    config: VariableImpedanceConfig, scenario: Scenario
+) -> VariableImpedanceLaw:
+    """The variable impedance (Duan et al. 2018) of the config as a law, for a one-call loop.
+
+    Parameters
+    ----------
+    config : VariableImpedanceConfig
+    scenario : Scenario
+        Its step reference bounds the segments where a force is asked for.
+
+    Returns
+    -------
+    VariableImpedanceLaw
+    """
+    return VariableImpedanceLaw(
+        config.mass_kg,
+        config.damping_Ns_per_m,
+        config.free_stiffness_N_per_m,
+        config.sigma,
+        config.sample_period_s,
+        config.kp,
+        config.kv,
+        desired_force_schedule(config, scenario.reference),
+    )
+
+
 def _variable_impedance_system(
     config: VariableImpedanceConfig, scenario: Scenario, initial_position: np.ndarray
 ) -> VariableImpedanceController:
@@ -287,9 +315,10 @@ class ControllerKind:
         Its `core.laws` class: what it logs (`log_fields`) and whether it learns.
     law : callable(config, scenario) -> ControlLaw, optional
         Builds that law; a world evaluates it in the modular `LawController` or in a
-        one-call loop (the arm's fast path).
+        one-call loop (a world's fast path).
     system : callable(config, scenario, initial_position) -> LeafSystem, optional
-        For a kind without a law: its own modular system.
+        Its own modular system, in place of a `LawController` of its law (the variable
+        impedance, whose Φ is a discrete state there).
     uses_contact_force : bool
         Wire the world's measured force to the system's `external_force` input.
     frozen : callable(config) -> config, optional
@@ -324,7 +353,11 @@ CONTROLLER_KINDS: dict[type, ControllerKind] = {
         CONSTANT_IMPEDANCE, law_type=ConstantImpedanceLaw, law=constant_impedance_law
     ),
     VariableImpedanceConfig: ControllerKind(
-        FORCE_TRACKING, system=_variable_impedance_system, uses_contact_force=True
+        FORCE_TRACKING,
+        law_type=VariableImpedanceLaw,
+        law=variable_impedance_law,
+        system=_variable_impedance_system,
+        uses_contact_force=True,
     ),
 }
 
@@ -414,9 +447,9 @@ def modular_system(
         Not yet added to a diagram.
     """
     kind = kind_of(config)
-    if kind.law is None:
-        assert kind.system is not None
+    if kind.system is not None:
         return kind.system(config, scenario, initial_position)
+    assert kind.law is not None
     law = kind.law(config, scenario)
     start = initial_theta(config, scenario, theta0) if kind.learns else None
     return LawController(law, start)

@@ -9,17 +9,19 @@ import numpy as np
 from pydrake.systems.framework import DiagramBuilder
 
 from hlcmp_drake.config.scenario import Scenario, SliderTask
+from hlcmp_drake.systems.control_loop import ControlTick
 from hlcmp_drake.systems.environment import UnilateralSpring
-from hlcmp_drake.systems.task_space import TaskSpaceDynamics
+from hlcmp_drake.systems.task_space import PrismaticTaskModel, TaskSpaceDynamics
 from hlcmp_drake.worlds.common import (
     BuiltDiagram,
+    add_control_loop,
     add_loggers,
     add_reference,
     add_safety_monitor,
     add_torque_map,
     modular_log_ports,
 )
-from hlcmp_drake.worlds.controllers import WorldPorts, add_controller
+from hlcmp_drake.worlds.controllers import WorldPorts, add_controller, controller_kind
 from hlcmp_drake.worlds.models import add_plant
 
 if TYPE_CHECKING:
@@ -51,7 +53,8 @@ def build(
     *,
     theta0: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> BuiltDiagram:
-    """The 1-DOF diagram: the slider plant, the unilateral spring, one controller.
+    """The 1-DOF diagram: the slider plant, the unilateral spring, one controller, put in
+    as task.control_path says: "fast" (one `ControlLoop` call per plant step) or "modular".
 
     Parameters
     ----------
@@ -71,9 +74,6 @@ def build(
     builder = DiagramBuilder()
     plant, _ = add_plant(builder, scenario)
     frame = plant.GetBodyByName(task.body).body_frame()
-    task_space = builder.AddSystem(TaskSpaceDynamics(plant, frame, axes=[task.axis]))
-    task_space.set_name("task_space")
-    builder.Connect(plant.get_state_output_port(), task_space.plant_state)
     spring = builder.AddSystem(
         UnilateralSpring(task.surface_position_m, task.environment_stiffness_N_per_m)
     )
@@ -82,27 +82,54 @@ def build(
     builder.Connect(
         spring.GetOutputPort("generalized_force"), plant.get_applied_generalized_force_input_port()
     )
-    reference = add_reference(builder, scenario)
-    world = WorldPorts(
-        reference, task_space, spring.GetOutputPort("reaction_force"), np.zeros(scenario.n_axes)
-    )
-    controller = add_controller(builder, scenario, controller_name, world, theta0)
-    torque_map = add_torque_map(
-        builder, scenario, plant=plant, controller=controller.system, task_space=task_space
-    )
-    add_safety_monitor(builder, scenario, plant)
-    loggers = add_loggers(
-        builder,
-        scenario,
-        modular_log_ports(
+    reaction = spring.GetOutputPort("reaction_force")
+    start = np.zeros(scenario.n_axes)
+    if task.control_path == "fast":
+        effort = [
+            plant.get_joint_actuator(i).effort_limit() for i in plant.GetJointActuatorIndices()
+        ]
+        law = controller_kind(scenario, controller_name).law(
+            scenario.controllers[controller_name], scenario
+        )
+        tick = ControlTick(PrismaticTaskModel(plant, frame, axes=[task.axis]), None, law, effort)
+        controller, log_ports, _ = add_control_loop(
+            builder,
+            scenario,
+            controller_name,
+            tick=tick,
             plant=plant,
-            task_space=task_space,
-            reference=reference,
-            controller=controller,
-            force_port=world.contact_force,
-            torque_map=torque_map,
-        ),
-    )
+            reference=add_reference(builder, scenario, compiled=True),
+            contact_force=reaction,
+            theta0=theta0,
+            initial_position=start,
+        )
+    else:
+        controller, log_ports = _add_modular_controller(
+            builder, scenario, controller_name, plant, frame, reaction, start, theta0
+        )
+    add_safety_monitor(builder, scenario, plant)
+    loggers = add_loggers(builder, scenario, log_ports)
     diagram = builder.Build()
     diagram.set_name(f"{scenario.name}_{controller_name}")
     return BuiltDiagram(diagram, plant, controller, loggers)
+
+
+def _add_modular_controller(builder, scenario, name, plant, frame, reaction, start, theta0):
+    """TaskSpaceDynamics -> the controller's modular system -> the J^T torque map."""
+    task_space = builder.AddSystem(TaskSpaceDynamics(plant, frame, axes=[scenario.task.axis]))
+    task_space.set_name("task_space")
+    builder.Connect(plant.get_state_output_port(), task_space.plant_state)
+    reference = add_reference(builder, scenario)
+    world = WorldPorts(reference, task_space, reaction, start)
+    controller = add_controller(builder, scenario, name, world, theta0)
+    torque_map = add_torque_map(
+        builder, scenario, plant=plant, controller=controller.system, task_space=task_space
+    )
+    return controller, modular_log_ports(
+        plant=plant,
+        task_space=task_space,
+        reference=reference,
+        controller=controller,
+        force_port=reaction,
+        torque_map=torque_map,
+    )

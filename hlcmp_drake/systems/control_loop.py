@@ -1,14 +1,19 @@
-"""The arm's controller in one Python evaluation per plant step: the fast path.
+"""A world's controller in one Python evaluation per plant step: the fast path (the arm's
+and the slider's).
 
 The modular systems (TaskSpaceDynamics -> controller -> NullSpaceImpedance ->
 TaskForceToJointTorque) are evaluated by Drake port by port and at every integrator
-stage: about 35 Python calls per 1 ms plant step. `ArmControlLoop` does the same work
+stage: about 35 Python calls per 1 ms plant step. `ControlLoop` does the same work
 once per step, as a real 1 kHz torque loop does, with the same functions:
 
     plant state (sampled at t_k) --TaskSpaceModel--> x, x', J, Λ, C_x, G_x, N^T, G(q)
     + reference (x_d, x_d', x_d'', s at t_k) + θ(t_k)  --law.command--> f_c, θ'
     τ_k = sat(J^T f_c + BelowTaskImpedance)            (held over [t_k, t_k+1))
     θ' held over the step; a C++ Integrator holds θ as continuous state.
+
+θ is the law's integrated state: a learner's weights, the variable impedance's commanded
+motion and Φ. The slider world runs the same loop with its own task model and no torque
+below the task.
 
 It runs as a periodic unrestricted update at the plant's period, which Drake handles
 before the plant's own discrete update at the same time, so the plant steps with τ_k
@@ -31,10 +36,10 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, Context, LeafSystem, State, ValueProducer
 
-from hlcmp_drake.core.laws import LawOutput, TaskSpaceInstant
+from hlcmp_drake.core.laws import ControlLaw, LawOutput, TaskSpaceInstant
 from hlcmp_drake.systems.arm import BelowTaskImpedance
 from hlcmp_drake.systems.ports import REFERENCE_PORTS
-from hlcmp_drake.systems.task_space import TaskSpaceModel, saturate
+from hlcmp_drake.systems.task_space import PrismaticTaskModel, TaskSpaceModel, saturate
 
 
 @dc.dataclass
@@ -59,9 +64,9 @@ class TickResult:
     saturated: int
 
 
-class ArmTick:
-    """The arm's whole controller at one instant: the task-space terms, the law, the
-    torque below the task and the saturation. `ArmControlLoop` calls it once per plant
+class ControlTick:
+    """A world's whole controller at one instant: the task-space terms, the law, the
+    torque below the task and the saturation. `ControlLoop` calls it once per plant
     step; `hlcmp serve` calls it once per status of the iiwa driver.
 
         plant state --TaskSpaceModel--> x, x', J, Λ, C_x, G_x, N^T, G(q)
@@ -70,17 +75,24 @@ class ArmTick:
 
     Parameters
     ----------
-    model : TaskSpaceModel
-        The tool point's task-space terms.
-    below_task : BelowTaskImpedance
-        The orientation and posture held below the task.
-    law : HlcmpLaw or ConstantImpedanceLaw
+    model : TaskSpaceModel or PrismaticTaskModel
+        The task point's task-space terms.
+    below_task : BelowTaskImpedance or None
+        The arm's orientation and posture held below the task; None where the task axes
+        are all the joints (the slider).
+    law : ControlLaw
         The task-space law (`core.laws`).
     effort_limits : (nv,) array
         The actuators' effort limits [N m].
     """
 
-    def __init__(self, model: TaskSpaceModel, below_task: BelowTaskImpedance, law, effort_limits):
+    def __init__(
+        self,
+        model: TaskSpaceModel | PrismaticTaskModel,
+        below_task: BelowTaskImpedance | None,
+        law,
+        effort_limits,
+    ):
         self.model, self.below_task, self.law = model, below_task, law
         self.effort_limits = np.asarray(effort_limits, dtype=float)
         m = model.n_axes
@@ -93,7 +105,15 @@ class ArmTick:
             self.log_columns[name] = slice(2 * m + 1 + k * m, 2 * m + 1 + (k + 1) * m)
         self.log_size = 2 * m + 1 + m * len(law.log_fields)
 
-    def evaluate(self, state: np.ndarray, reference: tuple, theta: np.ndarray | None) -> TickResult:
+    def evaluate(
+        self,
+        state: np.ndarray,
+        reference: tuple,
+        theta: np.ndarray | None,
+        *,
+        time: float = 0.0,
+        external_force: np.ndarray | None = None,
+    ) -> TickResult:
         """The controller's output at one plant state.
 
         Parameters
@@ -102,8 +122,13 @@ class ArmTick:
             The plant's positions [rad] and velocities [rad/s].
         reference : tuple of (M,), (M,), (M,), (1,) arrays
             x_d [m], x_d' [m/s], x_d'' [m/s^2] and the phase s.
-        theta : (3 M N,) array or None
-            A learning law's flattened weights; None for a law without them.
+        theta : (P,) array or None
+            The law's integrated state (a learner's flattened weights); None for a law
+            without one.
+        time : float
+            The instant [s], for a law with a schedule (the variable impedance's f_d(t)).
+        external_force : (M,) array, optional
+            The measured environment force [N], for a law that reads it.
 
         Returns
         -------
@@ -121,11 +146,15 @@ class ArmTick:
             terms.inertia,
             terms.coriolis,
             terms.gravity,
+            time,
+            external_force,
         )
         out = self.law.command(now, theta)
-        torque = terms.jacobian.T @ out.force + self.below_task.torque(
-            state, terms.null_space, terms.joint_gravity, self.model.context
-        )
+        torque = terms.jacobian.T @ out.force
+        if self.below_task is not None:
+            torque = torque + self.below_task.torque(
+                state, terms.null_space, terms.joint_gravity, self.model.context
+            )
         torque, saturated = saturate(torque, self.effort_limits)
         return TickResult(terms, out, torque, saturated)
 
@@ -152,11 +181,12 @@ class ArmTick:
         )
 
 
-class ArmControlLoop(LeafSystem):
-    """`ArmTick` as a Drake system, evaluated once per plant step.
+class ControlLoop(LeafSystem):
+    """`ControlTick` as a Drake system, evaluated once per plant step.
 
     Sizes: M task-space axes (the model's), nq positions and nv velocities of the plant,
-    P = `law.theta_size` (3 M N for the Hl-CMP, N basis functions).
+    P = `law.theta_size` (3 M N for the Hl-CMP, N basis functions; 3 M for the variable
+    impedance; 0 for the constant impedance).
 
     Input ports:
 
@@ -164,29 +194,32 @@ class ArmControlLoop(LeafSystem):
     - ``desired_position``, ``desired_velocity``, ``desired_acceleration`` (M): x_d [m],
       x_d' [m/s], x_d'' [m/s^2] from the reference.
     - ``phase`` (1): the canonical phase s [-].
-    - ``theta`` (P), only for a law that learns: its flattened weights θ = [θ_k, θ_d, θ_v]
-      (each (M, N) row-major; for the Hl-CMP [N/m], [N s/m], [N]), from an Integrator.
+    - ``theta`` (P), only for a law with a state (P > 0): a learner's flattened weights
+      θ = [θ_k, θ_d, θ_v] (each (M, N) row-major; for the Hl-CMP [N/m], [N s/m], [N]), the
+      variable impedance's [x_c, x_c', Φ]; from an Integrator.
+    - ``external_force`` (M), only for a law that reads it (the variable impedance): the
+      measured reaction force of the environment [N].
 
     Output ports:
 
     - ``joint_torque`` (nv): the saturated joint torque of the last tick, held until the
       next [N m], gravity compensation G(q) included; zero before the first tick.
-    - ``theta_rate`` (P), only for a law that learns: θ' of the last tick, held (the
+    - ``theta_rate`` (P), only for a law with a state: θ' of the last tick, held (the
       Integrator's input) [θ's units per s].
-    - ``logs`` (`ArmTick.log_size` = 2 M + 1 + M K, K the law's `log_fields`): the
+    - ``logs`` (`ControlTick.log_size` = 2 M + 1 + M K, K the law's `log_fields`): the
       loggable series evaluated at the present context, not held: x [m], f_c [N], the
       number of saturated joints [-], then each logged series (M); layout in
       `log_columns`.
 
     Parameters
     ----------
-    tick : ArmTick
+    tick : ControlTick
         The controller.
     period : float
         The plant's time step [s]: one tick per step.
     """
 
-    def __init__(self, tick: ArmTick, period: float):
+    def __init__(self, tick: ControlTick, period: float):
         super().__init__()
         self._tick_of = tick
         law, model = tick.law, tick.model
@@ -198,12 +231,17 @@ class ArmControlLoop(LeafSystem):
         ]
         self.theta = (
             self.DeclareVectorInputPort("theta", BasicVector(law.theta_size))
-            if law.learns
+            if law.theta_size
+            else None
+        )
+        self.external_force = (
+            self.DeclareVectorInputPort("external_force", BasicVector(m))
+            if law.reads_external_force
             else None
         )
         self._torque_index = self.DeclareDiscreteState(nv)
         self.DeclareStateOutputPort("joint_torque", self._torque_index)
-        if law.learns:
+        if law.theta_size:
             self._rate_index = self.DeclareDiscreteState(law.theta_size)
             self.DeclareStateOutputPort("theta_rate", self._rate_index)
         self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._tick)
@@ -221,6 +259,11 @@ class ArmControlLoop(LeafSystem):
         )
         self.tick_seconds: list[float] | None = None
 
+    @property
+    def law(self) -> ControlLaw:
+        """The `core.laws` law the loop evaluates (as `LawController.law`)."""
+        return self._tick_of.law
+
     def record_tick_times(self) -> list[float]:
         """Start recording the wall time of every tick (for the benchmark).
 
@@ -237,6 +280,10 @@ class ArmControlLoop(LeafSystem):
             self.plant_state.Eval(context),
             tuple(port.Eval(context) for port in self._reference),
             self.theta.Eval(context) if self.theta is not None else None,
+            time=context.get_time(),
+            external_force=(
+                self.external_force.Eval(context) if self.external_force is not None else None
+            ),
         )
 
     def _tick(self, context: Context, state: State):

@@ -1,6 +1,6 @@
-"""hlcmp_drake.systems.arm_loop: ArmControlLoop, the arm's controller in one Python evaluation
+"""hlcmp_drake.systems.control_loop: ControlLoop, the arm's controller in one Python evaluation
 per plant step: one tick against the modular systems, its documented ports, and its torque,
-θ's rate and logs against ArmTick.evaluate on the same inputs (held between ticks)."""
+θ's rate and logs against ControlTick.evaluate on the same inputs (held between ticks)."""
 
 import numpy as np
 import pytest
@@ -9,7 +9,7 @@ from pydrake.systems.framework import DiagramBuilder
 
 from hlcmp_drake.core.laws import TaskSpaceInstant
 from hlcmp_drake.systems.arm import BelowTaskImpedance, NullSpaceImpedance
-from hlcmp_drake.systems.arm_loop import ArmControlLoop, ArmTick
+from hlcmp_drake.systems.control_loop import ControlLoop, ControlTick
 from hlcmp_drake.systems.ports import REFERENCE_PORTS
 from hlcmp_drake.systems.task_space import TaskSpaceDynamics, TaskSpaceModel
 from hlcmp_drake.worlds.arm import arm_tick
@@ -27,8 +27,8 @@ def test_one_tick_gives_the_modular_systems_torque(insertion):
     law = hlcmp_law(scenario.controllers["hlcmp"], scenario)
     gains = (100.0, 10.0, 20.0, 5.0)
     effort = [plant.get_joint_actuator(i).effort_limit() for i in plant.GetJointActuatorIndices()]
-    loop = ArmControlLoop(
-        ArmTick(
+    loop = ControlLoop(
+        ControlTick(
             TaskSpaceModel(plant, tip),
             BelowTaskImpedance(plant, tip, setup.tool_orientation, setup.q0, *gains),
             law,
@@ -93,12 +93,12 @@ def test_one_tick_gives_the_modular_systems_torque(insertion):
     assert controller.num_continuous_states() == law.theta_size
 
 
-# --- the loop against ArmTick.evaluate on the same inputs --------------------------------
+# --- the loop against ControlTick.evaluate on the same inputs --------------------------------
 
 
 @pytest.fixture(scope="module")
 def arm_ticks(insertion):
-    """For the Hl-CMP and a constant impedance of the insertion: two ArmTicks each, built
+    """For the Hl-CMP and a constant impedance of the insertion: two ControlTicks each, built
     alike on one plant, one for the loop and one to evaluate the same inputs by hand."""
     scenario, setup = insertion
     plant, _ = add_plant(DiagramBuilder(), scenario)
@@ -138,7 +138,7 @@ def _fix(loop, context, state, reference, theta):
 def test_the_loop_has_the_documented_ports(arm_ticks, insertion, name):
     plant, ticks = arm_ticks
     tick = ticks[name][0]
-    loop = ArmControlLoop(tick, plant.time_step())
+    loop = ControlLoop(tick, plant.time_step())
     law, m = tick.law, len(insertion[0].task.axes)  # M: the task's axes
     nq, nv = plant.num_positions(), plant.num_velocities()
     inputs = [loop.get_input_port(i) for i in range(loop.num_input_ports())]
@@ -165,12 +165,12 @@ def test_the_loop_has_the_documented_ports(arm_ticks, insertion, name):
 
 @pytest.mark.parametrize("name", ["hlcmp", "const_500"])
 def test_a_tick_is_arm_tick_evaluate_held_until_the_next(arm_ticks, insertion, name):
-    """The torque (and θ's rate) of the tick at t = 0 are ArmTick.evaluate's on that
+    """The torque (and θ's rate) of the tick at t = 0 are ControlTick.evaluate's on that
     tick's inputs, and they are held: new inputs change them only at the next tick
     (t = 1 ms). The logs output is evaluated at the present inputs."""
     plant, ticks = arm_ticks
     tick, by_hand = ticks[name]
-    loop = ArmControlLoop(tick, plant.time_step())
+    loop = ControlLoop(tick, plant.time_step())
     context = loop.CreateDefaultContext()
     first = _inputs(insertion[1], tick.law, seed=3)
     second = _inputs(insertion[1], tick.law, seed=4)
@@ -218,7 +218,7 @@ def test_the_torque_is_saturated_at_the_effort_limits(arm_ticks, insertion):
         [plant.get_joint_actuator(i).effort_limit() for i in plant.GetJointActuatorIndices()]
     )
     assert result.saturated > 0 and np.all(np.abs(result.torque) <= limits)
-    loop = ArmControlLoop(tick, plant.time_step())
+    loop = ControlLoop(tick, plant.time_step())
     context = loop.CreateDefaultContext()
     _fix(loop, context, state, reference, theta)
     Simulator(loop, context).AdvanceTo(0.0005)
