@@ -1,7 +1,7 @@
 """The `hlcmp` command line.
 
     hlcmp run SCENARIO [--out DIR] [--set KEY=VALUE ...] [--iiwa ours|drake_models]
-    hlcmp report [--out DIR] [--scenarios NAME|YAML ...]   scenarios and one offline page
+    hlcmp report [--out DIR] [--scenarios NAME|YAML ...] [--jobs N]   scenarios, one offline page
     hlcmp learn DEMO.csv --scenario S --out DIR [--trials K] [--skill SKILL.npz [--any-scenario]]
     hlcmp reproduce SKILL.npz --scenario S --out DIR [--freeze] [--any-scenario]
     hlcmp bench [--out DIR] [--quick]        measure where the time goes
@@ -165,7 +165,7 @@ def cmd_report(args):
     from hlcmp_drake.run.report import run_report
 
     _quiet_drake(args)
-    result = run_report(args.out, args.scenarios, Progress(args.quiet))
+    result = run_report(args.out, args.scenarios, Progress(args.quiet), jobs=args.jobs)
     print(
         f"report: {result.page} ({result.wall_s:.0f} s for "
         f"{', '.join(s.name for s in result.sections)})"
@@ -518,6 +518,12 @@ def build_parser():
         metavar="SCENARIO",
         help=f"what to run, in this order: bundled scenarios ({', '.join(bundled)}) or "
         "scenario .yaml paths of your own (default every bundled one, in the paper's order)",
+    )
+    report.add_argument(
+        "--jobs",
+        type=_positive_count,
+        help="runs and probes at once, each in a process of its own (default: the number of "
+        "CPUs; 1 runs them one after the other in this process)",
     )
     report.set_defaults(func=cmd_report)
 

@@ -53,3 +53,27 @@ def test_report_scenarios_are_all_checked_before_the_first_runs(tmp_path):
     result = run_cli("report", "--out", out, "--scenarios", "one_dof", tmp_path / "nowhere.yaml")
     one_line_error(result)
     assert "nowhere.yaml" in result.stderr and not out.exists()
+
+
+def test_a_report_in_processes_writes_what_the_serial_one_writes(tmp_path):
+    """Two scenarios of one's own, one after the other in this process and in two
+    processes: the same files (the folder's manifest lists them all), metrics.json and the
+    time series byte for byte, the page the same but for each section's wall time."""
+    import re
+
+    from hlcmp_drake.io.outputs import MANIFEST
+    from hlcmp_drake.run.report import run_report
+
+    own = [str(_own_scenario(tmp_path, name, duration=0.5)) for name in ("first", "second")]
+    pages = {}
+    for jobs in (1, 2):
+        out = tmp_path / f"jobs{jobs}"
+        result = run_report(out, own, jobs=jobs)
+        assert result.all_ok and [s.name for s in result.sections] == ["first", "second"]
+        pages[jobs] = re.sub(r"ran in \d+ s", "ran in N s", result.page.read_text())
+    one, two = tmp_path / "jobs1", tmp_path / "jobs2"
+    assert (one / MANIFEST).read_text() == (two / MANIFEST).read_text()
+    for name in ("first", "second"):
+        for file in ("metrics.json", "timeseries.npz"):
+            assert (one / name / file).read_bytes() == (two / name / file).read_bytes()
+    assert pages[1] == pages[2]

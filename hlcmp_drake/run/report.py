@@ -3,18 +3,21 @@
 from __future__ import annotations
 
 import dataclasses as dc
+import os
 import time
 from pathlib import Path
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.experiments import experiment_of
 from hlcmp_drake.io.errors import InputError
-from hlcmp_drake.io.outputs import replacing_outputs, write_text
+from hlcmp_drake.io.outputs import WRITTEN, replacing_outputs, write_text
 from hlcmp_drake.io.paths import bundled_scenarios
 from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.present.report import ReportSection, report_page
 from hlcmp_drake.run.probe import run_probe
 from hlcmp_drake.run.runner import run_scenario
+from hlcmp_drake.run.sweep.engines import run_in_processes
+from hlcmp_drake.run.sweep.tasks import quiet_drake
 
 
 @dc.dataclass
@@ -79,11 +82,55 @@ def report_folders(out_dir: str | Path, scenarios: list[str] | None = None) -> d
     return folders
 
 
+@dc.dataclass(frozen=True)
+class _ReportTask:
+    """One piece of a report's work: a scenario's runs, or its world's probe."""
+
+    entry: str
+    folder: str
+    probe: bool
+
+
+def _report_work(entry: str, folder: Path) -> list[_ReportTask]:
+    """A scenario's runs, then its world's probe (the world alone, no controller) where
+    the scenario has one."""
+    scenario, _ = load_scenario(entry)
+    work = [_ReportTask(entry, str(folder), probe=False)]
+    if scenario.probe.push_m:
+        work.append(_ReportTask(entry, str(folder / "probe"), probe=True))
+    return work
+
+
+def _do(task: _ReportTask, reporter: Progress = SILENT) -> dict:
+    """Run one piece of a report in this process; what it wrote, its status and wall time."""
+    quiet_drake()
+    start, first = time.perf_counter(), len(WRITTEN)
+    if task.probe:
+        run_probe(task.entry, task.folder)
+        status = None
+    else:
+        status = run_scenario(task.entry, task.folder, reporter=reporter).metrics["status"]
+    return {
+        "status": status,
+        "wall_s": time.perf_counter() - start,
+        "written": [str(path) for path in WRITTEN[first:]],
+    }
+
+
 def run_report(
-    out_dir: str | Path, scenarios: list[str] | None = None, reporter: Progress = SILENT
+    out_dir: str | Path,
+    scenarios: list[str] | None = None,
+    reporter: Progress = SILENT,
+    *,
+    jobs: int | None = None,
 ) -> ReportResult:
-    """Run each scenario into out_dir/<its name> and write out_dir/index.html, a page that
-    works offline.
+    """Run each scenario into out_dir/<its name> (its probe, if it has one, into
+    out_dir/<its name>/probe) and write out_dir/index.html, a page that works offline.
+
+    The runs and the probes are tasks of the sweep's local engine (`run_in_processes`),
+    `jobs` at a time; with one job they run one after the other in this process. The
+    simulations do not depend on which process runs them: the runs' files are the same
+    either way, and so is the page but for each section's wall time.
 
     Parameters
     ----------
@@ -93,27 +140,61 @@ def run_report(
         every bundled scenario, in the order of the paper's sections). All are loaded and
         checked before the first runs (`report_folders`).
     reporter : Progress, optional
+    jobs : int, optional
+        Processes at a time, >= 1; default one per CPU (at most one per task).
     """
     out_dir = Path(out_dir)
     folders = report_folders(out_dir, scenarios)
-    sections, statuses, start = [], [], time.perf_counter()
+    work = [task for entry, folder in folders.items() for task in _report_work(entry, folder)]
+    jobs = min(jobs or os.cpu_count() or 1, len(work))
+    if jobs < 1:
+        raise InputError(f"--jobs: must be at least 1, got {jobs}")
+    start = time.perf_counter()
     with replacing_outputs(out_dir):  # a scenario left out this time leaves no old folder
+        done = _run_work(work, jobs, reporter)
+        sections, statuses = [], []
         for entry, folder in folders.items():
-            reporter.say(f"running {entry} ...")
-            began = time.perf_counter()
-            result = run_scenario(entry, folder, reporter=reporter)
-            probe_dir = None
-            if result.scenario.probe.push_m:  # the world alone, no controller (hlcmp probe)
-                probe_dir = run_probe(entry, folder / "probe").out_dir
+            pieces = [(task, done[task]) for task in work if task.entry == entry]
+            probe = next((Path(task.folder) for task, _ in pieces if task.probe), None)
+            run = next(result for task, result in pieces if not task.probe)
             sections.append(
                 ReportSection(
                     folder.name,
-                    result.out_dir,
-                    time.perf_counter() - began,
-                    result.experiment,
-                    probe_dir,
+                    folder,
+                    sum(result["wall_s"] for _, result in pieces),
+                    experiment_of(load_scenario(entry)[0]),
+                    probe,
                 )
             )
-            statuses.append(result.metrics["status"])
+            statuses.append(run["status"])
         page = write_text(out_dir / "index.html", report_page(out_dir, sections))
     return ReportResult(page, sections, statuses, time.perf_counter() - start)
+
+
+def _run_work(work: list[_ReportTask], jobs: int, reporter: Progress) -> dict:
+    """Each task's result, run here one after the other (one job) or in `jobs` processes."""
+
+    def what(task):
+        return f"{task.entry}'s probe" if task.probe else task.entry
+
+    if jobs == 1:
+        done = {}
+        for task in work:
+            reporter.say(f"running {what(task)} ...")
+            done[task] = _do(task, reporter)
+        return done
+    reporter.say(f"running {', '.join(map(what, work))} in {jobs} processes ...")
+    done, failures = {}, []
+
+    def on_done(task, result, error):
+        if error is not None:
+            failures.append(f"{what(task)}: {error}")
+            return
+        WRITTEN.extend(Path(path) for path in result["written"])
+        done[task] = result
+        reporter.say(f"{what(task)}: done in {result['wall_s']:.0f} s")
+
+    run_in_processes(_do, work, jobs, on_done)
+    if failures:
+        raise RuntimeError("the report could not run " + "; ".join(failures))
+    return done

@@ -19,7 +19,7 @@ from typing import Callable
 from hlcmp_drake.config.sweep import SweepTask
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.run.sweep.tasks import (
-    _quiet_drake,
+    quiet_drake,
     run_task,
     run_task_returning_files,
     store_files,
@@ -34,7 +34,7 @@ def _local_worker_init(parent: int) -> None:
     orphan goes on running tasks that a re-run would start again."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     _end_with_parent(parent)
-    _quiet_drake()
+    quiet_drake()
 
 
 def _end_with_parent(parent: int) -> None:
@@ -54,10 +54,27 @@ def _end_with_parent(parent: int) -> None:
 Done = Callable[[SweepTask, "dict | None", "str | None"], None]
 
 
-def _run_local(tasks: list, workers: int, on_done: Done) -> None:
-    """A spawn-started process pool; each result is handed to `on_done` as it finishes.
-    An interrupt cancels the queue and terminates the workers (their tasks are not
-    finished, so a re-run does them)."""
+def run_in_processes(
+    function: Callable,
+    items: list,
+    workers: int,
+    on_done: Callable[[object, object, str | None], None],
+) -> None:
+    """`function(item)` for each item in a spawn-started pool of `workers` local processes
+    (the local engine), each result handed to `on_done(item, result, error)` as it
+    finishes, with error None or the task's failure in one line. The workers end with this
+    process; an interrupt cancels the queue and terminates them.
+
+    Parameters
+    ----------
+    function : callable
+        A module-level function (the workers import it).
+    items : list
+        Its arguments, one per task, picklable.
+    workers : int
+        The number of processes.
+    on_done : callable(item, result, error)
+    """
     executor = ProcessPoolExecutor(
         max_workers=workers,
         mp_context=multiprocessing.get_context("spawn"),
@@ -65,21 +82,26 @@ def _run_local(tasks: list, workers: int, on_done: Done) -> None:
         initargs=(os.getpid(),),
     )
     try:
-        futures = {executor.submit(run_task, task): task for task in tasks}
+        futures = {executor.submit(function, item): item for item in items}
         for future in as_completed(futures):
             try:
-                info, error = future.result(), None
+                result, error = future.result(), None
             except (
                 BrokenProcessPool
             ) as failure:  # a worker died (killed, out of memory): so did the pool
-                info, error = None, f"a worker process died ({failure})"
+                result, error = None, f"a worker process died ({failure})"
             except Exception as failure:  # the task's own error: record it, go on
-                info, error = None, f"{type(failure).__name__}: {failure}"
-            on_done(futures[future], info, error)
+                result, error = None, f"{type(failure).__name__}: {failure}"
+            on_done(futures[future], result, error)
     except BaseException:
         _stop_pool(executor)
         raise
     executor.shutdown()
+
+
+def _run_local(tasks: list, workers: int, on_done: Done) -> None:
+    """The sweep's tasks on the local engine (`run_in_processes`)."""
+    run_in_processes(run_task, tasks, workers, on_done)
 
 
 def _stop_pool(executor: ProcessPoolExecutor) -> None:

@@ -62,7 +62,7 @@ def run_task_returning_files(task: SweepTask) -> tuple[dict, dict]:
     (dict, dict of str to bytes)
         The sweep_task.json content, and every file of the run folder by relative path.
     """
-    _quiet_drake()
+    quiet_drake()
     with tempfile.TemporaryDirectory(prefix="hlcmp-sweep-") as temp:
         info = run_task(dc.replace(task, run_dir=temp))
         files = {
@@ -93,8 +93,9 @@ def store_files(run_dir: str | Path, files: dict) -> None:
         outputs.atomic_write(run_dir / name, lambda temp, data=data: Path(temp).write_bytes(data))
 
 
-def _quiet_drake() -> None:
-    """Drake's INFO lines (a recording's Meshcat server) are not for a sweep's terminal."""
+def quiet_drake() -> None:
+    """Drake's INFO lines (a recording's Meshcat server) are not for a sweep's or a
+    report's terminal."""
     import pydrake  # noqa: F401  (pydrake sets its logger's level when imported)
 
     logging.getLogger("drake").setLevel(logging.WARNING)
