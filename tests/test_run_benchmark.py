@@ -21,8 +21,19 @@ def test_quick_benchmark_writes_every_measurement(tmp_path, capsys):
         "python_calls_per_step_modular",
         "dmp_fit_ms",
         "dmp_rollout_ms",
+        "one_dof_rtf",
+        "one_dof_modular_over_fast",
     ):
         assert results[key] > 0
+    by_controller = results["one_dof_rtf_by_controller"]
+    assert set(by_controller) == {
+        "hlcmp",
+        "hlcmp_per_step",
+        "vic_fd_0.5",
+        "vic_fd_1.5",
+        "vic_fd_5.0",
+    }
+    assert results["one_dof_rtf"] == min(by_controller.values())
     assert results["controller_tick_us"]["p99"] >= results["controller_tick_us"]["p50"] > 0
     walls = results["insertion_wall_s"]
     assert set(walls) == {"fast", "cpp", "fast_bare", "cpp_bare", "modular"} and all(
@@ -36,7 +47,7 @@ def test_quick_benchmark_writes_every_measurement(tmp_path, capsys):
 
 
 def _results(mode):
-    """bench.json content with made-up values (a full run misses all five targets)."""
+    """bench.json content with made-up values (a full run misses all six targets)."""
     quick = mode == "quick"
     results = {
         "machine": {"python": "3", "processor": "", "mode": mode},
@@ -52,6 +63,10 @@ def _results(mode):
         "dmp_vs_movement_primitives": 2.0,
         "insertion_simulated_s": 1.0 if quick else 9.5,
         "scenario_wall_s": {"one_dof": 1.0},
+        "one_dof_rtf": 5.0,
+        "one_dof_rtf_by_controller": {"hlcmp": 5.0, "vic": 6.0},
+        "one_dof_modular_over_fast": 3.0,
+        "one_dof_simulated_s": 0.5 if quick else 20.0,
     }
     if quick:
         results["scenario_simulated_s"] = 0.5
@@ -68,4 +83,4 @@ def test_a_quick_run_is_labelled_a_smoke_run_and_judges_no_target():
     assert "(1 s, harnessed" in text and "9.5 s" not in text
     assert "`hlcmp run one_dof` cut to 0.5 s" in text
     full = to_text(table(_results("full")))
-    assert "smoke" not in full and full.count("**missed**") == 5 and "(9.5 s, harnessed" in full
+    assert "smoke" not in full and full.count("**missed**") == 6 and "(9.5 s, harnessed" in full

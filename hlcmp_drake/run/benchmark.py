@@ -28,6 +28,7 @@ from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.run.runner import run_scenario
 from hlcmp_drake.run.simulate import prepared_simulator, simulate
 from hlcmp_drake.worlds import arm
+from hlcmp_drake.worlds.build import diagram_factory
 from hlcmp_drake.worlds.common import BuiltDiagram
 from hlcmp_drake.worlds.models import load_models
 
@@ -171,6 +172,48 @@ def insertion_runs(duration: float, repetitions: int) -> dict:
     }
 
 
+def one_dof_runs(duration: float, repetitions: int) -> dict:
+    """Each 1-DOF controller on the slider's fast path, and the Hl-CMP on its modular path
+    alongside, harnessed (monitor and loggers, no recording), the build outside the timing.
+
+    Parameters
+    ----------
+    duration : float
+        Simulated seconds of each run.
+    repetitions : int
+        Rounds; each controller's RTF is the median over them.
+
+    Returns
+    -------
+    dict
+        one_dof_rtf (the slowest controller's), one_dof_rtf_by_controller,
+        one_dof_modular_over_fast (the Hl-CMP's), and the wall times [s].
+    """
+    paths = {
+        path: load_scenario("one_dof", [f"duration_s={duration}", f"task.control_path={path}"])[0]
+        for path in ("fast", "modular")
+    }
+    factories = {path: diagram_factory(scenario) for path, scenario in paths.items()}
+    labels = list(paths["fast"].controllers)
+    walls: dict[str, list[float]] = {label: [] for label in [*labels, "hlcmp_modular"]}
+    for _ in range(repetitions):
+        for label in labels:
+            built = factories["fast"](label)
+            walls[label].append(_wall(partial(advance, built, paths["fast"]))[0])
+        built = factories["modular"]("hlcmp")
+        walls["hlcmp_modular"].append(_wall(partial(advance, built, paths["modular"]))[0])
+    rtf = {label: duration / statistics.median(walls[label]) for label in labels}
+    return {
+        "one_dof_rtf": min(rtf.values()),
+        "one_dof_rtf_by_controller": rtf,
+        "one_dof_modular_over_fast": statistics.median(
+            [m / f for m, f in zip(walls["hlcmp_modular"], walls["hlcmp"])]
+        ),
+        "one_dof_wall_s": walls,
+        "one_dof_simulated_s": duration,
+    }
+
+
 def _joint_space_replay(scenario, setup, run, harness):
     """The same world (and, with `harness`, the same monitor, sensor and loggers), driven
     by InverseDynamicsController along the run's logged joint positions and velocities
@@ -300,8 +343,20 @@ def scenario_walls(names: list[str], duration: float | None = None) -> dict:
 
 # Simulated seconds of the runs: the full benchmark's, and the quick smoke run's (CI: every
 # path is exercised once; its numbers are too short to be measurements).
-FULL = {"insertion_s": 9.5, "repetitions": 3, "dmp_repetitions": 15, "scenario_s": None}
-QUICK = {"insertion_s": 1.0, "repetitions": 1, "dmp_repetitions": 2, "scenario_s": 0.5}
+FULL = {
+    "insertion_s": 9.5,
+    "one_dof_s": 20.0,
+    "repetitions": 3,
+    "dmp_repetitions": 15,
+    "scenario_s": None,
+}
+QUICK = {
+    "insertion_s": 1.0,
+    "one_dof_s": 0.5,
+    "repetitions": 1,
+    "dmp_repetitions": 2,
+    "scenario_s": 0.5,
+}
 
 
 def run_benchmark(quick: bool = False, reporter: Progress = SILENT) -> dict:
@@ -327,6 +382,8 @@ def run_benchmark(quick: bool = False, reporter: Progress = SILENT) -> dict:
         "insertion: fast path, modular path and C++ inverse dynamics along the same motion ..."
     )
     results.update(insertion_runs(duration=plan["insertion_s"], repetitions=plan["repetitions"]))
+    reporter.say("one_dof: each controller on the fast path, the Hl-CMP on the modular path ...")
+    results.update(one_dof_runs(duration=plan["one_dof_s"], repetitions=plan["repetitions"]))
     reporter.say("DMP fit and rollout ...")
     results.update(dmp_timings(repetitions=plan["dmp_repetitions"]))
     reporter.say("bundled scenarios ...")
@@ -406,6 +463,28 @@ def _rows(results):
             "p99 ≤ 250",
             tick["p99"] <= 250,
         ),
+    ]
+    if "one_dof_rtf" in results:  # bench.json files from before the slider's fast path lack it
+        slowest = min(
+            results["one_dof_rtf_by_controller"], key=results["one_dof_rtf_by_controller"].get
+        )
+        rows += [
+            (
+                "one_dof_rtf: simulated s per wall s of the slowest 1-DOF controller on the "
+                f"fast path ({slowest}; {results['one_dof_simulated_s']:g} s, harnessed, no "
+                "recording)",
+                number(results["one_dof_rtf"]),
+                "≥ 20",
+                results["one_dof_rtf"] >= 20,
+            ),
+            (
+                "one_dof_modular_over_fast: the 1-DOF Hl-CMP's modular run / its fast run",
+                number(results["one_dof_modular_over_fast"]),
+                "",
+                None,
+            ),
+        ]
+    rows += [
         ("dmp_fit_ms: 3 axes, 2000 samples, N = 50", f"{results['dmp_fit_ms']:.1f} ms", "", None),
         (
             "dmp_rollout_ms: the same DMP at 1 ms steps",
