@@ -264,22 +264,21 @@ def variable_impedance_law(
     -------
     VariableImpedanceLaw
     """
-    return VariableImpedanceLaw(
-        config.mass_kg,
-        config.damping_Ns_per_m,
-        config.free_stiffness_N_per_m,
-        config.sigma,
-        config.sample_period_s,
-        config.kp,
-        config.kv,
-        desired_force_schedule(config, scenario.reference),
-    )
+    return VariableImpedanceLaw(*_variable_impedance_settings(config, scenario))
 
 
 def _variable_impedance_system(
     config: VariableImpedanceConfig, scenario: Scenario, initial_position: np.ndarray
 ) -> VariableImpedanceController:
     return VariableImpedanceController(
+        *_variable_impedance_settings(config, scenario), initial_position
+    )
+
+
+def _variable_impedance_settings(config: VariableImpedanceConfig, scenario: Scenario) -> tuple:
+    """m, b, k_free, sigma, lambda, kp, kv and f_d(t), in the order the law and the
+    modular system take them."""
+    return (
         config.mass_kg,
         config.damping_Ns_per_m,
         config.free_stiffness_N_per_m,
@@ -288,7 +287,6 @@ def _variable_impedance_system(
         config.kp,
         config.kv,
         desired_force_schedule(config, scenario.reference),
-        initial_position,
     )
 
 
