@@ -146,9 +146,9 @@ def run_report(
     out_dir = Path(out_dir)
     folders = report_folders(out_dir, scenarios)
     work = [task for entry, folder in folders.items() for task in _report_work(entry, folder)]
-    jobs = min(jobs or os.cpu_count() or 1, len(work))
-    if jobs < 1:
+    if jobs is not None and jobs < 1:
         raise InputError(f"--jobs: must be at least 1, got {jobs}")
+    jobs = max(1, min(jobs or os.cpu_count() or 1, len(work)))
     start = time.perf_counter()
     with replacing_outputs(out_dir):  # a scenario left out this time leaves no old folder
         done = _run_work(work, jobs, reporter)

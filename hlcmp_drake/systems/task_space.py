@@ -201,8 +201,9 @@ class PrismaticTaskModel:
                 f"the plant has {sorted(kinds)} joints, {self.nv} velocities, "
                 f"{self.n_axes} axes"
             )
+        self._origin = np.zeros((3, 1))  # the frame's origin, the task point (made once)
         self._jacobian = plant.CalcJacobianTranslationalVelocity(
-            self._context, JacobianWrtVariable.kV, frame, np.zeros(3), self._world, self._world
+            self._context, JacobianWrtVariable.kV, frame, self._origin, self._world, self._world
         )[self._axes]
         self._inverse = np.linalg.inv(self._jacobian)
         plant.SetVelocities(self._context, np.ones(self.nv))
@@ -231,7 +232,7 @@ class PrismaticTaskModel:
         """
         plant, ctx = self.plant, self._context
         plant.SetPositionsAndVelocities(ctx, state)
-        position = plant.CalcPointsPositions(ctx, self._frame, np.zeros((3, 1)), self._world)[
+        position = plant.CalcPointsPositions(ctx, self._frame, self._origin, self._world)[
             self._axes, 0
         ]
         inverse = self._inverse
