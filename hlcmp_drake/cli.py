@@ -188,6 +188,7 @@ def cmd_learn(args):
         skill_path=args.skill,
         trials=args.trials,
         any_scenario=args.any_scenario,
+        demo_force=args.demo_force,
         **_learning_options(args),
     )
     return _print_learning(result)
@@ -266,6 +267,7 @@ def cmd_probe(args):
 
 
 def cmd_fit(args):
+    from hlcmp_drake.core.demo_force import fit_feedforward_weights
     from hlcmp_drake.core.dmp import Dmp
     from hlcmp_drake.io.demos import read_demonstration
     from hlcmp_drake.io.skill import Skill, save_skill
@@ -275,23 +277,27 @@ def cmd_fit(args):
     except ValueError as error:  # the message starts with the settings' field
         option = "--basis" if str(error).startswith("n_basis") else "--smoothing"
         raise InputError(f"{option}: {error}") from None
-    t, positions, axes = read_demonstration(args.demo)
+    t, positions, axes, force = read_demonstration(args.demo, with_force=True)
     dmp = Dmp.fit(t, positions, axes, settings)
-    save_skill(args.out, Skill.untrained(dmp))
+    demo_force = None if force is None else fit_feedforward_weights(t, force, settings)
+    save_skill(args.out, Skill.untrained(dmp, demo_force))
     flat = [a for a, scaled in zip(axes, dmp.goal_scaled) if not scaled]
     print(
         f"fitted {len(axes)} axis DMP ({','.join(axes)}), N = {args.basis}, tau = {dmp.tau:.3f} s"
         + (f"; g ~ p0 on {','.join(flat)}: amplitude = demonstration range" if flat else "")
+        + ("" if force is None else "; the demonstration's force encoded as feed-forward")
         + f" -> {args.out}"
     )
     return 0
 
 
 def cmd_rollout(args):
+    from hlcmp_drake.core.demo_force import feedforward_along
     from hlcmp_drake.io.demos import write_trajectory
     from hlcmp_drake.io.skill import load_skill
 
-    dmp = load_skill(args.skill).dmp
+    skill = load_skill(args.skill)
+    dmp = skill.dmp
     if args.goal is not None:
         goal = _floats(args.goal, "--goal")
         if len(goal) != dmp.n_axes:
@@ -303,9 +309,16 @@ def cmd_rollout(args):
     tau = args.duration or dmp.tau
     if tau / args.dt > 2_000_000:
         raise InputError(f"--dt {args.dt} s over {tau} s would write more than 2,000,000 samples")
-    t, p, v, _, _ = dmp.rollout(dt=args.dt, tau=tau)
-    write_trajectory(args.out, t, p, dmp.axis_names, v)
-    print(f"rolled out {len(t)} samples over {t[-1]:.3f} s -> {args.out}")
+    t, p, v, _, s = dmp.rollout(dt=args.dt, tau=tau)
+    force = None
+    if skill.demo_force is not None:  # the demonstration's force, at the rollout's phase
+        force = feedforward_along(skill.demo_force, s, dmp.settings)
+    write_trajectory(args.out, t, p, dmp.axis_names, v, force)
+    print(
+        f"rolled out {len(t)} samples over {t[-1]:.3f} s"
+        + ("" if force is None else ", with the demonstration's encoded force")
+        + f" -> {args.out}"
+    )
     return 0
 
 
@@ -560,6 +573,12 @@ def build_parser():
     learn.add_argument(
         "--skill", help="start from this saved skill's profiles instead of theta = 0"
     )
+    learn.add_argument(
+        "--demo-force",
+        action="store_true",
+        help="start the feed-forward theta_v from the demonstration's force columns "
+        "(fx,fy,fz) instead of 0",
+    )
     learn.set_defaults(func=cmd_learn)
 
     reproduce = sub.add_parser(
@@ -596,7 +615,11 @@ def build_parser():
     fit = sub.add_parser(
         "fit", parents=[common], help="fit the DMP of a demonstration CSV (t,x,y,z)"
     )
-    fit.add_argument("demo", help="demonstration CSV: t,x,y,z (time in s, then 1-3 positions in m)")
+    fit.add_argument(
+        "demo",
+        help="demonstration CSV: t,x,y,z (time in s, then 1-3 positions in m), optionally "
+        "fx,fy,fz (the force on the tool in N)",
+    )
     fit.add_argument("--out", required=True, help="skill file to write (.npz)")
     fit.add_argument(
         "--basis",

@@ -7,6 +7,14 @@ Trajectory files may add velocity columns
 `vx,vy,vz` after the positions. Files are UTF-8; a byte-order mark at the start (as
 spreadsheet programs write "CSV UTF-8") is accepted. Every problem is an InputError
 naming file and line.
+
+Columns are recognised by name, in groups (COLUMN_GROUPS): the positions, then optional
+groups of one column per position axis. A demonstration may carry the force its wrist
+sensor read, `fx,fy,fz` [N] after the positions (and after the velocities of a
+trajectory): the force the environment exerts on the tool during kinesthetic teaching, in
+the world frame of the positions, the tool's own weight and inertia removed -- the same
+quantity and sign as a run's logged `CTRL/f_ext`. A foam that resists a tool pushed down
+into it reads +z. The force columns come all together, one per position axis.
 """
 
 from __future__ import annotations
@@ -22,6 +30,14 @@ from hlcmp_drake.io.errors import InputError, located
 
 MIN_SAMPLES = 10
 AXES = ("x", "y", "z")
+# The column groups after `t`, in the order a file gives them, each recognised by its
+# columns' names (one per axis x, y, z). The positions name one to three axes; every other
+# group present has the columns of exactly those axes.
+COLUMN_GROUPS = {
+    "position": AXES,
+    "velocity": ("vx", "vy", "vz"),
+    "force": ("fx", "fy", "fz"),
+}
 
 # The fastest a demonstration may move [m/s], measured from each sample to the first one
 # SPEED_WINDOW_S or more later. Faster than a hand moves a tool in a demonstration (quick
@@ -37,9 +53,12 @@ MAX_SPEED_M_PER_S = 3.0
 SPEED_WINDOW_S = 0.01
 
 
-def read_demonstration(path: str | Path, with_lines: bool = False) -> tuple:
-    """Returns (t (T,), positions (T, M), axis names), and with `with_lines` also each
-    sample's line number in the file. Raises InputError on bad input.
+def read_demonstration(
+    path: str | Path, with_lines: bool = False, with_force: bool = False
+) -> tuple:
+    """Returns (t (T,), positions (T, M), axis names), with `with_lines` also each
+    sample's line number in the file, and with `with_force` also the force columns.
+    Raises InputError on bad input.
 
     Parameters
     ----------
@@ -47,6 +66,8 @@ def read_demonstration(path: str | Path, with_lines: bool = False) -> tuple:
         The CSV file (format in the module docstring).
     with_lines : bool
         Also return the line number of each sample.
+    with_force : bool
+        Also return the demonstrated force.
 
     Returns
     -------
@@ -58,6 +79,9 @@ def read_demonstration(path: str | Path, with_lines: bool = False) -> tuple:
         The position columns' names, from ("x", "y", "z").
     lines : list of T int
         Only with `with_lines`: each sample's 1-based line number in the file.
+    force : (T, M) array or None
+        Only with `with_force`: the force columns `fx,fy,fz` [N] (module docstring), one
+        per position axis; None when the file has none.
     """
     path = Path(path)
     if not path.exists():
@@ -73,7 +97,8 @@ def read_demonstration(path: str | Path, with_lines: bool = False) -> tuple:
         raise InputError(f"{path}: the file is empty (expected a header line 't,x,y,z')")
     header_line, header_text = lines[0]
     header = [name.strip() for name in next(csv.reader([header_text]))]
-    axes = _check_header(path, header_line, header)
+    groups = _column_groups(path, header_line, header)
+    axes = tuple(groups["position"])
     rows: list[tuple[int, list[float]]] = []
     for number, line in lines[1:]:
         fields = [f.strip() for f in next(csv.reader([line]))]
@@ -105,10 +130,14 @@ def read_demonstration(path: str | Path, with_lines: bool = False) -> tuple:
             f"{path}: {len(rows)} samples; a demonstration needs at least {MIN_SAMPLES}"
         )
     data = np.array([values for _, values in rows])
-    check_speed(path, data[:, 0], data[:, 1 : 1 + len(axes)], [number for number, _ in rows])
+    numbers = [number for number, _ in rows]
+    check_speed(path, data[:, 0], data[:, 1 : 1 + len(axes)], numbers)
+    result: tuple = (data[:, 0], data[:, 1 : 1 + len(axes)], axes)
     if with_lines:
-        return data[:, 0], data[:, 1 : 1 + len(axes)], axes, [number for number, _ in rows]
-    return data[:, 0], data[:, 1 : 1 + len(axes)], axes
+        result += (numbers,)
+    if with_force:
+        result += (_group_values(data, header, groups["force"]),)
+    return result
 
 
 def check_speed(
@@ -161,7 +190,9 @@ def check_speed(
     )
 
 
-def _check_header(path, line, header):
+def _column_groups(path, line, header):
+    """Each column after `t` by its group (COLUMN_GROUPS), recognised by name: {group: [column
+    names]}, every group present; InputError naming the header line on anything else."""
     if not header or header[0] != "t":
         raise located(
             path,
@@ -169,24 +200,42 @@ def _check_header(path, line, header):
             f"the first column must be 't' (time in seconds), found "
             f"'{header[0] if header else ''}'; expected a header like 't,x,y,z'",
         )
-    positions = [name for name in header[1:] if not name.startswith("v")]
-    velocities = header[1 + len(positions) :]
+    groups: dict[str, list[str]] = {group: [] for group in COLUMN_GROUPS}
+    order = []
     for name in header[1:]:
-        if name not in AXES and name not in tuple("v" + a for a in AXES):
-            raise located(path, line, f"unknown column '{name}' (allowed: t, x, y, z, vx, vy, vz)")
+        group = next((g for g, names in COLUMN_GROUPS.items() if name in names), None)
+        if group is None:
+            allowed = ", ".join(["t", *(n for names in COLUMN_GROUPS.values() for n in names)])
+            raise located(path, line, f"unknown column '{name}' (allowed: {allowed})")
+        groups[group].append(name)
+        order.append(list(COLUMN_GROUPS).index(group))
+    positions = groups["position"]
     if not positions:
         raise located(path, line, "no position column: expected one or more of x, y, z after t")
     if len(set(header)) != len(header):
         raise located(path, line, "a column name appears twice")
     if positions != [a for a in AXES if a in positions]:
         raise located(path, line, "position columns must be in the order x, y, z")
-    if velocities and velocities != ["v" + a for a in positions]:
-        raise located(
-            path,
-            line,
-            f"velocity columns must be {','.join('v' + a for a in positions)} after the positions",
-        )
-    return tuple(positions)
+    for group, names in COLUMN_GROUPS.items():
+        expected = [names[AXES.index(axis)] for axis in positions]
+        if groups[group] and groups[group] != expected:
+            raise located(
+                path,
+                line,
+                f"{group} columns must be {','.join(expected)}, one per position axis; "
+                f"found {','.join(groups[group])}",
+            )
+    if order != sorted(order):
+        raise located(path, line, f"columns must come in the order t, {', '.join(COLUMN_GROUPS)}")
+    return groups
+
+
+def _group_values(data, header, names):
+    """The (T, len(names)) columns `names` of `data` (columns as in `header`), or None
+    when `names` is empty."""
+    if not names:
+        return None
+    return data[:, [header.index(name) for name in names]]
 
 
 def write_trajectory(
@@ -195,8 +244,10 @@ def write_trajectory(
     positions: np.ndarray,
     axes: Sequence[str],
     velocities: np.ndarray | None = None,
+    force: np.ndarray | None = None,
 ) -> Path:
-    """Write a trajectory CSV (same format; velocity columns when given), atomically.
+    """Write a trajectory CSV (same format; velocity and force columns when given),
+    atomically.
 
     Parameters
     ----------
@@ -210,6 +261,8 @@ def write_trajectory(
         Column names of the positions, e.g. ("x", "y", "z").
     velocities : (T, M) array, optional
         Velocities [m/s], written as columns `v` + axis name.
+    force : (T, M) array, optional
+        The force on the tool [N] (module docstring), written as columns `f` + axis name.
 
     Returns
     -------
@@ -218,10 +271,11 @@ def write_trajectory(
     """
     from hlcmp_drake.io.outputs import write_text
 
-    header = ["t", *axes] + ([f"v{a}" for a in axes] if velocities is not None else [])
-    columns = [np.asarray(t)[:, None], np.asarray(positions)]
-    if velocities is not None:
-        columns.append(np.asarray(velocities))
+    header, columns = ["t", *axes], [np.asarray(t)[:, None], np.asarray(positions)]
+    for group, values in (("velocity", velocities), ("force", force)):
+        if values is not None:
+            header += [COLUMN_GROUPS[group][AXES.index(axis)] for axis in axes]
+            columns.append(np.asarray(values))
     data = np.hstack(columns)
     body = "\n".join(",".join(f"{v:.9g}" for v in row) for row in data)
     return write_text(path, ",".join(header) + "\n" + body + "\n")

@@ -6,7 +6,10 @@ profiles' weights (M x N each) and, from format 2 on, the world the skill was le
 (`SkillWorld`: the scenario's name, the world's kind and a digest of what defines it).
 Loading checks the version, the keys and every shape. A format 1 file (written before
 skills recorded their world) still loads; its world is unknown (`Skill.world` None), as is
-that of a skill `hlcmp fit` made from a demonstration alone.
+that of a skill `hlcmp fit` made from a demonstration alone. A format 2 file may also
+hold `demo_force` (M x N), the demonstration's wrist force on the phase basis
+(`hlcmp_drake.core.demo_force`); readers that do not know the field ignore it, and a file
+without it is a skill whose demonstration carried no force.
 """
 
 from __future__ import annotations
@@ -28,6 +31,8 @@ FORMAT_VERSION = 2
 READABLE_VERSIONS = (1, 2)
 # Format 2's record of the world (SkillWorld's fields), all empty when it is unknown.
 WORLD_FIELDS = ("world_scenario", "world_kind", "world_digest")
+# Optional in format 2: the demonstration's force as feed-forward weights (Skill.demo_force).
+DEMO_FORCE_FIELD = "demo_force"
 NOT_A_SKILL = "not a skill file (a .npz written by hlcmp fit/learn)"
 _ZIP_MAGIC = (b"PK\x03\x04", b"PK\x05\x06")  # a .npz is a zip archive
 
@@ -95,6 +100,11 @@ class Skill:
     world : SkillWorld or None
         Where the profiles were learned; None when unknown (a skill of `hlcmp fit`, which
         learned nothing, or a format 1 file).
+    demo_force : (M, N) array or None
+        The demonstration's wrist force encoded on the phase basis, as feed-forward
+        weights [N] (`hlcmp_drake.core.demo_force.fit_feedforward_weights`): what
+        `hlcmp learn --demo-force` starts theta_v from. None when the demonstration
+        carried no force.
     """
 
     dmp: Dmp
@@ -102,15 +112,18 @@ class Skill:
     theta_d: np.ndarray
     theta_v: np.ndarray
     world: SkillWorld | None = None
+    demo_force: np.ndarray | None = None
 
     @classmethod
-    def untrained(cls, dmp: Dmp) -> Skill:
+    def untrained(cls, dmp: Dmp, demo_force: np.ndarray | None = None) -> Skill:
         """theta_k = theta_d = theta_v = 0, the paper's theta(t0).
 
         Parameters
         ----------
         dmp : Dmp
             The fitted DMP; its theta_p (M, N) gives the shape of the zero weights.
+        demo_force : (M, N) array, optional
+            The demonstration's encoded force (`Skill.demo_force`).
 
         Returns
         -------
@@ -118,14 +131,15 @@ class Skill:
             The skill with zero compliant-profile weights.
         """
         zeros = np.zeros_like(dmp.theta_p)
-        return cls(dmp, zeros, zeros.copy(), zeros.copy())
+        return cls(dmp, zeros, zeros.copy(), zeros.copy(), demo_force=demo_force)
 
 
 def save_skill(path: str | Path, skill: Skill) -> Path:
     """Write a skill file (.npz with `format_version`), atomically.
 
     beta is stored by its value (alpha / 4 when the settings leave it at None); the world
-    as three strings world_scenario, world_kind, world_digest (all empty when unknown).
+    as three strings world_scenario, world_kind, world_digest (all empty when unknown);
+    `demo_force` only when the skill has one.
 
     Parameters
     ----------
@@ -163,6 +177,8 @@ def save_skill(path: str | Path, skill: Skill) -> Path:
     world = skill.world or SkillWorld("", "", "")
     for key in ("scenario", "kind", "digest"):
         arrays[f"world_{key}"] = np.array(getattr(world, key))
+    if skill.demo_force is not None:
+        arrays[DEMO_FORCE_FIELD] = skill.demo_force
 
     def write(temp):
         with open(temp, "wb") as stream:
@@ -237,7 +253,8 @@ def load_skill(path: str | Path) -> Skill:
             raise fail(
                 f"field '{key}' has shape {arrays[key].shape}, expected ({m},) for axes {axes}"
             )
-    for key in ("theta_p", "theta_k", "theta_d", "theta_v"):
+    has_force = DEMO_FORCE_FIELD in arrays
+    for key in ("theta_p", "theta_k", "theta_d", "theta_v") + (DEMO_FORCE_FIELD,) * has_force:
         if arrays[key].shape != (m, n):
             raise fail(f"field '{key}' has shape {arrays[key].shape}, expected ({m}, {n})")
         if not np.all(np.isfinite(arrays[key])):
@@ -272,6 +289,7 @@ def load_skill(path: str | Path) -> Skill:
         arrays["theta_d"].astype(float),
         arrays["theta_v"].astype(float),
         _world(arrays, fail) if version >= 2 else None,
+        arrays[DEMO_FORCE_FIELD].astype(float) if has_force else None,
     )
 
 
