@@ -3,10 +3,12 @@ the skill file's demo_force, `hlcmp fit` / `rollout` with the encoded force, and
 learn --demo-force` starting theta_v from it."""
 
 import json
+import subprocess
+import sys
 
 import numpy as np
 import pytest
-from conftest import INSERTION_DEMO, one_line_error, run_cli
+from conftest import INSERTION_DEMO, REPO_ROOT, one_line_error, run_cli
 
 from hlcmp_drake.core.demo_force import feedforward_along
 from hlcmp_drake.core.dmp import Dmp, phase_at
@@ -39,6 +41,20 @@ def test_the_bundled_demonstrations_carry_their_force(source):
     assert force[:, 2].max() > 8.0
     if "cutting" in source.stem:
         assert force[:, 1].min() < -5.0 < 0.1 < force[:, 1].max() + 0.1
+
+
+@pytest.mark.slow
+def test_make_demos_records_the_bundled_forces_again_byte_for_byte(tmp_path):
+    script = REPO_ROOT / "scripts" / "make_demos.py"
+    result = subprocess.run(
+        [sys.executable, str(script), "--out-dir", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert result.returncode == 0, result.stderr
+    for source in BUNDLED:
+        assert (tmp_path / source.name).read_bytes() == source.read_bytes(), source.name
 
 
 def test_force_columns_do_not_change_the_positions_or_their_dmp(tmp_path):

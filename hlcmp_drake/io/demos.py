@@ -56,8 +56,8 @@ SPEED_WINDOW_S = 0.01
 def read_demonstration(
     path: str | Path, with_lines: bool = False, with_force: bool = False
 ) -> tuple:
-    """Returns (t (T,), positions (T, M), axis names), with `with_lines` also each
-    sample's line number in the file, and with `with_force` also the force columns.
+    """Returns (t (T,), positions (T, M), axis names), with `with_force` also the force
+    columns, and with `with_lines` also each sample's line number in the file.
     Raises InputError on bad input.
 
     Parameters
@@ -77,11 +77,11 @@ def read_demonstration(
         Positions [m], one column per axis; velocity columns are not returned.
     axes : tuple of M str
         The position columns' names, from ("x", "y", "z").
-    lines : list of T int
-        Only with `with_lines`: each sample's 1-based line number in the file.
     force : (T, M) array or None
         Only with `with_force`: the force columns `fx,fy,fz` [N] (module docstring), one
         per position axis; None when the file has none.
+    lines : list of T int
+        Only with `with_lines`: each sample's 1-based line number in the file.
     """
     path = Path(path)
     if not path.exists():
@@ -133,11 +133,9 @@ def read_demonstration(
     numbers = [number for number, _ in rows]
     check_speed(path, data[:, 0], data[:, 1 : 1 + len(axes)], numbers)
     result: tuple = (data[:, 0], data[:, 1 : 1 + len(axes)], axes)
-    if with_lines:
-        result += (numbers,)
     if with_force:
         result += (_group_values(data, header, groups["force"]),)
-    return result
+    return result + (numbers,) if with_lines else result
 
 
 def check_speed(
