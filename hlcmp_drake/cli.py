@@ -557,7 +557,9 @@ def build_parser():
         help="learn a skill from your demonstration by reproducing it in a scenario",
     )
     learn.add_argument(
-        "demo", help="demonstration CSV (t,x,y,z; world frame of the scenario, metres)"
+        "demo",
+        help="demonstration CSV (t,x,y,z; world frame of the scenario, metres; optionally "
+        "fx,fy,fz, the force on the tool in N)",
     )
     learn.add_argument(
         "--out",
