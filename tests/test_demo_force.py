@@ -3,6 +3,7 @@ the skill file's demo_force, `hlcmp fit` / `rollout` with the encoded force, and
 learn --demo-force` starting theta_v from it."""
 
 import json
+import re
 import subprocess
 import sys
 
@@ -40,7 +41,7 @@ def test_the_bundled_demonstrations_carry_their_force(source):
     # into it (+z) and the block the blade cutting along +y (-y).
     assert force[:, 2].max() > 8.0
     if "cutting" in source.stem:
-        assert force[:, 1].min() < -5.0 < 0.1 < force[:, 1].max() + 0.1
+        assert force[:, 1].min() < -5.0
 
 
 @pytest.mark.slow
@@ -101,7 +102,7 @@ def test_incomplete_or_misplaced_force_columns_are_refused_with_the_header_line(
 ):
     path = tmp_path / "demo.csv"
     path.write_text(header + "\n" + rows(T, *([X] * (columns - 1))))
-    with pytest.raises(InputError, match=expected.replace("(", r"\(")) as error:
+    with pytest.raises(InputError, match=re.escape(expected)) as error:
         read_demonstration(path)
     assert str(error.value).startswith(f"{path}:1: ")
 
