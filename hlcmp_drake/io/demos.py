@@ -3,8 +3,11 @@
 Format: a header line `t,x,y,z` -- `t` in seconds first, then 1 to 3 position columns
 named from x, y, z (metres, in that order) -- and one sample per line, time strictly
 increasing, at least MIN_SAMPLES samples, never faster than MAX_SPEED_M_PER_S (see there).
-Trajectory files may add velocity columns
-`vx,vy,vz` after the positions. Files are UTF-8; a byte-order mark at the start (as
+A pose adds the tool frame's orientation in the world frame after the positions,
+`t,x,y,z,qw,qx,qy,qz`: a unit quaternion, scalar first (Drake's `Quaternion(w, x, y, z)`
+order), either sign (see `read_orientation`). Trajectory files may add velocity columns
+`vx,vy,vz` after these, and with an orientation the angular velocity `wx,wy,wz` [rad/s,
+world frame] last. Files are UTF-8; a byte-order mark at the start (as
 spreadsheet programs write "CSV UTF-8") is accepted. Every problem is an InputError
 naming file and line.
 """
@@ -18,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from hlcmp_drake.core.quaternion import hemisphere_continuous
 from hlcmp_drake.io.errors import InputError, located
 
 MIN_SAMPLES = 10
@@ -36,10 +40,21 @@ MAX_SPEED_M_PER_S = 3.0
 # 1 m/s from one sample to the next, 0.1 m/s over 10 ms); a jump does not.
 SPEED_WINDOW_S = 0.01
 
+QUATERNION_COLUMNS = ("qw", "qx", "qy", "qz")
+ANGULAR_VELOCITY_COLUMNS = ("wx", "wy", "wz")
+# How far from 1 a quaternion's norm may be; it is normalised. Values rounded to 3 decimals
+# stay within 0.2 % of a unit norm; 1 % off is no rounding but another convention (angles,
+# a scaled or partly overwritten row), which normalising would silently turn into some
+# other rotation.
+MAX_QUATERNION_NORM_ERROR = 0.01
 
-def read_demonstration(path: str | Path, with_lines: bool = False) -> tuple:
-    """Returns (t (T,), positions (T, M), axis names), and with `with_lines` also each
-    sample's line number in the file. Raises InputError on bad input.
+
+def read_demonstration(
+    path: str | Path, with_lines: bool = False, with_orientation: bool = False
+) -> tuple:
+    """Returns (t (T,), positions (T, M), axis names), with `with_orientation` also the
+    orientations, and with `with_lines` also each sample's line number in the file.
+    Raises InputError on bad input.
 
     Parameters
     ----------
@@ -47,6 +62,9 @@ def read_demonstration(path: str | Path, with_lines: bool = False) -> tuple:
         The CSV file (format in the module docstring).
     with_lines : bool
         Also return the line number of each sample.
+    with_orientation : bool
+        Accept a pose (qw,qx,qy,qz columns) and return its orientations; without it a pose
+        file is refused, naming the columns (the caller would ignore them).
 
     Returns
     -------
@@ -56,6 +74,9 @@ def read_demonstration(path: str | Path, with_lines: bool = False) -> tuple:
         Positions [m], one column per axis; velocity columns are not returned.
     axes : tuple of M str
         The position columns' names, from ("x", "y", "z").
+    quaternions : (T, 4) array or None
+        Only with `with_orientation`: unit, hemisphere-continuous (`read_orientation`);
+        None for a file of positions only.
     lines : list of T int
         Only with `with_lines`: each sample's 1-based line number in the file.
     """
@@ -73,7 +94,15 @@ def read_demonstration(path: str | Path, with_lines: bool = False) -> tuple:
         raise InputError(f"{path}: the file is empty (expected a header line 't,x,y,z')")
     header_line, header_text = lines[0]
     header = [name.strip() for name in next(csv.reader([header_text]))]
-    axes = _check_header(path, header_line, header)
+    axes = _check_header(path, header_line, _without_orientation(path, header_line, header))
+    has_orientation = QUATERNION_COLUMNS[0] in header
+    if has_orientation and not with_orientation:
+        raise located(
+            path,
+            header_line,
+            f"columns {','.join(QUATERNION_COLUMNS)}: an orientation is not used here; "
+            "give positions only (t,x,y,z)",
+        )
     rows: list[tuple[int, list[float]]] = []
     for number, line in lines[1:]:
         fields = [f.strip() for f in next(csv.reader([line]))]
@@ -105,10 +134,56 @@ def read_demonstration(path: str | Path, with_lines: bool = False) -> tuple:
             f"{path}: {len(rows)} samples; a demonstration needs at least {MIN_SAMPLES}"
         )
     data = np.array([values for _, values in rows])
-    check_speed(path, data[:, 0], data[:, 1 : 1 + len(axes)], [number for number, _ in rows])
-    if with_lines:
-        return data[:, 0], data[:, 1 : 1 + len(axes)], axes, [number for number, _ in rows]
-    return data[:, 0], data[:, 1 : 1 + len(axes)], axes
+    numbers = [number for number, _ in rows]
+    check_speed(path, data[:, 0], data[:, 1 : 1 + len(axes)], numbers)
+    result: tuple = (data[:, 0], data[:, 1 : 1 + len(axes)], axes)
+    if with_orientation:
+        first = 1 + len(axes)
+        result += (
+            read_orientation(path, data[:, first : first + 4], numbers)
+            if has_orientation
+            else None,
+        )
+    return result + (numbers,) if with_lines else result
+
+
+def read_orientation(path: str | Path, quaternions: np.ndarray, lines: Sequence[int]) -> np.ndarray:
+    """Check, normalise and make hemisphere-continuous a demonstration's quaternions.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file, for the message.
+    quaternions : (T, 4) array
+        The qw, qx, qy, qz columns (finite: the reader has checked).
+    lines : sequence of T int
+        Each sample's line in the file.
+
+    Returns
+    -------
+    (T, 4) array
+        Unit quaternions, each sign chosen so that neighbours lie in one hemisphere
+        (q and -q are one rotation; the first sample keeps its sign).
+
+    Raises
+    ------
+    InputError
+        ``FILE:LINE: ...`` at the first quaternion that is zero or whose norm is off 1 by
+        more than MAX_QUATERNION_NORM_ERROR.
+    """
+    norms = np.linalg.norm(quaternions, axis=1)
+    bad = np.flatnonzero(np.abs(norms - 1.0) > MAX_QUATERNION_NORM_ERROR)
+    if len(bad):
+        k = int(bad[0])
+        values = ",".join(f"{v:g}" for v in quaternions[k])
+        problem = (
+            "is zero, which is no rotation"
+            if norms[k] == 0
+            else f"has norm {norms[k]:.4g}; a unit quaternion is expected (norm within "
+            f"1 ± {MAX_QUATERNION_NORM_ERROR:g}, scalar first: qw,qx,qy,qz)"
+        )
+        raise located(path, lines[k], f"the orientation ({values}) {problem}")
+    return hemisphere_continuous(quaternions / norms[:, None])
 
 
 def check_speed(
@@ -161,6 +236,33 @@ def check_speed(
     )
 
 
+def _without_orientation(path, line, header):
+    """The header without its orientation columns, after checking where they are:
+    qw,qx,qy,qz together right after the positions, wx,wy,wz (only with them) last."""
+    names = [name for name in header if name in QUATERNION_COLUMNS]
+    if not names:
+        if any(name in ANGULAR_VELOCITY_COLUMNS for name in header):
+            raise located(path, line, "angular velocity columns wx,wy,wz need qw,qx,qy,qz")
+        return header
+    first = header.index(names[0])
+    if (
+        len(names) != len(QUATERNION_COLUMNS)
+        or header[first : first + 4] != list(QUATERNION_COLUMNS)
+        or header[1:first] != [name for name in header if name in AXES]
+    ):
+        raise located(
+            path,
+            line,
+            "the orientation columns must be qw,qx,qy,qz, in that order, right after the "
+            "positions (e.g. t,x,y,z,qw,qx,qy,qz)",
+        )
+    rest = header[:first] + header[first + 4 :]
+    angular = [name for name in rest if name in ANGULAR_VELOCITY_COLUMNS]
+    if angular and rest[-3:] != list(ANGULAR_VELOCITY_COLUMNS):
+        raise located(path, line, "angular velocity columns must be wx,wy,wz, last")
+    return rest[:-3] if angular else rest
+
+
 def _check_header(path, line, header):
     if not header or header[0] != "t":
         raise located(
@@ -173,7 +275,12 @@ def _check_header(path, line, header):
     velocities = header[1 + len(positions) :]
     for name in header[1:]:
         if name not in AXES and name not in tuple("v" + a for a in AXES):
-            raise located(path, line, f"unknown column '{name}' (allowed: t, x, y, z, vx, vy, vz)")
+            raise located(
+                path,
+                line,
+                f"unknown column '{name}' "
+                "(allowed: t, x, y, z, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz)",
+            )
     if not positions:
         raise located(path, line, "no position column: expected one or more of x, y, z after t")
     if len(set(header)) != len(header):
@@ -195,8 +302,11 @@ def write_trajectory(
     positions: np.ndarray,
     axes: Sequence[str],
     velocities: np.ndarray | None = None,
+    quaternions: np.ndarray | None = None,
+    angular_velocities: np.ndarray | None = None,
 ) -> Path:
-    """Write a trajectory CSV (same format; velocity columns when given), atomically.
+    """Write a trajectory CSV (same format; velocity columns and an orientation when
+    given), atomically.
 
     Parameters
     ----------
@@ -210,6 +320,10 @@ def write_trajectory(
         Column names of the positions, e.g. ("x", "y", "z").
     velocities : (T, M) array, optional
         Velocities [m/s], written as columns `v` + axis name.
+    quaternions : (T, 4) array, optional
+        Orientations (w, x, y, z), written as qw,qx,qy,qz after the positions.
+    angular_velocities : (T, 3) array, optional
+        Angular velocities [rad/s, world frame], written as wx,wy,wz last.
 
     Returns
     -------
@@ -218,10 +332,15 @@ def write_trajectory(
     """
     from hlcmp_drake.io.outputs import write_text
 
-    header = ["t", *axes] + ([f"v{a}" for a in axes] if velocities is not None else [])
-    columns = [np.asarray(t)[:, None], np.asarray(positions)]
-    if velocities is not None:
-        columns.append(np.asarray(velocities))
+    groups = [
+        (list(axes), positions),
+        (list(QUATERNION_COLUMNS), quaternions),
+        ([f"v{a}" for a in axes], velocities),
+        (list(ANGULAR_VELOCITY_COLUMNS), angular_velocities),
+    ]
+    header = ["t"] + [name for names, values in groups if values is not None for name in names]
+    columns = [np.asarray(t)[:, None]]
+    columns += [np.asarray(values) for _, values in groups if values is not None]
     data = np.hstack(columns)
     body = "\n".join(",".join(f"{v:.9g}" for v in row) for row in data)
     return write_text(path, ",".join(header) + "\n" + body + "\n")
