@@ -39,6 +39,9 @@ def test_acceptance_on_seeded_demonstrations(seed):
     _, q_slow, _, _ = dmp.rollout(dt=STEP_S, tau=2 * dmp.tau)
     assert _degrees(q_slow[::2], q_r).max() <= 0.01
     assert _degrees(q_slow[1:], q_slow[:-1]).max() <= 2.0
+    # After tau it stays at its goal.
+    _, q_long, _, _ = dmp.rollout(duration=3 * dmp.tau, dt=STEP_S)
+    assert _degrees(q_long[len(t_r) - 1 :], dmp.goal).max() <= 0.5
 
 
 def test_the_angular_velocity_is_the_world_frame_rate_of_the_orientation():
