@@ -101,3 +101,16 @@ def test_the_geodesic_angle():
     expected = np.linalg.norm(quat.to_rotation_vector(quat.multiply(a, quat.conjugate(b))))
     assert quat.geodesic_angle(a, -b) == pytest.approx(expected)
     assert quat.geodesic_angle(a, a) == pytest.approx(0.0, abs=1e-12)
+
+
+def test_the_left_jacobian_rate_is_its_derivative_along_the_motion():
+    rng = np.random.default_rng(4)
+    h = 1e-5
+    # Both sides of the Taylor switch at 0.05 rad, and beyond pi.
+    for angle in (1e-6, 0.02, 0.0499, 0.0501, 0.3, 1.0, 3.0, 4.7, 6.0):
+        axis = rng.normal(size=3)
+        v, vdot = angle * axis / np.linalg.norm(axis), rng.normal(size=3)
+        ahead, behind = quat.left_jacobian(v + h * vdot), quat.left_jacobian(v - h * vdot)
+        np.testing.assert_allclose(
+            quat.left_jacobian_rate(v, vdot), (ahead - behind) @ vdot / (2 * h), atol=1e-9
+        )

@@ -72,6 +72,7 @@ from hlcmp_drake.core import quaternion as quat
 from hlcmp_drake.core.dmp import (
     DEGENERATE_GOAL_FRACTION,
     TAIL_FRACTION,
+    Dmp,
     DmpSettings,
     basis_centers_and_widths,
     fit_forcing_weights,
@@ -81,6 +82,9 @@ from hlcmp_drake.core.dmp import (
     rollout_times,
     step_transformation_system,
 )
+
+# The axis names of `OrientationDmp.error_dmp`: the components of e.
+ERROR_AXES = ("ex", "ey", "ez")
 
 
 def goal_error(goal: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -139,6 +143,28 @@ def angular_velocity(
     error = np.asarray(error, dtype=float)
     own = np.einsum("...ij,...j->...i", quat.left_jacobian(-error), -np.asarray(error_rate))
     return own + quat.rotate(quat.from_rotation_vector(-error), goal_angular_velocity)
+
+
+def angular_acceleration(
+    error: np.ndarray, error_rate: np.ndarray, error_acceleration: np.ndarray
+) -> np.ndarray:
+    """omega' = J_l(-e)(-e'') + (d/dt J_l(-e))(-e'), the world-frame angular acceleration
+    of q = Exp(-e/2) q_g for a goal at rest (`angular_velocity` with omega_g = 0, differentiated;
+    `quaternion.left_jacobian_rate`).
+
+    Parameters
+    ----------
+    error, error_rate, error_acceleration : (..., 3) arrays
+        e [rad], e' [rad/s] and e'' [rad/s^2].
+
+    Returns
+    -------
+    (..., 3) array
+        omega' [rad/s^2], world frame.
+    """
+    error = np.asarray(error, dtype=float)
+    own = np.einsum("...ij,...j->...i", quat.left_jacobian(-error), -np.asarray(error_acceleration))
+    return own + quat.left_jacobian_rate(-error, -np.asarray(error_rate))
 
 
 def fit_trajectory_weights(
@@ -325,6 +351,34 @@ class OrientationDmp:
         """
         return quat.unwrap_rotation_vectors(
             goal_error(goals, self.start[None]), self.demonstrated_rotation
+        )
+
+    def error_dmp(self) -> Dmp:
+        """The transformation system in e for the present goal as a position DMP with goal
+        0: start e0' (`start_errors`), weights S theta (S is linear, so it moves into the
+        weights), the fixed amplitude on every component. Its rollout is this DMP's e(t)
+        while the goal stays; `systems.references.orientation_dmp_source` runs it as
+        Drake's C++ systems.
+
+        Returns
+        -------
+        Dmp
+            Axes ("ex", "ey", "ez") [rad].
+        """
+        start = self.start_errors(self.goal[None])[0]
+        theta = self.theta
+        if self.goal_scaled:
+            scale, rotation = spatial_scaling(self.demonstrated_rotation, start)
+            theta = scale * quat.rotate(rotation, theta.T).T
+        return Dmp(
+            self.settings,
+            self.tau,
+            start,
+            np.zeros(3),
+            theta,
+            np.full(3, self.amplitude),
+            np.zeros(3, dtype=bool),
+            ERROR_AXES,
         )
 
     def forcing(self, s: np.ndarray, start_errors: np.ndarray) -> np.ndarray:

@@ -151,6 +151,51 @@ def left_jacobian(v: np.ndarray) -> np.ndarray:
     return np.eye(3) + first * x + second * (x @ x)
 
 
+def left_jacobian_rate(v: np.ndarray, vdot: np.ndarray) -> np.ndarray:
+    """(d/dt J_l(v)) v', the part of the world angular acceleration of Exp(v) that comes
+    from J_l changing: omega' = J_l(v) v'' + left_jacobian_rate(v, v').
+
+    With J_l = I + a(theta) [v]x + b(theta) [v]x^2 (`left_jacobian`) and theta' = v . v' /
+    theta, and since v' x v' = 0:
+
+    .. math:: \\dot J_l \\dot v = \\frac{a'}{\\theta} (v \\cdot \\dot v)\\, v \\times \\dot v
+              + \\frac{b'}{\\theta} (v \\cdot \\dot v)\\, v \\times (v \\times \\dot v)
+              + b\\, \\dot v \\times (v \\times \\dot v)
+
+    a'/theta and b'/theta by their Taylor series below 0.05 rad (to theta^4).
+
+    Parameters
+    ----------
+    v : (..., 3) array
+        Rotation vector [rad].
+    vdot : (..., 3) array
+        Its rate [rad/s].
+
+    Returns
+    -------
+    (..., 3) array [rad/s^2]
+    """
+    v, vdot = np.asarray(v, dtype=float), np.asarray(vdot, dtype=float)
+    theta = np.linalg.norm(v, axis=-1, keepdims=True)
+    small = theta < 0.05
+    t = np.where(small, 1.0, theta)
+    t2 = theta**2
+    a_rate = np.where(
+        small,
+        -1.0 / 12.0 + t2 / 180.0 - t2**2 / 6720.0,
+        (t * np.sin(t) - 2.0 * (1.0 - np.cos(t))) / t**4,
+    )
+    b_rate = np.where(
+        small,
+        -1.0 / 60.0 + t2 / 1260.0 - t2**2 / 60480.0,
+        (1.0 - np.cos(t)) / t**4 - 3.0 * (t - np.sin(t)) / t**5,
+    )
+    b = np.where(small, 1.0 / 6.0 - t2 / 120.0 + t2**2 / 5040.0, (t - np.sin(t)) / t**3)
+    along = np.sum(v * vdot, axis=-1, keepdims=True)
+    cross = np.cross(v, vdot)
+    return a_rate * along * cross + b_rate * along * np.cross(v, cross) + b * np.cross(vdot, cross)
+
+
 def skew(v: np.ndarray) -> np.ndarray:
     """[v]x, the matrix of the cross product v x (.).
 
