@@ -182,3 +182,28 @@ def test_a_pose_trajectory_round_trips(tmp_path):
     _, read_positions, _, read_q = read_demonstration(path, with_orientation=True)
     np.testing.assert_allclose(read_q, q, atol=1e-8)
     np.testing.assert_allclose(read_positions, positions, atol=1e-9)
+
+
+def test_a_turn_faster_than_the_bound_is_refused_with_its_line(tmp_path):
+    from hlcmp_drake.io.demos import MAX_TURN_RATE_RAD_PER_S
+
+    q = _turn(30)
+    q[15:] = quat.multiply(quat.from_rotation_vector([np.pi / 2, 0.0, 0.0]), q[15:])
+    path = tmp_path / "flip.csv"
+    path.write_text(_pose_text(q))
+    with pytest.raises(InputError) as error:
+        read_demonstration(path, with_orientation=True)
+    message = str(error.value)
+    assert message.startswith(f"{path}:17: the demonstration turns 90.0 deg in 10 ms from line 16")
+    assert f"faster than the {MAX_TURN_RATE_RAD_PER_S:g} rad/s" in message
+    # 1 deg of noise at 1 kHz on a brisk turn (2 rad/s), and every sign switched: no jump.
+    rng = np.random.default_rng(5)
+    t = 0.001 * np.arange(2000)
+    smooth = quat.from_rotation_vector(2.0 * t[:, None] * np.array([0.0, 0.6, 0.8]))
+    noise = quat.from_rotation_vector(rng.normal(0.0, np.radians(1.0), (2000, 3)))
+    noisy = quat.multiply(noise, smooth) * rng.choice([-1.0, 1.0], 2000)[:, None]
+    rows = "".join(
+        f"{a:.3f},0,0,0," + ",".join(f"{v:.9g}" for v in b) + "\n" for a, b in zip(t, noisy)
+    )
+    path.write_text("t,x,y,z,qw,qx,qy,qz\n" + rows)
+    read_demonstration(path, with_orientation=True)

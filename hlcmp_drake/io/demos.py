@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hlcmp_drake.core.quaternion import hemisphere_continuous
+from hlcmp_drake.core.quaternion import geodesic_angle, hemisphere_continuous
 from hlcmp_drake.io.errors import InputError, located
 
 MIN_SAMPLES = 10
@@ -42,6 +42,12 @@ SPEED_WINDOW_S = 0.01
 
 QUATERNION_COLUMNS = ("qw", "qx", "qy", "qz")
 ANGULAR_VELOCITY_COLUMNS = ("wx", "wy", "wz")
+# The fastest a demonstration may turn [rad/s], measured as MAX_SPEED_M_PER_S is. The
+# iiwa's seven joints at their speed limits (models/iiwa14.sdf) add up to 13 rad/s at the
+# tool, and only about no single axis; a hand turning a tool in a demonstration stays far
+# below. Faster is a jump: a marker's frame flipping, swapped columns, a pasted segment.
+# Sign changes (q to -q) are no turn. 1 deg of noise per sample reads as 3 rad/s over 10 ms.
+MAX_TURN_RATE_RAD_PER_S = 15.0
 # How far from 1 a quaternion's norm may be; it is normalised. Values rounded to 3 decimals
 # stay within 0.2 % of a unit norm; 1 % off is no rounding but another convention (angles,
 # a scaled or partly overwritten row), which normalising would silently turn into some
@@ -140,20 +146,24 @@ def read_demonstration(
     if with_orientation:
         first = 1 + len(axes)
         result += (
-            read_orientation(path, data[:, first : first + 4], numbers)
+            read_orientation(path, data[:, 0], data[:, first : first + 4], numbers)
             if has_orientation
             else None,
         )
     return result + (numbers,) if with_lines else result
 
 
-def read_orientation(path: str | Path, quaternions: np.ndarray, lines: Sequence[int]) -> np.ndarray:
+def read_orientation(
+    path: str | Path, t: np.ndarray, quaternions: np.ndarray, lines: Sequence[int]
+) -> np.ndarray:
     """Check, normalise and make hemisphere-continuous a demonstration's quaternions.
 
     Parameters
     ----------
     path : str or Path
         The file, for the message.
+    t : (T,) array
+        Sample times [s], strictly increasing.
     quaternions : (T, 4) array
         The qw, qx, qy, qz columns (finite: the reader has checked).
     lines : sequence of T int
@@ -169,7 +179,7 @@ def read_orientation(path: str | Path, quaternions: np.ndarray, lines: Sequence[
     ------
     InputError
         ``FILE:LINE: ...`` at the first quaternion that is zero or whose norm is off 1 by
-        more than MAX_QUATERNION_NORM_ERROR.
+        more than MAX_QUATERNION_NORM_ERROR, or where it turns too fast (`check_turn_rate`).
     """
     norms = np.linalg.norm(quaternions, axis=1)
     bad = np.flatnonzero(np.abs(norms - 1.0) > MAX_QUATERNION_NORM_ERROR)
@@ -183,7 +193,9 @@ def read_orientation(path: str | Path, quaternions: np.ndarray, lines: Sequence[
             f"1 ± {MAX_QUATERNION_NORM_ERROR:g}, scalar first: qw,qx,qy,qz)"
         )
         raise located(path, lines[k], f"the orientation ({values}) {problem}")
-    return hemisphere_continuous(quaternions / norms[:, None])
+    unit = quaternions / norms[:, None]
+    check_turn_rate(path, t, unit, lines)
+    return hemisphere_continuous(unit)
 
 
 def check_speed(
@@ -210,30 +222,83 @@ def check_speed(
         ``FILE:LINE: ...`` naming the sample that jumps (the one after the largest step
         inside the fastest window) and the line before it.
     """
-    count = len(t)
-    start = np.arange(count)
-    end = np.minimum(np.searchsorted(t, t + SPEED_WINDOW_S - 1e-12), count - 1)
-    start, end = start[end > start], end[end > start]
-    if not len(start):
+    jump = _fastest_jump(
+        t, lambda a, b: np.linalg.norm(positions[b] - positions[a], axis=-1), MAX_SPEED_M_PER_S
+    )
+    if jump is None:
         return
-    distance = np.linalg.norm(positions[end] - positions[start], axis=1)
-    speed = distance / np.maximum(t[end] - t[start], SPEED_WINDOW_S)
-    fastest = int(np.argmax(speed))
-    if speed[fastest] <= MAX_SPEED_M_PER_S:
-        return
-    i, j = start[fastest], end[fastest]
-    steps = np.linalg.norm(np.diff(positions[i : j + 1], axis=0), axis=1)
-    k = i + int(np.argmax(steps))  # the largest step inside that window: k -> k + 1
-    step = float(np.linalg.norm(positions[k + 1] - positions[k]))
+    speed, window, k, step = jump
     raise located(
         path,
         lines[k + 1],
         f"the demonstration moves {100 * step:.1f} cm in {1000 * (t[k + 1] - t[k]):.0f} ms "
         f"from line {lines[k]} (t = {t[k]:g} s to {t[k + 1]:g} s): "
-        f"{speed[fastest]:.1f} m/s over {1000 * max(t[j] - t[i], SPEED_WINDOW_S):.0f} ms, "
+        f"{speed:.1f} m/s over {1000 * window:.0f} ms, "
         f"faster than the {MAX_SPEED_M_PER_S:g} m/s a demonstration may move "
         "(a jump in the recording?); remove or fix those samples",
     )
+
+
+def check_turn_rate(
+    path: str | Path, t: np.ndarray, quaternions: np.ndarray, lines: Sequence[int]
+) -> None:
+    """Refuse a demonstration that turns faster than MAX_TURN_RATE_RAD_PER_S anywhere,
+    measured as `check_speed` measures speed, with the geodesic angle between orientations
+    (q and -q are no turn).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file, for the message.
+    t : (T,) array
+        Sample times [s], strictly increasing.
+    quaternions : (T, 4) array
+        Unit quaternions.
+    lines : sequence of T int
+        Each sample's line in the file.
+
+    Raises
+    ------
+    InputError
+        ``FILE:LINE: ...`` naming the sample that jumps and the line before it.
+    """
+    jump = _fastest_jump(
+        t,
+        lambda a, b: geodesic_angle(quaternions[b], quaternions[a]),
+        MAX_TURN_RATE_RAD_PER_S,
+    )
+    if jump is None:
+        return
+    rate, window, k, step = jump
+    raise located(
+        path,
+        lines[k + 1],
+        f"the demonstration turns {np.degrees(step):.1f} deg in {1000 * (t[k + 1] - t[k]):.0f} "
+        f"ms from line {lines[k]} (t = {t[k]:g} s to {t[k + 1]:g} s): {rate:.1f} rad/s over "
+        f"{1000 * window:.0f} ms, faster than the {MAX_TURN_RATE_RAD_PER_S:g} rad/s a "
+        "demonstration may turn (a jump in the recording?); remove or fix those samples",
+    )
+
+
+def _fastest_jump(t, distance, bound):
+    """The fastest motion over windows of at least SPEED_WINDOW_S (from each sample to the
+    first one that much later) when it exceeds `bound`: (its speed, its window [s], k of
+    the largest step k -> k + 1 inside it, that step's distance); None when within it.
+    `distance(a, b)` gives the distances between the samples of index arrays a and b."""
+    count = len(t)
+    start = np.arange(count)
+    end = np.minimum(np.searchsorted(t, t + SPEED_WINDOW_S - 1e-12), count - 1)
+    start, end = start[end > start], end[end > start]
+    if not len(start):
+        return None
+    speed = distance(start, end) / np.maximum(t[end] - t[start], SPEED_WINDOW_S)
+    fastest = int(np.argmax(speed))
+    if speed[fastest] <= bound:
+        return None
+    i, j = start[fastest], end[fastest]
+    steps = distance(np.arange(i, j), np.arange(i + 1, j + 1))
+    k = i + int(np.argmax(steps))
+    return float(speed[fastest]), max(t[j] - t[i], SPEED_WINDOW_S), k, float(steps[k - i])
 
 
 def _without_orientation(path, line, header):
