@@ -222,20 +222,13 @@ def check_speed(
         ``FILE:LINE: ...`` naming the sample that jumps (the one after the largest step
         inside the fastest window) and the line before it.
     """
-    jump = _fastest_jump(
-        t, lambda a, b: np.linalg.norm(positions[b] - positions[a], axis=-1), MAX_SPEED_M_PER_S
-    )
-    if jump is None:
-        return
-    speed, window, k, step = jump
-    raise located(
+    _refuse_jumps(
         path,
-        lines[k + 1],
-        f"the demonstration moves {100 * step:.1f} cm in {1000 * (t[k + 1] - t[k]):.0f} ms "
-        f"from line {lines[k]} (t = {t[k]:g} s to {t[k + 1]:g} s): "
-        f"{speed:.1f} m/s over {1000 * window:.0f} ms, "
-        f"faster than the {MAX_SPEED_M_PER_S:g} m/s a demonstration may move "
-        "(a jump in the recording?); remove or fix those samples",
+        t,
+        lines,
+        lambda a, b: np.linalg.norm(positions[b] - positions[a], axis=-1),
+        (MAX_SPEED_M_PER_S, "m/s", "move"),
+        lambda step: f"moves {100 * step:.1f} cm",
     )
 
 
@@ -262,43 +255,44 @@ def check_turn_rate(
     InputError
         ``FILE:LINE: ...`` naming the sample that jumps and the line before it.
     """
-    jump = _fastest_jump(
-        t,
-        lambda a, b: geodesic_angle(quaternions[b], quaternions[a]),
-        MAX_TURN_RATE_RAD_PER_S,
-    )
-    if jump is None:
-        return
-    rate, window, k, step = jump
-    raise located(
+    _refuse_jumps(
         path,
-        lines[k + 1],
-        f"the demonstration turns {np.degrees(step):.1f} deg in {1000 * (t[k + 1] - t[k]):.0f} "
-        f"ms from line {lines[k]} (t = {t[k]:g} s to {t[k + 1]:g} s): {rate:.1f} rad/s over "
-        f"{1000 * window:.0f} ms, faster than the {MAX_TURN_RATE_RAD_PER_S:g} rad/s a "
-        "demonstration may turn (a jump in the recording?); remove or fix those samples",
+        t,
+        lines,
+        lambda a, b: geodesic_angle(quaternions[b], quaternions[a]),
+        (MAX_TURN_RATE_RAD_PER_S, "rad/s", "turn"),
+        lambda step: f"turns {np.degrees(step):.1f} deg",
     )
 
 
-def _fastest_jump(t, distance, bound):
+def _refuse_jumps(path, t, lines, distance, limit, describe_step):
     """The fastest motion over windows of at least SPEED_WINDOW_S (from each sample to the
-    first one that much later) when it exceeds `bound`: (its speed, its window [s], k of
-    the largest step k -> k + 1 inside it, that step's distance); None when within it.
-    `distance(a, b)` gives the distances between the samples of index arrays a and b."""
+    first one that much later), refused at the largest step inside it when it exceeds the
+    bound. `distance(a, b)`: the distances between the samples of index arrays a and b;
+    `limit`: (bound, its unit, the verb); `describe_step(step)`: the step in words."""
+    bound, unit, verb = limit
     count = len(t)
     start = np.arange(count)
     end = np.minimum(np.searchsorted(t, t + SPEED_WINDOW_S - 1e-12), count - 1)
     start, end = start[end > start], end[end > start]
     if not len(start):
-        return None
+        return
     speed = distance(start, end) / np.maximum(t[end] - t[start], SPEED_WINDOW_S)
     fastest = int(np.argmax(speed))
     if speed[fastest] <= bound:
-        return None
+        return
     i, j = start[fastest], end[fastest]
     steps = distance(np.arange(i, j), np.arange(i + 1, j + 1))
-    k = i + int(np.argmax(steps))
-    return float(speed[fastest]), max(t[j] - t[i], SPEED_WINDOW_S), k, float(steps[k - i])
+    k = i + int(np.argmax(steps))  # the largest step inside that window: k -> k + 1
+    raise located(
+        path,
+        lines[k + 1],
+        f"the demonstration {describe_step(float(steps[k - i]))} in "
+        f"{1000 * (t[k + 1] - t[k]):.0f} ms from line {lines[k]} (t = {t[k]:g} s to "
+        f"{t[k + 1]:g} s): {speed[fastest]:.1f} {unit} over "
+        f"{1000 * max(t[j] - t[i], SPEED_WINDOW_S):.0f} ms, faster than the {bound:g} {unit} "
+        f"a demonstration may {verb} (a jump in the recording?); remove or fix those samples",
+    )
 
 
 def _without_orientation(path, line, header):
