@@ -44,7 +44,7 @@ QUATERNION_COLUMNS = ("qw", "qx", "qy", "qz")
 ANGULAR_VELOCITY_COLUMNS = ("wx", "wy", "wz")
 # The fastest a demonstration may turn [rad/s], measured as MAX_SPEED_M_PER_S is. The
 # iiwa's seven joints at their speed limits (models/iiwa14.sdf) add up to 13 rad/s at the
-# tool, and only about no single axis; a hand turning a tool in a demonstration stays far
+# tool, a bound no direction reaches; a hand turning a tool in a demonstration stays far
 # below. Faster is a jump: a marker's frame flipping, swapped columns, a pasted segment.
 # Sign changes (q to -q) are no turn. 1 deg of noise per sample reads as 3 rad/s over 10 ms.
 MAX_TURN_RATE_RAD_PER_S = 15.0
