@@ -26,6 +26,7 @@ _EXPORTS = {
     # the numpy core
     "Dmp": "hlcmp_drake.core.dmp",
     "DmpSettings": "hlcmp_drake.core.dmp",
+    "OrientationDmp": "hlcmp_drake.core.orientation_dmp",
     "HlcmpLaw": "hlcmp_drake.core.laws",
     "HlcmpForgettingLaw": "hlcmp_drake.core.laws",
     "ConstantImpedanceLaw": "hlcmp_drake.core.laws",

@@ -5,8 +5,8 @@
     hlcmp learn DEMO.csv --scenario S --out DIR [--trials K] [--skill SKILL.npz [--any-scenario]]
     hlcmp reproduce SKILL.npz --scenario S --out DIR [--freeze] [--any-scenario]
     hlcmp bench [--out DIR] [--quick]        measure where the time goes
-    hlcmp fit DEMO.csv --out SKILL.npz       fit the DMP of a demonstration
-    hlcmp rollout SKILL.npz --out TRAJ.csv   roll a skill's DMP out
+    hlcmp fit DEMO.csv --out SKILL.npz       fit the DMP of a demonstration (positions or pose)
+    hlcmp rollout SKILL.npz --out TRAJ.csv   roll a skill's DMP out (with its orientation)
     hlcmp sweep SWEEP.yaml [--out DIR] [--engine local|ray] [--address A] [--workers N] [--dry-run]
     hlcmp serve SCENARIO --lcm URL [--controller C] [--skill SKILL.npz [--freeze]
                 [--any-scenario]] [--duration S] [--out DIR]
@@ -269,6 +269,7 @@ def cmd_probe(args):
 def cmd_fit(args):
     from hlcmp_drake.core.demo_force import fit_feedforward_weights
     from hlcmp_drake.core.dmp import Dmp
+    from hlcmp_drake.core.orientation_dmp import OrientationDmp
     from hlcmp_drake.io.demos import read_demonstration
     from hlcmp_drake.io.skill import Skill, save_skill
 
@@ -277,13 +278,23 @@ def cmd_fit(args):
     except ValueError as error:  # the message starts with the settings' field
         option = "--basis" if str(error).startswith("n_basis") else "--smoothing"
         raise InputError(f"{option}: {error}") from None
-    t, positions, axes, force = read_demonstration(args.demo, with_force=True)
+    t, positions, axes, quaternions, force = read_demonstration(
+        args.demo, with_orientation=True, with_force=True
+    )
     dmp = Dmp.fit(t, positions, axes, settings)
+    orientation = None if quaternions is None else OrientationDmp.fit(t, quaternions, settings)
     demo_force = None if force is None else fit_feedforward_weights(t, force, settings)
-    save_skill(args.out, Skill.untrained(dmp, demo_force))
+    save_skill(args.out, Skill.untrained(dmp, orientation, demo_force))
     flat = [a for a, scaled in zip(axes, dmp.goal_scaled) if not scaled]
+    turn = (
+        ""
+        if orientation is None
+        else f" and orientation DMP (turning "
+        f"{np.degrees(np.linalg.norm(orientation.demonstrated_rotation)):.1f} deg)"
+    )
     print(
-        f"fitted {len(axes)} axis DMP ({','.join(axes)}), N = {args.basis}, tau = {dmp.tau:.3f} s"
+        f"fitted {len(axes)} axis DMP ({','.join(axes)}){turn}, N = {args.basis}, "
+        f"tau = {dmp.tau:.3f} s"
         + (f"; g ~ p0 on {','.join(flat)}: amplitude = demonstration range" if flat else "")
         + ("" if force is None else "; the demonstration's force encoded as feed-forward")
         + f" -> {args.out}"
@@ -297,7 +308,11 @@ def cmd_rollout(args):
     from hlcmp_drake.io.skill import load_skill
 
     skill = load_skill(args.skill)
-    dmp = skill.dmp
+    dmp, orientation = skill.dmp, skill.orientation
+    if args.goal_orientation is not None:
+        if orientation is None:
+            raise InputError("--goal-orientation: the skill has no orientation (positions only)")
+        orientation = orientation.with_goal(_unit_quaternion(args.goal_orientation))
     if args.goal is not None:
         goal = _floats(args.goal, "--goal")
         if len(goal) != dmp.n_axes:
@@ -310,16 +325,36 @@ def cmd_rollout(args):
     if tau / args.dt > 2_000_000:
         raise InputError(f"--dt {args.dt} s over {tau} s would write more than 2,000,000 samples")
     t, p, v, _, s = dmp.rollout(dt=args.dt, tau=tau)
-    force = None
+    q = w = force = None
+    if orientation is not None:
+        _, q, w, _ = orientation.rollout(dt=args.dt, tau=tau)
     if skill.demo_force is not None:  # the demonstration's force, at the rollout's phase
         force = feedforward_along(skill.demo_force, s, dmp.settings)
-    write_trajectory(args.out, t, p, dmp.axis_names, v, force)
+    write_trajectory(
+        args.out, t, p, dmp.axis_names, v, quaternions=q, angular_velocities=w, force=force
+    )
     print(
         f"rolled out {len(t)} samples over {t[-1]:.3f} s"
         + ("" if force is None else ", with the demonstration's encoded force")
         + f" -> {args.out}"
     )
     return 0
+
+
+def _unit_quaternion(text):
+    """--goal-orientation's qw,qx,qy,qz, normalised; refused when off a unit norm."""
+    from hlcmp_drake.io.demos import MAX_QUATERNION_NORM_ERROR
+
+    q = np.array(_floats(text, "--goal-orientation"))
+    if len(q) != 4:
+        raise InputError(f"--goal-orientation: expected 4 values qw,qx,qy,qz, got {len(q)}")
+    norm = float(np.linalg.norm(q))
+    if abs(norm - 1.0) > MAX_QUATERNION_NORM_ERROR:
+        raise InputError(
+            f"--goal-orientation: norm {norm:.4g}; a unit quaternion qw,qx,qy,qz is expected "
+            f"(norm within 1 ± {MAX_QUATERNION_NORM_ERROR:g})"
+        )
+    return q / norm
 
 
 def _positive_count(text):
@@ -615,12 +650,15 @@ def build_parser():
     probe.set_defaults(func=cmd_probe)
 
     fit = sub.add_parser(
-        "fit", parents=[common], help="fit the DMP of a demonstration CSV (t,x,y,z)"
+        "fit",
+        parents=[common],
+        help="fit the DMP of a demonstration CSV (t,x,y,z or the pose t,x,y,z,qw,qx,qy,qz)",
     )
     fit.add_argument(
         "demo",
         help="demonstration CSV: t,x,y,z (time in s, then 1-3 positions in m), optionally "
-        "fx,fy,fz (the force on the tool in N)",
+        "followed by qw,qx,qy,qz (the tool's orientation in the world frame, unit quaternion), "
+        "then optionally fx,fy,fz (the force on the tool in N)",
     )
     fit.add_argument("--out", required=True, help="skill file to write (.npz)")
     fit.add_argument(
@@ -639,7 +677,10 @@ def build_parser():
     fit.set_defaults(func=cmd_fit)
 
     rollout = sub.add_parser(
-        "rollout", parents=[common], help="roll a skill's DMP out into a trajectory CSV"
+        "rollout",
+        parents=[common],
+        help="roll a skill's DMP out into a trajectory CSV (a pose skill's: "
+        "t,x,y,z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz, angular velocity in the world frame)",
     )
     rollout.add_argument("skill", help="skill file (.npz) from hlcmp fit or hlcmp learn")
     rollout.add_argument("--out", required=True, help="trajectory CSV to write")
@@ -647,6 +688,10 @@ def build_parser():
         "--duration", type=_positive, help="new duration tau in s (temporal scaling)"
     )
     rollout.add_argument("--goal", help="new goal, comma-separated, one value per axis")
+    rollout.add_argument(
+        "--goal-orientation",
+        help="a pose skill's new goal orientation: qw,qx,qy,qz (unit quaternion, world frame)",
+    )
     rollout.add_argument(
         "--dt", type=_positive, default=0.01, help="sample period in s (default 0.01)"
     )

@@ -69,6 +69,28 @@ def test_force_columns_do_not_change_the_positions_or_their_dmp(tmp_path):
     np.testing.assert_array_equal(with_force.theta_p, without.theta_p)
 
 
+def test_a_pose_demonstration_carries_its_force_after_the_orientation(tmp_path):
+    from conftest import tilted_turn
+
+    t, positions, quaternions, _ = tilted_turn(seed=5)
+    force = np.column_stack([np.sin(t), np.cos(t), 5.0 + 0 * t])
+    demo = write_trajectory(
+        tmp_path / "pose.csv", t, positions, "xyz", quaternions=quaternions, force=force
+    )
+    assert demo.read_text().splitlines()[0] == "t,x,y,z,qw,qx,qy,qz,fx,fy,fz"
+    _, _, _, q, read = read_demonstration(demo, with_orientation=True, with_force=True)
+    assert q.shape == (len(t), 4)
+    np.testing.assert_allclose(read, force, rtol=1e-8)
+    assert run_cli("fit", demo, "--out", tmp_path / "pose.npz").returncode == 0
+    skill = load_skill(tmp_path / "pose.npz")
+    assert skill.orientation is not None and skill.demo_force.shape == (3, 30)
+    assert run_cli("rollout", tmp_path / "pose.npz", "--out", tmp_path / "r.csv").returncode == 0
+    header = (tmp_path / "r.csv").read_text().splitlines()[0]
+    assert header == "t,x,y,z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz,fx,fy,fz"
+    *_, rolled = read_demonstration(tmp_path / "r.csv", with_orientation=True, with_force=True)
+    assert np.abs(rolled[:, 2] - 5.0).max() < 0.05
+
+
 def test_a_two_axis_demonstration_has_two_force_columns(tmp_path):
     path = tmp_path / "xz.csv"
     path.write_text("t,x,z,fx,fz\n" + rows(T, X, Z, 0 * T, FZ))
@@ -91,10 +113,12 @@ def test_a_two_axis_demonstration_has_two_force_columns(tmp_path):
             ":1: force columns must be fx,fz, one per position axis; found fx,fy,fz",
         ),
         ("t,x,y,z,fz,fy,fx", 7, ":1: force columns must be fx,fy,fz"),
-        ("t,fx,fy,fz,x,y,z", 7, ":1: columns must come in the order t, position, velocity, force"),
-        ("t,x,y,z,fx,fy,fz,vx,vy,vz", 10, ":1: columns must come in the order"),
-        ("t,x,y,z,fx,fy,fz,fx", 8, ":1: a column name appears twice"),
-        ("t,x,y,z,fx,fy,tz", 7, ":1: unknown column 'tz'"),
+        ("t,fx,fy,fz,x,y,z", 7, ":1: force columns fx,fy,fz must be the last columns"),
+        ("t,x,y,z,fx,fy,fz,vx,vy,vz", 10, ":1: force columns fx,fy,fz must be the last columns"),
+        ("t,x,y,z,fx,fy,fz,qw,qx,qy,qz", 11, ":1: force columns fx,fy,fz must be the last"),
+        ("t,x,y,z,fx,fy,fz,fx", 8, ":1: force columns must be fx,fy,fz, one per position axis"),
+        ("t,x,y,z,tz,fx,fy,fz", 8, ":1: unknown column 'tz'"),
+        ("t,fx,fy,fz", 4, ":1: no position column"),
     ],
 )
 def test_incomplete_or_misplaced_force_columns_are_refused_with_the_header_line(
@@ -129,7 +153,7 @@ def test_the_skill_file_keeps_the_encoded_force_and_reads_files_without_it(tmp_p
     t, positions = smooth_demo
     dmp = Dmp.fit(t, positions, "xyz")
     weights = np.random.default_rng(3).normal(0, 5, dmp.theta_p.shape)
-    loaded = load_skill(save_skill(tmp_path / "f.npz", Skill.untrained(dmp, weights)))
+    loaded = load_skill(save_skill(tmp_path / "f.npz", Skill.untrained(dmp, demo_force=weights)))
     np.testing.assert_array_equal(loaded.demo_force, weights)
     assert load_skill(save_skill(tmp_path / "n.npz", Skill.untrained(dmp))).demo_force is None
     with np.load(tmp_path / "f.npz") as data:

@@ -197,13 +197,19 @@ def learning_scenario(
 
 
 def check_skill_fits(skill: Skill, scenario: Scenario) -> None:
-    """Raise InputError when the skill's axes are not the ones the scenario controls.
+    """Raise InputError when the skill's axes are not the ones the scenario controls, or
+    when it is a pose skill (the scenarios control the translation only).
 
     Parameters
     ----------
     skill : Skill
     scenario : Scenario
     """
+    if skill.orientation is not None:
+        raise InputError(
+            f"the skill has an orientation (a pose skill), and the scenario '{scenario.name}' "
+            "controls the translation only; hlcmp rollout rolls a pose skill out"
+        )
     axes = ("x", "y", "z")[: scenario.n_axes]
     if skill.dmp.axis_names != axes:
         raise InputError(
