@@ -3,10 +3,13 @@
     hlcmp run SCENARIO [--out DIR] [--set KEY=VALUE ...] [--iiwa ours|drake_models]
     hlcmp report [--out DIR] [--scenarios NAME|YAML ...] [--jobs N]   scenarios, one offline page
     hlcmp learn DEMO.csv --scenario S --out DIR [--trials K] [--skill SKILL.npz [--any-scenario]]
+                [--demo-force]
     hlcmp reproduce SKILL.npz --scenario S --out DIR [--freeze] [--any-scenario]
     hlcmp bench [--out DIR] [--quick]        measure where the time goes
-    hlcmp fit DEMO.csv --out SKILL.npz       fit the DMP of a demonstration (positions or pose)
-    hlcmp rollout SKILL.npz --out TRAJ.csv   roll a skill's DMP out (with its orientation)
+    hlcmp fit DEMO.csv --out SKILL.npz       fit the DMP of a demonstration (positions or pose,
+                                             and its force)
+    hlcmp rollout SKILL.npz --out TRAJ.csv   roll a skill's DMP out (with its orientation and
+                                             the demonstration's encoded force)
     hlcmp sweep SWEEP.yaml [--out DIR] [--engine local|ray] [--address A] [--workers N] [--dry-run]
     hlcmp serve SCENARIO --lcm URL [--controller C] [--skill SKILL.npz [--freeze]
                 [--any-scenario]] [--duration S] [--out DIR]
