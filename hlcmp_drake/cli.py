@@ -1,6 +1,7 @@
 """The `hlcmp` command line.
 
     hlcmp run SCENARIO [--out DIR] [--set KEY=VALUE ...] [--iiwa ours|drake_models]
+              [--variant real_arm]
     hlcmp report [--out DIR] [--scenarios NAME|YAML ...] [--jobs N]   scenarios, one offline page
     hlcmp learn DEMO.csv --scenario S --out DIR [--trials K] [--skill SKILL.npz [--any-scenario]]
     hlcmp reproduce SKILL.npz --scenario S --out DIR [--freeze] [--any-scenario]
@@ -150,6 +151,7 @@ def cmd_run(args):
             drake_models_iiwa=args.iiwa == "drake_models",
             overrides=args.set,
             meshcat=meshcat,
+            variant=args.variant,
         )
     finally:
         # The live view's replay diagrams keep the Meshcat in reference cycles (pybind keep-alives),
@@ -447,7 +449,7 @@ def cmd_sim_driver(args):
 
 def build_parser():
     from hlcmp_drake import __version__
-    from hlcmp_drake.io.paths import bundled_scenarios
+    from hlcmp_drake.io.paths import bundled_scenarios, bundled_variants
 
     bundled = bundled_scenarios()
     # --debug and --quiet are accepted before or after the subcommand.
@@ -503,6 +505,12 @@ def build_parser():
         default="ours",
         help="the iiwa14 model: ours (models/iiwa14.sdf, default) or Drake's official "
         "one from drake_models (downloaded by Drake on first use: needs internet)",
+    )
+    run.add_argument(
+        "--variant",
+        help="layer a variant over the scenario before --set: a bundled one "
+        f"({', '.join(bundled_variants())}; real_arm: a real iiwa's imperfections, "
+        "docs/worlds.md) or a .yaml of your own; the runs go to out/SCENARIO_VARIANT",
     )
     run.set_defaults(func=cmd_run)
 
@@ -726,7 +734,7 @@ def _default_out(args):
     if args.command in ("run", "probe", "serve"):
         from hlcmp_drake.config.loading import load_scenario
 
-        scenario, _ = load_scenario(args.scenario, args.set)
+        scenario, _ = load_scenario(args.scenario, args.set, variant=getattr(args, "variant", None))
         prefix = {"run": "", "probe": "probe_", "serve": "serve_"}[args.command]
         return Path("out") / f"{prefix}{scenario.name}"
     if args.command == "sweep":
