@@ -1029,10 +1029,10 @@ class RobotImperfection:
       `tool_mass_error`) and its centre of mass moved by `tool_com_error_m`.
     - **Joint friction** on the simulated arm, which the controller does not know:
       tau_f = -(F_v v + F_c tanh(v / v_s)) per joint (`core.robot.joint_friction_torque`).
-    - **The wrist force** the controller reads (a law that reads it: the variable
-      impedance) is the true one plus a bias and Gaussian noise of per-axis sigma, drawn
-      once per control period from `noise_seed`. The logged force, the metrics and the
-      safety monitor keep the true force: they judge what the world did.
+    - **The wrist force** the controller reads (a law that reads it) and the safety
+      monitor checks is the true one plus a bias and Gaussian noise of per-axis sigma,
+      drawn once per control period from `noise_seed`. The logged force, and so the
+      metrics and the claims, keep the true force: they judge what the world did.
     - **Velocities**: with `velocity_filter_hz` > 0 the controller reads, instead of the
       plant's exact v, the position differences over the control period through a
       first-order low-pass (drake-iiwa-driver's velocity estimate).

@@ -291,7 +291,7 @@ def build(
             plant=world.plant,
             tool_frame=world.tool_frame,
             setup=setup,
-            contact_force=real.force,
+            contact_force=world.sensor.GetOutputPort("task_force"),
             theta0=theta0,
             real_arm=real,
         )
@@ -408,8 +408,9 @@ class RealArm:
     Attributes
     ----------
     force : OutputPort
-        The wrist force as the run reads it (3, world) [N]: the sensor's reading, with
-        its noise and bias when the scenario sets them.
+        The wrist force as the controller and the safety monitor read it (3, world) [N]:
+        the sensor's reading, with its noise and bias when the scenario sets them. The
+        logged force (and so the metrics) stays the true one: what the world did.
     measured_state : OutputPort or None
         The plant state as the controller reads it (the velocity estimate), or None for
         the plant's own.
@@ -512,6 +513,7 @@ def _add_fast_controller(
         initial_position=setup.dmp.start,
         measured_state=real_arm.measured_state if real_arm else None,
         period=real_arm.period if real_arm else None,
+        sensed_force=real_arm.force if real_arm else None,
     )
 
 

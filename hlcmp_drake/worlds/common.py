@@ -247,6 +247,7 @@ def add_control_loop(
     initial_position: np.ndarray,
     measured_state: OutputPort | None = None,
     period: float | None = None,
+    sensed_force: OutputPort | None = None,
 ) -> tuple[AddedController, dict, OutputPort]:
     """A world's fast path: `tick` as a `ControlLoop` (one Python call per plant step)
     between the reference and the plant's actuation, the law's state θ in a C++
@@ -275,6 +276,9 @@ def add_control_loop(
         plant's state.
     period : float, optional
         The controller's tick [s]; default the plant's time step.
+    sensed_force : OutputPort, optional
+        The force a law that reads it gets (a sensor's reading, noise and bias in it)
+        (M,) [N]; default `contact_force`, which is logged either way.
 
     Returns
     -------
@@ -296,7 +300,9 @@ def add_control_loop(
         builder.Connect(reference.GetOutputPort(port), loop.GetInputPort(port))
     builder.Connect(loop.GetOutputPort("joint_torque"), plant.get_actuation_input_port())
     if loop.external_force is not None:
-        builder.Connect(contact_force, loop.external_force)
+        builder.Connect(
+            contact_force if sensed_force is None else sensed_force, loop.external_force
+        )
     read_theta = None
     if law.theta_size:
         integrator = builder.AddSystem(Integrator(law.theta_size))
