@@ -2,7 +2,8 @@
 
     hlcmp run SCENARIO [--out DIR] [--set KEY=VALUE ...] [--iiwa ours|drake_models]
               [--variant real_arm]
-    hlcmp report [--out DIR] [--scenarios NAME|YAML ...] [--jobs N]   scenarios, one offline page
+    hlcmp report [--out DIR] [--scenarios NAME|YAML ...] [--jobs N] [--variants [V ...]]
+                                               scenarios, one offline page
     hlcmp learn DEMO.csv --scenario S --out DIR [--trials K] [--skill SKILL.npz [--any-scenario]]
     hlcmp reproduce SKILL.npz --scenario S --out DIR [--freeze] [--any-scenario]
     hlcmp bench [--out DIR] [--quick]        measure where the time goes
@@ -167,7 +168,9 @@ def cmd_report(args):
     from hlcmp_drake.run.report import run_report
 
     _quiet_drake(args)
-    result = run_report(args.out, args.scenarios, Progress(args.quiet), jobs=args.jobs)
+    result = run_report(
+        args.out, args.scenarios, Progress(args.quiet), jobs=args.jobs, variants=args.variants
+    )
     print(
         f"report: {result.page} ({result.wall_s:.0f} s for "
         f"{', '.join(s.name for s in result.sections)})"
@@ -532,6 +535,14 @@ def build_parser():
         type=_positive_count,
         help="runs and probes at once, each in a process of its own (default: the number of "
         "CPUs; 1 runs them one after the other in this process)",
+    )
+    report.add_argument(
+        "--variants",
+        nargs="*",
+        metavar="VARIANT",
+        help="the variants every arm scenario also runs under, shown beside its perfect "
+        f"robot (default every bundled one: {', '.join(bundled_variants())}; --variants "
+        "alone: none)",
     )
     report.set_defaults(func=cmd_report)
 
