@@ -2,7 +2,7 @@
 
     hlcmp run SCENARIO [--out DIR] [--set KEY=VALUE ...] [--iiwa ours|drake_models]
               [--variant real_arm]
-    hlcmp report [--out DIR] [--scenarios NAME|YAML ...] [--jobs N] [--variants [V ...]]
+    hlcmp report [--out DIR] [--scenarios NAME|YAML ...] [--jobs N] [--variants V ...]
                                                scenarios, one offline page
     hlcmp learn DEMO.csv --scenario S --out DIR [--trials K] [--skill SKILL.npz [--any-scenario]]
     hlcmp reproduce SKILL.npz --scenario S --out DIR [--freeze] [--any-scenario]
@@ -538,11 +538,12 @@ def build_parser():
     )
     report.add_argument(
         "--variants",
-        nargs="*",
+        nargs="+",
+        default=(),
         metavar="VARIANT",
-        help="the variants every arm scenario also runs under, shown beside its perfect "
-        f"robot (default every bundled one: {', '.join(bundled_variants())}; --variants "
-        "alone: none)",
+        help="also run every arm scenario under these variants and show them beside its "
+        f"perfect robot: bundled ({', '.join(bundled_variants())}) or .yaml files of your "
+        "own (default none: each adds about the arm scenarios' own time)",
     )
     report.set_defaults(func=cmd_report)
 

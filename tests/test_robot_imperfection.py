@@ -347,3 +347,21 @@ def test_the_controller_reads_the_estimate_and_ticks_at_its_period():
     state = built.plant.get_state_output_port().Eval(built.plant.GetMyContextFromRoot(context))
     np.testing.assert_array_equal(read[:7], state[:7])
     assert np.abs(state[7:]).max() > 1e-3 and np.abs(read[7:] - state[7:]).max() > 1e-4
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["run", "insertion", "--variant", "nope"],
+        ["run", "one_dof", "--variant", "real_arm"],
+        ["report", "--scenarios", "insertion", "--variants", "nope"],
+    ],
+)
+def test_a_bad_variant_stops_the_command_in_one_line_before_any_run(argv, tmp_path, capfd):
+    from hlcmp_drake.cli import main
+
+    out = tmp_path / "out"
+    assert main([*argv, "--out", str(out), "--quiet"]) == 2
+    lines = capfd.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("hlcmp: error: "), lines
+    assert not out.exists()

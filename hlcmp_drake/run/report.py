@@ -13,7 +13,7 @@ from hlcmp_drake.config.scenario import ArmTask
 from hlcmp_drake.experiments import experiment_of
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.io.outputs import WRITTEN, replacing_outputs, write_text
-from hlcmp_drake.io.paths import bundled_scenarios, bundled_variants
+from hlcmp_drake.io.paths import bundled_scenarios
 from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.present.report import ReportSection, report_page
 from hlcmp_drake.run.probe import run_probe
@@ -133,7 +133,7 @@ def run_report(
     reporter: Progress = SILENT,
     *,
     jobs: int | None = None,
-    variants: Sequence[str] | None = None,
+    variants: Sequence[str] = (),
 ) -> ReportResult:
     """Run each scenario into out_dir/<its name> (its probe, if it has one, into
     out_dir/<its name>/probe; an arm scenario under each variant into
@@ -154,13 +154,13 @@ def run_report(
     reporter : Progress, optional
     jobs : int, optional
         Processes at a time, >= 1; default one per CPU (at most one per task).
-    variants : sequence of str, optional
+    variants : sequence of str
         The variants each arm scenario also runs under, shown beside its perfect robot
-        (bundled names, e.g. "real_arm", or .yaml paths); default every bundled one.
+        (bundled names, e.g. "real_arm", or .yaml paths); default none (each adds about
+        as much work as the arm scenarios' own runs).
     """
     out_dir = Path(out_dir)
     folders = report_folders(out_dir, scenarios)
-    variants = bundled_variants() if variants is None else list(variants)
     work = [
         task for entry, folder in folders.items() for task in _report_work(entry, folder, variants)
     ]
