@@ -543,7 +543,7 @@ def build_parser():
         metavar="VARIANT",
         help="also run every arm scenario under these variants and show them beside its "
         f"perfect robot: bundled ({', '.join(bundled_variants())}) or .yaml files of your "
-        "own (default none: each adds about the arm scenarios' own time)",
+        "own (default none: each runs the arm scenarios again)",
     )
     report.set_defaults(func=cmd_report)
 

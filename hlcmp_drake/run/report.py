@@ -156,8 +156,8 @@ def run_report(
         Processes at a time, >= 1; default one per CPU (at most one per task).
     variants : sequence of str
         The variants each arm scenario also runs under, shown beside its perfect robot
-        (bundled names, e.g. "real_arm", or .yaml paths); default none (each adds about
-        as much work as the arm scenarios' own runs).
+        (bundled names, e.g. "real_arm", or .yaml paths); default none (each runs the
+        arm scenarios again).
     """
     out_dir = Path(out_dir)
     folders = report_folders(out_dir, scenarios)
