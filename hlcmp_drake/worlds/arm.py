@@ -6,6 +6,7 @@ monitor."""
 from __future__ import annotations
 
 import dataclasses as dc
+import functools
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
@@ -239,10 +240,7 @@ def add_harness(
         builder,
         scenario,
         world.plant,
-        extra_inputs={
-            "contact_force": force,
-            "saturated": saturated,
-        },
+        extra_inputs={"contact_force": force, "saturated": saturated},
         extra_check=arm_check(world.plant, scenario.task),
     )
     return add_loggers(builder, scenario, log_ports)
@@ -259,7 +257,9 @@ def build(
     """The iiwa diagram: the world, one controller and the harness (safety monitor, loggers).
 
     The controller goes in as task.control_path says: "fast" (`_add_fast_controller`) or
-    "modular" (`_add_modular_controller`).
+    "modular" (`_add_modular_controller`). A robot that is not its model
+    (scenario.robot_imperfection, fast path only: checked at load) adds `add_real_arm`'s
+    systems and sets the controller's model off the arm.
 
     Parameters
     ----------
@@ -282,39 +282,37 @@ def build(
     """
     builder = DiagramBuilder()
     world = add_world(builder, scenario)
-    if not scenario.robot_imperfection.perfect:
-        real = add_real_arm(builder, scenario, world, setup)
-        controller, log_ports, saturated = _add_fast_controller(
-            builder,
-            scenario,
-            controller_name,
-            plant=world.plant,
-            tool_frame=world.tool_frame,
-            setup=setup,
-            contact_force=world.sensor.GetOutputPort("task_force"),
-            theta0=theta0,
-            real_arm=real,
-        )
-        force = real.force
-    else:
-        fast = (
-            scenario.task.control_path == "fast"
-            and controller_kind(scenario, controller_name).law is not None
-        )
-        add = _add_fast_controller if fast else _add_modular_controller
-        controller, log_ports, saturated = add(
-            builder,
-            scenario,
-            controller_name,
-            plant=world.plant,
-            tool_frame=world.tool_frame,
-            setup=setup,
-            contact_force=world.sensor.GetOutputPort("task_force"),
-            theta0=theta0,
-        )
-        force = None
+    real = (
+        None
+        if scenario.robot_imperfection.perfect
+        else add_real_arm(builder, scenario, world, setup)
+    )
+    fast = (
+        scenario.task.control_path == "fast"
+        and controller_kind(scenario, controller_name).law is not None
+    )
+    add = (
+        functools.partial(_add_fast_controller, real_arm=real) if fast else _add_modular_controller
+    )
+    controller, log_ports, saturated = add(
+        builder,
+        scenario,
+        controller_name,
+        plant=world.plant,
+        tool_frame=world.tool_frame,
+        setup=setup,
+        contact_force=world.sensor.GetOutputPort("task_force"),
+        theta0=theta0,
+    )
     loggers = (
-        add_harness(builder, scenario, world, log_ports=log_ports, saturated=saturated, force=force)
+        add_harness(
+            builder,
+            scenario,
+            world,
+            log_ports=log_ports,
+            saturated=saturated,
+            force=real.force if real else None,
+        )
         if harness
         else {}
     )
@@ -490,16 +488,16 @@ def _add_fast_controller(
     period, reading its state estimate, with the controller's model set off the arm."""
     reference = add_reference(builder, scenario, dmp=setup.dmp, compiled=True)
     tick = arm_tick(scenario, name, plant=plant, setup=setup)
-    real = scenario.robot_imperfection
-    if real.model_differs:
+    imperfection = scenario.robot_imperfection
+    if imperfection.model_differs:
         set_model_off(
             plant,
             tick.model.context,
             arm_bodies=arm_bodies(plant),
             tool_body=tool_frame.body(),
-            link_mass_error=real.link_mass_error,
-            tool_mass_error=real.tool_mass_error,
-            tool_com_error=np.asarray(real.tool_com_error_m),
+            link_mass_error=imperfection.link_mass_error,
+            tool_mass_error=imperfection.tool_mass_error,
+            tool_com_error=np.asarray(imperfection.tool_com_error_m),
         )
     return add_control_loop(
         builder,
