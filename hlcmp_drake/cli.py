@@ -1,7 +1,9 @@
 """The `hlcmp` command line.
 
     hlcmp run SCENARIO [--out DIR] [--set KEY=VALUE ...] [--iiwa ours|drake_models]
-    hlcmp report [--out DIR] [--scenarios NAME|YAML ...] [--jobs N]   scenarios, one offline page
+              [--variant real_arm]
+    hlcmp report [--out DIR] [--scenarios NAME|YAML ...] [--jobs N] [--variants V ...]
+                                               scenarios, one offline page
     hlcmp learn DEMO.csv --scenario S --out DIR [--trials K] [--skill SKILL.npz [--any-scenario]]
                 [--demo-force]
     hlcmp reproduce SKILL.npz --scenario S --out DIR [--freeze] [--any-scenario]
@@ -153,6 +155,7 @@ def cmd_run(args):
             drake_models_iiwa=args.iiwa == "drake_models",
             overrides=args.set,
             meshcat=meshcat,
+            variant=args.variant,
         )
     finally:
         # The live view's replay diagrams keep the Meshcat in reference cycles (pybind keep-alives),
@@ -168,7 +171,9 @@ def cmd_report(args):
     from hlcmp_drake.run.report import run_report
 
     _quiet_drake(args)
-    result = run_report(args.out, args.scenarios, Progress(args.quiet), jobs=args.jobs)
+    result = run_report(
+        args.out, args.scenarios, Progress(args.quiet), jobs=args.jobs, variants=args.variants
+    )
     print(
         f"report: {result.page} ({result.wall_s:.0f} s for "
         f"{', '.join(s.name for s in result.sections)})"
@@ -498,7 +503,7 @@ def cmd_sim_driver(args):
 
 def build_parser():
     from hlcmp_drake import __version__
-    from hlcmp_drake.io.paths import bundled_scenarios
+    from hlcmp_drake.io.paths import bundled_scenarios, bundled_variants
 
     bundled = bundled_scenarios()
     # --debug and --quiet are accepted before or after the subcommand.
@@ -555,6 +560,12 @@ def build_parser():
         help="the iiwa14 model: ours (models/iiwa14.sdf, default) or Drake's official "
         "one from drake_models (downloaded by Drake on first use: needs internet)",
     )
+    run.add_argument(
+        "--variant",
+        help="layer a variant over the scenario before --set: a bundled one "
+        f"({', '.join(bundled_variants())}; real_arm: a real iiwa's imperfections, "
+        "docs/worlds.md) or a .yaml of your own; the runs go to out/SCENARIO_VARIANT",
+    )
     run.set_defaults(func=cmd_run)
 
     report = sub.add_parser(
@@ -575,6 +586,15 @@ def build_parser():
         type=_positive_count,
         help="runs and probes at once, each in a process of its own (default: the number of "
         "CPUs; 1 runs them one after the other in this process)",
+    )
+    report.add_argument(
+        "--variants",
+        nargs="+",
+        default=(),
+        metavar="VARIANT",
+        help="also run every arm scenario under these variants and show them beside its "
+        f"perfect robot: bundled ({', '.join(bundled_variants())}) or .yaml files of your "
+        "own (default none: each runs the arm scenarios again)",
     )
     report.set_defaults(func=cmd_report)
 
@@ -799,7 +819,7 @@ def _default_out(args):
     if args.command in ("run", "probe", "serve"):
         from hlcmp_drake.config.loading import load_scenario
 
-        scenario, _ = load_scenario(args.scenario, args.set)
+        scenario, _ = load_scenario(args.scenario, args.set, variant=getattr(args, "variant", None))
         prefix = {"run": "", "probe": "probe_", "serve": "serve_"}[args.command]
         return Path("out") / f"{prefix}{scenario.name}"
     if args.command == "sweep":
