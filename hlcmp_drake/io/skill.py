@@ -16,7 +16,7 @@ import dataclasses as dc
 import re
 import zipfile
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 
@@ -121,7 +121,9 @@ class Skill:
         return cls(dmp, zeros, zeros.copy(), zeros.copy())
 
 
-def save_skill(path: str | Path, skill: Skill) -> Path:
+def save_skill(
+    path: str | Path, skill: Skill, extra: Mapping[str, np.ndarray] | None = None
+) -> Path:
     """Write a skill file (.npz with `format_version`), atomically.
 
     beta is stored by its value (alpha / 4 when the settings leave it at None); the world
@@ -133,6 +135,10 @@ def save_skill(path: str | Path, skill: Skill) -> Path:
         The file to write.
     skill : Skill
         The skill.
+    extra : mapping of str to array, optional
+        Further arrays stored beside the skill's (e.g. a generalized skill's predictive
+        standard deviations); `load_skill` ignores them. A name of the skill's own is
+        refused (ValueError).
 
     Returns
     -------
@@ -163,6 +169,10 @@ def save_skill(path: str | Path, skill: Skill) -> Path:
     world = skill.world or SkillWorld("", "", "")
     for key in ("scenario", "kind", "digest"):
         arrays[f"world_{key}"] = np.array(getattr(world, key))
+    clashes = sorted(set(extra or {}) & set(arrays))
+    if clashes:
+        raise ValueError(f"extra arrays may not replace the skill's own: {', '.join(clashes)}")
+    arrays.update(extra or {})
 
     def write(temp):
         with open(temp, "wb") as stream:
