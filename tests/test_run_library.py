@@ -108,3 +108,23 @@ def test_the_acceptance_flow_of_the_bundled_library(tmp_path):
         "--quiet",
     )
     assert learned.returncode == 0 and "warning" not in learned.stderr, learned.stderr
+
+
+def test_files_from_a_remote_worker_are_stored_with_the_task_record_last(tmp_path, monkeypatch):
+    # A Ray node returns a skill's files; a kill while they are stored must not leave a
+    # library_task.json (the finished mark) beside a missing skill.npz or metrics.json.
+    from hlcmp_drake.io import outputs
+    from hlcmp_drake.run.sweep import store_files
+
+    (tmp_path / TASK_RECORD).write_text("{}")
+    order = []
+    real = outputs.atomic_write
+    monkeypatch.setattr(
+        outputs,
+        "atomic_write",
+        lambda path, write: order.append(Path(path).name) or real(path, write),
+    )
+    files = {name: b"x" for name in (TASK_RECORD, "metrics.json", "skill.npz", "scenario.yaml")}
+    assert (tmp_path / TASK_RECORD).exists()
+    store_files(tmp_path, files)
+    assert order == ["scenario.yaml", "skill.npz", "metrics.json", TASK_RECORD]
