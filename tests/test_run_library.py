@@ -8,7 +8,7 @@ import json
 from pathlib import Path
 
 import pytest
-from conftest import INSERTION_DEMO, run_cli
+from conftest import INSERTION_DEMO, one_line_error, run_cli
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.world import world_of_scenario
@@ -72,6 +72,17 @@ def test_the_command_prints_the_skills_and_a_rerun_says_nothing_was_relearned(tm
     second = run_cli("library", spec, "--out", out, "--quiet")
     assert second.returncode == 0, second.stderr
     assert "all 2 skills were already learned; nothing relearned" in second.stdout
+    # A generalized skill replays in its query's world (check_skill_world, which serve
+    # shares), and is refused in the bundled plank's.
+    made = run_cli("generalize", out, "--query", f"{DEPTH}=0.012", "--out", tmp_path / "s.npz")
+    assert made.returncode == 0, made.stderr
+    replay = ["reproduce", tmp_path / "s.npz", "--scenario", "insertion", "--freeze", "--quiet"]
+    here = run_cli(
+        *replay, "--set", f"{DEPTH}=0.012", "--set", "duration_s=0.3", "--out", tmp_path / "r"
+    )
+    assert here.returncode == 0 and "warning" not in here.stderr, here.stderr
+    elsewhere = run_cli(*replay, "--set", "duration_s=0.3", "--out", tmp_path / "e")
+    assert "the skill was learned in 'insertion'" in one_line_error(elsewhere)
 
 
 @pytest.mark.slow
