@@ -16,6 +16,9 @@
     hlcmp serve SCENARIO --lcm URL [--controller C] [--skill SKILL.npz [--freeze]
                 [--any-scenario]] [--duration S] [--out DIR]
     hlcmp sim-driver SCENARIO --lcm URL [--realtime] [--duration S] [--idle-timeout S]
+    hlcmp library SPEC.yaml --out DIR [--engine local|ray] [--address A] [--workers N]
+    hlcmp generalize DIR --query KEY=VALUE [...] --out SKILL.npz [--method regression|nearest]
+                [--extrapolate]
 
 Exit codes: 0 success, 2 bad input (one line on stderr; --debug shows the traceback),
 3 a simulation went unstable or a served run was stopped (metrics.json / serve.json say
@@ -27,6 +30,7 @@ This module is argparse and printing only: every command calls one library funct
 import argparse
 import gc
 import logging
+import shlex
 import sys
 
 import numpy as np
@@ -501,6 +505,87 @@ def cmd_sim_driver(args):
     return 0
 
 
+def cmd_library(args):
+    from hlcmp_drake.run.library import build_library
+
+    _quiet_drake(args)
+    try:
+        result = build_library(
+            args.spec, args.out, args.engine, args.workers, args.address, Progress(args.quiet)
+        )
+    except KeyboardInterrupt:
+        print(
+            "hlcmp: interrupted; every learned skill is kept (listed in "
+            f"{args.out}/library.json); the same command again learns only the rest",
+            file=sys.stderr,
+        )
+        return 130
+    record = result.record
+    for entry in record["skills"]:
+        error_mm = 1000 * sum(entry["metrics"]["mean_abs_position_error_m"].values())
+        print(f"  {entry['id']}: last trial mean |e| {error_mm:.2f} mm -> {entry['skill']}")
+    for entry in record["not_learned"]:
+        print(f"  {entry['id']}: {entry['status'].upper()} {entry.get('error', '')}".rstrip())
+    learned = len(record["skills"])
+    if not result.ran:
+        print(f"all {learned} skills were already learned; nothing relearned")
+    else:
+        print(
+            f"{len(result.ran)} skill(s) learned, {result.already_done} already learned; "
+            f"{result.wall_s:.1f} s"
+        )
+    print(f"library: {result.out_dir}/library.json ({learned} skills)")
+    if result.failed:
+        return 1
+    return EXIT_UNSTABLE if result.unstable else 0
+
+
+def _query(items):
+    """--query KEY=VALUE ... as {key: number}; a malformed or repeated one is bad input."""
+    query = {}
+    for item in items:
+        key, sep, text = item.partition("=")
+        key = key.strip()
+        if not sep or not key:
+            raise InputError(
+                f"--query {item}: expected KEY=VALUE, e.g. task.puncture.depth_m=0.011"
+            )
+        if key in query:
+            raise InputError(f"--query {key}: given twice")
+        value = _floats(text.strip(), f"--query {key}")
+        if len(value) != 1:
+            raise InputError(f"--query {key}: expected one number, got '{text}'")
+        query[key] = value[0]
+    return query
+
+
+def cmd_generalize(args):
+    from hlcmp_drake.run.skill_library import SkillLibrary, save_generalized
+
+    library = SkillLibrary.load(args.library)
+    query = _query(args.query)
+    skill, prediction, notes = library.generalize(query, args.method, args.extrapolate)
+    for note in notes:
+        _warn(note)
+    save_generalized(args.out, skill, prediction, query)
+    where = ", ".join(f"{key}={value:g}" for key, value in query.items())
+    how = (
+        f"Gaussian-process regression over {len(library.skills)} skills"
+        if args.method == "regression"
+        else f"the nearest skill ({prediction.nearest})"
+    )
+    print(f"skill at {where} by {how} -> {args.out}")
+    for field, std in (prediction.std or {}).items():
+        mean = prediction.mean[field]
+        print(
+            f"  {field}: |weights| max {np.max(np.abs(mean)):.3g}, predictive std mean "
+            f"{np.mean(std):.3g}, max {np.max(std):.3g} (saved as std_{field})"
+        )
+    uses = " ".join(f"--set {shlex.quote(o)}" for o in library.overrides(query))
+    print(f"use it with: --skill {shlex.quote(str(args.out))} {uses}")
+    return 0
+
+
 def build_parser():
     from hlcmp_drake import __version__
     from hlcmp_drake.io.paths import bundled_scenarios, bundled_variants
@@ -803,11 +888,72 @@ def build_parser():
         help="seconds without a command after which the client counts as gone (default 1)",
     )
     sim_driver.set_defaults(func=cmd_sim_driver)
+    _add_library_parsers(sub, common, quiet)
     return parser
 
 
+def _add_library_parsers(sub, common, quiet):
+    """The skill-library commands: `library` (learn one) and `generalize` (use one)."""
+    library = sub.add_parser(
+        "library",
+        parents=[common, quiet],
+        help="learn a skill at every combination of task parameters (resumable)",
+    )
+    library.add_argument(
+        "spec", help="a library file (.yaml) or a bundled library's name (diagrams/libraries/)"
+    )
+    library.add_argument(
+        "--out",
+        required=True,
+        help="the library's folder: library.json and skills/ID/; learned skills there are kept",
+    )
+    library.add_argument(
+        "--engine",
+        choices=("local", "ray"),
+        default="local",
+        help="local: a process pool on this machine (default); ray: Ray tasks, "
+        "needs pip install -e '.[ray]'",
+    )
+    library.add_argument(
+        "--address", help="with --engine ray: join the Ray cluster at this address"
+    )
+    library.add_argument(
+        "--workers",
+        type=_positive_count,
+        help="skills learned at once (local default: the number of CPUs)",
+    )
+    library.set_defaults(func=cmd_library)
+
+    generalize = sub.add_parser(
+        "generalize",
+        parents=[common],
+        help="a skill at new task parameters, by regression over a skill library",
+    )
+    generalize.add_argument("library", help="a folder written by hlcmp library")
+    generalize.add_argument(
+        "--query",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a task parameter's value (repeatable; every parameter the library varies)",
+    )
+    generalize.add_argument("--out", required=True, help="skill file to write (.npz)")
+    generalize.add_argument(
+        "--method",
+        choices=("regression", "nearest"),
+        default="regression",
+        help="regression: Gaussian-process regression (default); nearest: the nearest skill",
+    )
+    generalize.add_argument(
+        "--extrapolate",
+        action="store_true",
+        help="allow values beyond the library's range by more than 10%% of it (a warning)",
+    )
+    generalize.set_defaults(func=cmd_generalize)
+
+
 # Commands whose --out is a file; every other --out is a folder.
-WRITES_A_FILE = ("fit", "rollout")
+WRITES_A_FILE = ("fit", "rollout", "generalize")
 
 
 def _default_out(args):

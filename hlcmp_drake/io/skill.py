@@ -23,7 +23,7 @@ import dataclasses as dc
 import re
 import zipfile
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 
@@ -170,7 +170,9 @@ class Skill:
         )
 
 
-def save_skill(path: str | Path, skill: Skill) -> Path:
+def save_skill(
+    path: str | Path, skill: Skill, extra: Mapping[str, np.ndarray] | None = None
+) -> Path:
     """Write a skill file (.npz with `format_version`), atomically.
 
     beta is stored by its value (alpha / 4 when the settings leave it at None); the world
@@ -184,6 +186,10 @@ def save_skill(path: str | Path, skill: Skill) -> Path:
         The file to write.
     skill : Skill
         The skill.
+    extra : mapping of str to array, optional
+        Further arrays stored beside the skill's (e.g. a generalized skill's predictive
+        standard deviations); `load_skill` ignores them. A name of the skill's own is
+        refused (ValueError).
 
     Returns
     -------
@@ -226,6 +232,10 @@ def save_skill(path: str | Path, skill: Skill) -> Path:
             orientation_amplitude=np.array(o.amplitude),
             orientation_goal_scaled=np.array(o.goal_scaled),
         )
+    clashes = sorted(set(extra or {}) & set(arrays))
+    if clashes:
+        raise ValueError(f"extra arrays may not replace the skill's own: {', '.join(clashes)}")
+    arrays.update(extra or {})
 
     def write(temp):
         with open(temp, "wb") as stream:
