@@ -481,3 +481,24 @@ def test_a_driver_that_goes_quiet_before_any_logged_tick_ends_in_one_line(tmp_pa
     result = write_served(client, tmp_path, "memq://")
     assert result.metrics["status"] == "stopped" and result.metrics["controllers"] == {}
     assert json.loads((tmp_path / "serve.json").read_text())["ticks"] == 0
+
+
+def test_statuses_queued_while_the_client_was_busy_do_not_fool_the_period():
+    """A driver at 5 ms whose statuses reach the client three at a time (the client was
+    busy, e.g. collecting garbage before serving): each status's stamp counts, so the
+    period is 5 ms and the run goes on, though only every third status is decoded."""
+    client, send, commands = _client_fed_by_hand(
+        ["iiwa_driver.period_s=0.005", "iiwa_driver.start_guard_s=5.0"]
+    )
+    channel = client.config.status_channel
+    for burst in range(4):
+        for k in range(3):
+            stamp = 5000 * (3 * burst + k)
+            client._lcm.Publish(
+                channel,
+                encode_status(IiwaStatus(stamp, client.q0, *(np.zeros(7) for _ in range(4)))),
+            )
+        client._lcm.HandleSubscriptions(0)
+        client.poll()
+    assert not client.done, client.stopped_because
+    assert client.record("memq://")["status_period_s"] == pytest.approx(0.005)

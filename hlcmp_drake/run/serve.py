@@ -41,6 +41,7 @@ from hlcmp_drake.io.iiwa_lcm import (
     decode_wrench,
     encode_torque_command,
     open_lcm,
+    status_stamp,
 )
 from hlcmp_drake.io.runs import RunResult
 from hlcmp_drake.io.skill import Skill
@@ -192,7 +193,9 @@ class TorqueClient:
         self.ticks = self.missed_ticks = 0
         self.longest_missed_run = 0
         # The status period as the driver's stamps say: the smallest step between two
-        # statuses decoded one after the other (a status skipped only makes a step longer).
+        # statuses received one after the other, each read as it comes, whether answered
+        # or not (a status lost only makes a step longer; a burst of statuses queued
+        # while the client was busy makes none).
         self.status_period_s: float | None = None
         self._previous_stamp: int | None = None
         self._stamp_steps = 0
@@ -220,6 +223,20 @@ class TorqueClient:
         self.last_status_wall = now
         self.first_status_wall = self.first_status_wall or now
         self._latest = (now, data)
+        self._measure_period(status_stamp(data))
+
+    def _measure_period(self, utime: int | None) -> None:
+        """Take the step from the previous status's stamp into the measured period."""
+        if utime is None:
+            return  # not a status: decoding the newest says so
+        previous, self._previous_stamp = self._previous_stamp, utime
+        if previous is None or utime <= previous:
+            return  # the first, a duplicate or an older status: no step to measure
+        step = (utime - previous) / 1e6
+        self.status_period_s = (
+            step if self.status_period_s is None else min(self.status_period_s, step)
+        )
+        self._stamp_steps += 1
 
     def _on_wrench(self, data: bytes) -> None:
         self._wrist = data
@@ -260,21 +277,13 @@ class TorqueClient:
         except ProtocolError as error:
             self.stop(STOPPED, f"the driver sent {error}")
             return
-        if self._period_mismatch(status.utime):
+        if self._period_mismatch():
             return
         self._answer(status, received)
 
-    def _period_mismatch(self, utime: int) -> bool:
-        """Measure the status period from the stamps; stop (True) when it is not the
-        configured one, since the reference is sampled and θ stepped at `period_s`."""
-        previous, self._previous_stamp = self._previous_stamp, utime
-        if previous is None or utime <= previous:
-            return False  # the first, a duplicate or an older status: no step to measure
-        step = (utime - previous) / 1e6
-        self.status_period_s = (
-            step if self.status_period_s is None else min(self.status_period_s, step)
-        )
-        self._stamp_steps += 1
+    def _period_mismatch(self) -> bool:
+        """Stop (True) when the measured status period is not the configured one, since
+        the reference is sampled and θ stepped at `period_s`."""
         configured = self.config.period_s
         if self._stamp_steps < 2 or abs(self.status_period_s - configured) <= (
             self.config.period_tolerance * configured
