@@ -420,8 +420,11 @@ def cmd_serve(args):
         f"served {record['controller']} for {record['served_s']:.3f} s: {record['ticks']} ticks, "
         f"{record['missed_ticks']} missed, {timing}"
     )
-    print(f"{record['status']}: {record['stopped_because']}")
     served = ", timeseries.npz, recording.html" if len(result.run.t) else ""
+    if record["status"] == "ok":
+        print(f"ok: {record['stopped_because']}")
+    else:  # one line on stderr says why, as for every other failure
+        print(f"hlcmp serve: {record['status']}: {record['stopped_because']}", file=sys.stderr)
     print(f"serve.json, metrics.json{served} in {result.out_dir}")
     if record["status"] == "degraded":
         return EXIT_DEGRADED

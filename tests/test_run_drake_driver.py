@@ -2,6 +2,11 @@
 Drake's own simulated iiwa driver. Its statuses against the project's simulated driver's,
 `hlcmp serve` against it in one process (lockstep) and in two over udpm:// in real time."""
 
+import json
+import random
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 from pydrake.lcm import DrakeLcm
@@ -9,7 +14,7 @@ from pydrake.lcm import DrakeLcm
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.io.iiwa_lcm import decode_status, encode_torque_command
 from hlcmp_drake.run.drake_driver import DrakeDrivenWorld, lockstep_drake
-from hlcmp_drake.run.serve import TorqueClient, lockstep
+from hlcmp_drake.run.serve import TorqueClient, lockstep, write_served
 from hlcmp_drake.run.sim_driver import SimulatedIiwaDriver
 from hlcmp_drake.worlds.arm import prepare
 
@@ -88,3 +93,99 @@ def test_drakes_driver_is_the_project_driver_with_a_command_one_plant_step_late(
         drake = runs["drake"].series[series]
         assert np.abs(runs["delayed"].series[series] - drake).max() <= 1e-12, series
     assert np.abs(runs["at_once"].series["x"] - runs["drake"].series["x"]).max() > 1e-7
+
+
+# A served run in real time against Drake's driver, and the same run in lockstep with
+# Drake's driver in this process (each command acting one plant step after its status):
+# real time delays some commands by more plant steps and skips some statuses (at most 1 %
+# in a run that is "ok"). Every command one plant step later still (the project driver's
+# --command-delay 2 against 1; insertion, 3 s at 5 ms and 2 s at 1 ms, in free space)
+# moved the metrics by at most 7 µm (position errors), 2e-5 N/m (learned stiffness) and
+# 1.6e-4 N (feed-forward); two steps later, by twice that. These allow three times the
+# one-step change, or 5 %: the learned values are still near zero, so relative changes
+# of them say nothing.
+REAL_TIME_RTOL = 0.05
+REAL_TIME_ATOL = {"_N_per_m": 1e-4, "_N": 5e-4, "_m": 2e-5, "_ratio_z": 0.05}
+
+
+def _assert_close_to_lockstep(served, lockstep_metrics, where=""):
+    if isinstance(lockstep_metrics, dict):
+        assert served.keys() == lockstep_metrics.keys()
+        for key in lockstep_metrics:
+            _assert_close_to_lockstep(served[key], lockstep_metrics[key], f"{where}.{key}")
+    elif isinstance(lockstep_metrics, float):
+        metric = where.split(".")[1]
+        atol = next(v for suffix, v in REAL_TIME_ATOL.items() if metric.endswith(suffix))
+        assert served == pytest.approx(lockstep_metrics, rel=REAL_TIME_RTOL, abs=atol), where
+    elif not where.endswith("evidence"):  # its millimetres are the numbers above, rounded
+        assert served == lockstep_metrics, where
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("period, duration", [(0.005, 3.0), (0.001, 2.0)])
+def test_served_in_real_time_against_drakes_own_driver(tmp_path, period, duration):
+    """Drake's driver (5 ms: BuildIiwaControl as it is; 1 ms: its systems behind a 1 ms
+    publisher) and hlcmp serve as two processes over udpm://, in real time: the period is
+    measured, every status is answered or counted, and the metrics are those of the same
+    run in lockstep within the jitter's tolerance above. At 5 ms the run is ok. At 1 ms
+    a 2-core machine misses more than 1 % of the ticks (issue 21's tick target), and the
+    run must then say "degraded" (exit 5). The runs end before the foam: in contact, the
+    world behind Drake's driver does not keep real time on a 2-core machine (docs/iiwa.md)."""
+    client, record = _served_against_drakes_driver(tmp_path / "served", period, duration)
+    statuses = round(duration / period) + 1
+    assert record["ticks"] + record["missed_ticks"] == statuses
+    assert record["status_period_s"] == pytest.approx(period, rel=0.01)
+    too_many = record["missed_ticks"] > 0.01 * statuses or record["longest_missed_run"] >= 10
+    assert record["status"] == ("degraded" if too_many else "ok"), record
+    assert client.returncode == (5 if too_many else 0), client.stderr
+    if period == 0.005:
+        assert record["status"] == "ok", client.stdout
+    if record["status"] != "ok":
+        return  # the metrics of a degraded run are no measure of the jitter's effect
+
+    scenario, _ = load_scenario("insertion", [f"duration_s={duration}", *_client_settings(period)])
+    lcm = DrakeLcm("memq://")
+    reference = TorqueClient(scenario, "hlcmp", lcm)
+    lockstep_drake(DrakeDrivenWorld(scenario, lcm, period), reference, lcm)
+    expected = write_served(reference, tmp_path / "lockstep", "memq://").metrics
+    served = json.loads((tmp_path / "served" / "metrics.json").read_text())
+    _assert_close_to_lockstep(served["controllers"]["hlcmp"], expected["controllers"]["hlcmp"])
+
+
+def _client_settings(period):
+    """The client's settings against Drake's driver: its status period, and the wrist
+    force from the external torques (Drake's driver publishes no wrist sensor)."""
+    return [f"iiwa_driver.period_s={period}", "iiwa_driver.force_source=external_torque"]
+
+
+def _served_against_drakes_driver(out, period, duration):
+    """`hlcmp sim-driver insertion --drake-driver` and `hlcmp serve insertion` as two
+    processes on a udpm:// group of their own (239.255.77.x, apart from the project
+    driver's tests), both started and stopped here; returns the client's completed
+    process and serve.json."""
+    url = f"udpm://239.255.77.{random.randint(1, 250)}:{random.randint(20000, 60000)}?ttl=0"
+    cli = [sys.executable, "-m", "hlcmp_drake.cli"]
+    driver = subprocess.Popen(
+        [*cli, "sim-driver", "insertion", "--lcm", url, "--drake-driver", "--quiet"]
+        + ["--status-period", str(period)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        sets = [a for key_value in _client_settings(period) for a in ("--set", key_value)]
+        client = subprocess.run(
+            [*cli, "serve", "insertion", "--lcm", url, "--duration", str(duration)]
+            + ["--out", str(out), "--quiet", *sets],
+            capture_output=True,
+            text=True,
+            timeout=300,
+        )
+        driver_out, driver_err = driver.communicate(timeout=60)
+    finally:
+        if driver.poll() is None:
+            driver.kill()
+            driver.communicate()
+    assert driver.returncode == 0, driver_err
+    assert "the client stopped" in driver_out, driver_out
+    return client, json.loads((out / "serve.json").read_text())
