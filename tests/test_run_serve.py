@@ -420,8 +420,10 @@ def test_a_status_period_other_than_the_configured_one_stops_before_any_command(
     """A driver publishing every 5 ms to a client configured for 1 ms: said from the stamps
     during the start guard, with the fix, before a command goes out."""
     client, send, commands = _client_fed_by_hand(["iiwa_driver.start_guard_s=5.0"])
-    for utime in (0, 5000, 10000):
+    for utime in range(0, 50000, 5000):  # nine steps: not yet enough to call it
         send(utime, client.q0)
+    assert not client.done
+    send(50000, client.q0)
     assert client.status == STOPPED and not commands
     assert client.stopped_because.startswith("the driver's statuses come every 5 ms")
     assert "--set iiwa_driver.period_s=0.005" in client.stopped_because

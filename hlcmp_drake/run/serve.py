@@ -60,6 +60,9 @@ from hlcmp_drake.worlds.models import load_models, scoped_frame
 # The statuses a served run may end with: "ok" (served its duration), "unstable" (a
 # safety watchdog), "stopped" (the driver went quiet or sent something unreadable).
 FINISHED, UNSAFE, STOPPED, DEGRADED = "ok", "unstable", "stopped", "degraded"
+# Steps between statuses the period is measured over before a mismatch is called: the
+# smallest of them is the period unless every one spans a lost datagram.
+PERIOD_EVIDENCE_STEPS = 10
 
 
 def served_scenario(
@@ -285,7 +288,7 @@ class TorqueClient:
         """Stop (True) when the measured status period is not the configured one, since
         the reference is sampled and θ stepped at `period_s`."""
         configured = self.config.period_s
-        if self._stamp_steps < 2 or abs(self.status_period_s - configured) <= (
+        if self._stamp_steps < PERIOD_EVIDENCE_STEPS or abs(self.status_period_s - configured) <= (
             self.config.period_tolerance * configured
         ):
             return False
