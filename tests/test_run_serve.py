@@ -287,6 +287,29 @@ def test_saturated_torques_stop_the_client_after_max_saturation_s():
         (["serve", "insertion", "--lcm", "tcp://x:1"], "expected udpm://GROUP:PORT?ttl=0"),
         (["sim-driver", "insertion", "--lcm", "memq://"], "memq:// reaches only this process"),
         (
+            ["sim-driver", "insertion", "--lcm", "memq://", "--drake-driver"],
+            "memq:// reaches only this process",
+        ),
+        (
+            ["sim-driver", "insertion", "--lcm", "memq://", "--status-period", "0.001"],
+            "--status-period needs --drake-driver",
+        ),
+        (
+            ["sim-driver", "insertion", "--lcm", "memq://", "--drake-driver", "--realtime"],
+            "--drake-driver runs Drake's driver as it is",
+        ),
+        (["sim-driver", "insertion", "--lcm", "memq://", "--command-delay", "0.5"], "whole"),
+        (
+            ["sim-driver", "insertion", "--lcm", "udpm://239.255.76.1:7667?ttl=0"]
+            + ["--drake-driver", "--status-period", "0.0015"],
+            "must be a whole number of plant steps",
+        ),
+        (
+            ["sim-driver", "insertion", "--lcm", "udpm://239.255.76.1:7667?ttl=0"]
+            + ["--drake-driver", "--set", "iiwa_driver.status_channel=OTHER"],
+            "Drake's iiwa driver publishes on IIWA_STATUS",
+        ),
+        (
             ["serve", "insertion", "--lcm", "memq://", "--set", "iiwa_driver.force_source=guess"],
             "iiwa_driver.force_source",
         ),
