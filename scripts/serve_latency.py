@@ -3,7 +3,7 @@ two processes over udpm://...?ttl=0, several times back to back; print each run'
 serve.json numbers and a markdown table for the docs.
 
     python scripts/serve_latency.py [--scenario insertion] [--runs 3] [--duration 3]
-        [--pairs lockstep,realtime,drake-5ms,drake-1ms]
+        [--pairs lockstep,realtime,drake-5ms,drake-1ms] [--set iiwa_driver.busy_wait=false]
 
 The pairs:
 
@@ -43,10 +43,11 @@ PAIRS = {
 }
 
 
-def one_run(scenario: str, pair: str, duration: float, out: Path) -> dict:
-    """Serve `scenario` for `duration` s against the pair's driver; serve.json, with the
-    client's exit code and its last line."""
+def one_run(scenario: str, pair: str, duration: float, out: Path, sets: list[str]) -> dict:
+    """Serve `scenario` for `duration` s against the pair's driver, the client given the
+    pair's settings and then `sets`; serve.json, with the client's exit code."""
     driver_args, client_sets, _ = PAIRS[pair]
+    client_sets = [*client_sets, *sets]
     group = f"239.255.{random.randint(1, 254)}.{random.randint(1, 254)}"
     url = f"udpm://{group}:{random.randint(20000, 60000)}?ttl=0"
     cli = [sys.executable, "-m", "hlcmp_drake.cli"]
@@ -95,6 +96,13 @@ def main() -> None:
         default=",".join(PAIRS),
         help=f"comma-separated, of {', '.join(PAIRS)} (default all)",
     )
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a setting for every client, e.g. iiwa_driver.busy_wait=false",
+    )
     args = parser.parse_args()
     pairs = args.pairs.split(",")
     unknown = [pair for pair in pairs if pair not in PAIRS]
@@ -104,7 +112,8 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as folder:
         for pair in pairs:
             for k in range(1, args.runs + 1):
-                record = one_run(args.scenario, pair, args.duration, Path(folder) / f"{pair}{k}")
+                out = Path(folder) / f"{pair}{k}"
+                record = one_run(args.scenario, pair, args.duration, out, args.set)
                 rows.append(row(pair, k, record))
                 print(
                     f"{pair} run {k}: {record['status']} (exit {record['exit_code']}), "

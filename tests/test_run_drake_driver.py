@@ -97,13 +97,14 @@ def test_drakes_driver_is_the_project_driver_with_a_command_one_plant_step_late(
 
 # A served run in real time against Drake's driver, and the same run in lockstep with
 # Drake's driver in this process (each command acting one plant step after its status):
-# real time delays some commands by more plant steps and skips some statuses (at most 1 %
-# in a run that is "ok"). Every command one plant step later still (the project driver's
-# --command-delay 2 against 1; insertion, 3 s at 5 ms and 2 s at 1 ms, in free space)
-# moved the metrics by at most 7 µm (position errors), 2e-5 N/m (learned stiffness) and
-# 1.6e-4 N (feed-forward); two steps later, by twice that. These allow three times the
-# one-step change, or 5 %: the learned values are still near zero, so relative changes
-# of them say nothing.
+# real time makes some commands later by more plant steps, and some statuses reach the
+# client only with the next one (at most 1 % in a run that is "ok"). That jitter,
+# emulated without a clock (`python scripts/jitter_tolerance.py`: each command 1 to 3
+# plant steps late at random, 1 % of the statuses held back; 5 seeds; insertion, 3 s at
+# 5 ms and 2 s at 1 ms, in free space), moved the metrics by at most 8.1 µm (position
+# errors), 3.1e-5 N/m (learned stiffness) and 2.0e-4 N (feed-forward). These allow 2.5
+# times that, or 5 %: the learned values are still near zero, so relative changes of
+# them say nothing.
 REAL_TIME_RTOL = 0.05
 REAL_TIME_ATOL = {"_N_per_m": 1e-4, "_N": 5e-4, "_m": 2e-5, "_ratio_z": 0.05}
 
@@ -153,9 +154,15 @@ def test_served_in_real_time_against_drakes_own_driver(tmp_path, period, duratio
 
 
 def _client_settings(period):
-    """The client's settings against Drake's driver: its status period, and the wrist
-    force from the external torques (Drake's driver publishes no wrist sensor)."""
-    return [f"iiwa_driver.period_s={period}", "iiwa_driver.force_source=external_torque"]
+    """The client's settings against Drake's driver: its status period, the wrist force
+    from the external torques (Drake's driver publishes no wrist sensor), and sleeping
+    between statuses: the test shares its cores with other tests, where a polling client
+    was measured to miss half the statuses at 5 ms (docs/iiwa.md)."""
+    return [
+        f"iiwa_driver.period_s={period}",
+        "iiwa_driver.force_source=external_torque",
+        "iiwa_driver.busy_wait=false",
+    ]
 
 
 def _served_against_drakes_driver(out, period, duration):

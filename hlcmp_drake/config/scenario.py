@@ -960,6 +960,11 @@ class IiwaDriverConfig:
         How far the status period measured from the statuses' stamps may be from
         `period_s`, relative, in (0, 1). Further, the client stops before it commands at
         the wrong rate. Default 0.1.
+    busy_wait : bool
+        Between statuses, poll without sleeping (default true: the tick then starts from
+        warm caches, for a client with a core to itself) or sleep until a status comes
+        (false: for a machine whose cores are shared, where a polling client is
+        descheduled and misses statuses; docs/iiwa.md).
     """
 
     status_channel: str = "IIWA_STATUS"
@@ -974,6 +979,7 @@ class IiwaDriverConfig:
     max_missed_fraction: float = 0.01
     max_consecutive_missed: int = 10
     period_tolerance: float = 0.1
+    busy_wait: bool = True
 
     def check(self, fail: Fail) -> None:
         """Known force source, non-empty channels, positive times and tolerance, the
