@@ -13,9 +13,10 @@ that answers it, so no tick is ever missed and the run is deterministic), or rea
 (a period of wall-clock time per step; the latest command is applied, as on the robot).
 Simulated time stands still at 0, the arm held, until the first command.
 
-The simulation is stepped from Python, one period per command, with the command fixed on
-the plant's actuation input: no LCM systems inside the diagram, so an LCM event never
-splits a plant step.
+The simulation is stepped from Python, one plant step at a time and a period per command,
+with the command (plus gravity compensation) fixed on the plant's actuation input: no LCM
+systems inside the diagram, so an LCM event never splits a plant step. A command acts from
+its status on, or `command_delay_steps` plant steps later (1: Drake's simulated driver).
 """
 
 from __future__ import annotations
