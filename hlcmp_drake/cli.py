@@ -16,7 +16,8 @@
 
 Exit codes: 0 success, 2 bad input (one line on stderr; --debug shows the traceback),
 3 a simulation went unstable or a served run was stopped (metrics.json / serve.json say
-where and why), 4 the simulated driver aborted.
+where and why; a served run also in one line on stderr), 4 the simulated driver aborted,
+5 a served run finished but missed more ticks than iiwa_driver allows (degraded).
 
 This module is argparse and printing only: every command calls one library function.
 """
