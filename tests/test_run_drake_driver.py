@@ -9,7 +9,10 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import run_cli
 from pydrake.lcm import DrakeLcm
+from pydrake.multibody.plant import MultibodyPlant
+from pydrake.systems.lcm import LcmInterfaceSystem
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.io.iiwa_lcm import decode_status, encode_torque_command
@@ -196,3 +199,50 @@ def _served_against_drakes_driver(out, period, duration):
     assert driver.returncode == 0, driver_err
     assert "the client stopped" in driver_out, driver_out
     return client, json.loads((out / "serve.json").read_text())
+
+
+def test_build_iiwa_control_publishes_every_5_ms_whatever_lcm_status_period_says():
+    """Why Drake's driver as it is publishes every 5 ms (docs/iiwa.md): BuildIiwaControl
+    makes its status publisher with kIiwaLcmStatusPeriod, and IiwaDriver.lcm_status_period
+    set to 1 ms changes nothing in torque-only mode."""
+    from pydrake.manipulation import BuildIiwaControl, IiwaDriver, kIiwaLcmStatusPeriod
+
+    from hlcmp_drake.run.simulate import prepared_simulator
+    from hlcmp_drake.worlds.arm import build_driven
+    from hlcmp_drake.worlds.models import load_models
+
+    scenario, _ = load_scenario("insertion")
+    lcm = DrakeLcm("memq://")
+    statuses = _statuses(lcm, "IIWA_STATUS")
+    controller_plant = MultibodyPlant(0.0)
+    load_models(controller_plant, scenario)
+    config = IiwaDriver(control_mode="torque_only", lcm_status_period=0.001)
+
+    def add_driver(builder, plant):
+        builder.AddSystem(LcmInterfaceSystem(lcm))
+        iiwa = plant.GetModelInstanceByName("iiwa")
+        BuildIiwaControl(builder, lcm, plant, iiwa, config, controller_plant)
+
+    built = build_driven(scenario, prepare(scenario), add_driver=add_driver)
+    simulator = prepared_simulator(built, scenario)
+    simulator.AdvanceTo(0.05)
+    lcm.HandleSubscriptions(0)
+    stamps = [decode_status(data, 7).utime for data in statuses]
+    assert kIiwaLcmStatusPeriod == 0.005
+    assert len(stamps) == 11 and np.all(np.abs(np.diff(stamps) - 5000) <= 1)
+
+
+def test_the_drake_driver_command_runs_alone_to_its_duration():
+    """hlcmp sim-driver --drake-driver with no client: it keeps real time to --duration,
+    then exits 0 with its summary line (the statuses' period is measured by the client in
+    the real-time test)."""
+    url = f"udpm://239.255.77.{random.randint(1, 250)}:{random.randint(20000, 60000)}?ttl=0"
+    result = run_cli(
+        *("sim-driver", "insertion", "--lcm", url, "--drake-driver", "--quiet"),
+        *("--status-period", "0.001", "--duration", "0.1"),
+    )
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.startswith(
+        "sim-driver (Drake's iiwa driver, status every 1 ms): 0 commands, 0.100 s simulated"
+    )
+    assert result.stdout.strip().endswith("reached --duration 0.1 s")
