@@ -157,15 +157,9 @@ def test_served_in_real_time_against_drakes_own_driver(tmp_path, period, duratio
 
 
 def _client_settings(period):
-    """The client's settings against Drake's driver: its status period, the wrist force
-    from the external torques (Drake's driver publishes no wrist sensor), and sleeping
-    between statuses: the test shares its cores with other tests, where a polling client
-    was measured to miss half the statuses at 5 ms (docs/iiwa.md)."""
-    return [
-        f"iiwa_driver.period_s={period}",
-        "iiwa_driver.force_source=external_torque",
-        "iiwa_driver.busy_wait=false",
-    ]
+    """The client's settings against Drake's driver: its status period, and the wrist
+    force from the external torques (Drake's driver publishes no wrist sensor)."""
+    return [f"iiwa_driver.period_s={period}", "iiwa_driver.force_source=external_torque"]
 
 
 def _served_against_drakes_driver(out, period, duration):

@@ -534,10 +534,9 @@ def serve(client: TorqueClient, lcm: DrakeLcm, lcm_url: str, reporter: Progress 
     start = time.perf_counter()
     with without_garbage_collection():
         while not client.done:
-            # Once statuses come, poll without sleeping: a process woken from a sleep runs
-            # its tick from cold caches, measured 2-3x slower on a 2-core VM. On shared
-            # cores, sleep until a status comes instead: a polling client is descheduled
-            # for whole time slices, measured to miss most statuses (docs/iiwa.md).
+            # Sleep until a status comes: polling without sleeping (busy_wait) starts the
+            # tick from warm caches, but starves LCM's receiving of the CPU, and it loses
+            # datagrams then (docs/iiwa.md).
             polling = config.busy_wait and client.first_status_wall is not None
             lcm.HandleSubscriptions(0 if polling else 10)
             client.poll()
