@@ -26,6 +26,7 @@ _EXPORTS = {
     # the numpy core
     "Dmp": "hlcmp_drake.core.dmp",
     "DmpSettings": "hlcmp_drake.core.dmp",
+    "OrientationDmp": "hlcmp_drake.core.orientation_dmp",
     "HlcmpLaw": "hlcmp_drake.core.laws",
     "HlcmpForgettingLaw": "hlcmp_drake.core.laws",
     "ConstantImpedanceLaw": "hlcmp_drake.core.laws",
@@ -65,6 +66,9 @@ _EXPORTS = {
     "simulate": "hlcmp_drake.run.simulate",
     "run_scenario": "hlcmp_drake.run.runner",
     "learn": "hlcmp_drake.run.learning",
+    # skill libraries: a skill per task parameter, regressed to new ones
+    "build_library": "hlcmp_drake.run.library",
+    "SkillLibrary": "hlcmp_drake.run.skill_library",
     # a real (or simulated) iiwa over LCM
     "TorqueClient": "hlcmp_drake.run.serve",
     "serve_scenario": "hlcmp_drake.run.serve",

@@ -1,18 +1,26 @@
 """The `hlcmp` command line.
 
     hlcmp run SCENARIO [--out DIR] [--set KEY=VALUE ...] [--iiwa ours|drake_models]
-    hlcmp report [--out DIR] [--scenarios NAME|YAML ...] [--jobs N]   scenarios, one offline page
+              [--variant real_arm]
+    hlcmp report [--out DIR] [--scenarios NAME|YAML ...] [--jobs N] [--variants V ...]
+                                               scenarios, one offline page
     hlcmp learn DEMO.csv --scenario S --out DIR [--trials K] [--skill SKILL.npz [--any-scenario]]
+                [--demo-force]
     hlcmp reproduce SKILL.npz --scenario S --out DIR [--freeze] [--any-scenario]
     hlcmp bench [--out DIR] [--quick]        measure where the time goes
-    hlcmp fit DEMO.csv --out SKILL.npz       fit the DMP of a demonstration
-    hlcmp rollout SKILL.npz --out TRAJ.csv   roll a skill's DMP out
+    hlcmp fit DEMO.csv --out SKILL.npz       fit the DMP of a demonstration (positions or pose,
+                                             and its force)
+    hlcmp rollout SKILL.npz --out TRAJ.csv   roll a skill's DMP out (with its orientation and
+                                             the demonstration's encoded force)
     hlcmp sweep SWEEP.yaml [--out DIR] [--engine local|ray] [--address A] [--workers N] [--dry-run]
     hlcmp serve SCENARIO --lcm URL [--controller C] [--skill SKILL.npz [--freeze]
                 [--any-scenario]] [--duration S] [--out DIR]
     hlcmp sim-driver SCENARIO --lcm URL [--realtime] [--command-delay N] [--duration S]
                 [--idle-timeout S]
     hlcmp sim-driver SCENARIO --lcm URL --drake-driver [--status-period S] [--duration S]
+    hlcmp library SPEC.yaml --out DIR [--engine local|ray] [--address A] [--workers N]
+    hlcmp generalize DIR --query KEY=VALUE [...] --out SKILL.npz [--method regression|nearest]
+                [--extrapolate]
 
 Exit codes: 0 success, 2 bad input (one line on stderr; --debug shows the traceback),
 3 a simulation went unstable or a served run was stopped (metrics.json / serve.json say
@@ -25,6 +33,7 @@ This module is argparse and printing only: every command calls one library funct
 import argparse
 import gc
 import logging
+import shlex
 import sys
 
 import numpy as np
@@ -160,6 +169,7 @@ def cmd_run(args):
             drake_models_iiwa=args.iiwa == "drake_models",
             overrides=args.set,
             meshcat=meshcat,
+            variant=args.variant,
         )
     finally:
         # The live view's replay diagrams keep the Meshcat in reference cycles (pybind keep-alives),
@@ -175,7 +185,9 @@ def cmd_report(args):
     from hlcmp_drake.run.report import run_report
 
     _quiet_drake(args)
-    result = run_report(args.out, args.scenarios, Progress(args.quiet), jobs=args.jobs)
+    result = run_report(
+        args.out, args.scenarios, Progress(args.quiet), jobs=args.jobs, variants=args.variants
+    )
     print(
         f"report: {result.page} ({result.wall_s:.0f} s for "
         f"{', '.join(s.name for s in result.sections)})"
@@ -198,6 +210,7 @@ def cmd_learn(args):
         skill_path=args.skill,
         trials=args.trials,
         any_scenario=args.any_scenario,
+        demo_force=args.demo_force,
         **_learning_options(args),
     )
     return _print_learning(result)
@@ -276,7 +289,9 @@ def cmd_probe(args):
 
 
 def cmd_fit(args):
+    from hlcmp_drake.core.demo_force import fit_feedforward_weights
     from hlcmp_drake.core.dmp import Dmp
+    from hlcmp_drake.core.orientation_dmp import OrientationDmp
     from hlcmp_drake.io.demos import read_demonstration
     from hlcmp_drake.io.skill import Skill, save_skill
 
@@ -285,23 +300,41 @@ def cmd_fit(args):
     except ValueError as error:  # the message starts with the settings' field
         option = "--basis" if str(error).startswith("n_basis") else "--smoothing"
         raise InputError(f"{option}: {error}") from None
-    t, positions, axes = read_demonstration(args.demo)
+    t, positions, axes, quaternions, force = read_demonstration(
+        args.demo, with_orientation=True, with_force=True
+    )
     dmp = Dmp.fit(t, positions, axes, settings)
-    save_skill(args.out, Skill.untrained(dmp))
+    orientation = None if quaternions is None else OrientationDmp.fit(t, quaternions, settings)
+    demo_force = None if force is None else fit_feedforward_weights(t, force, settings)
+    save_skill(args.out, Skill.untrained(dmp, orientation, demo_force))
     flat = [a for a, scaled in zip(axes, dmp.goal_scaled) if not scaled]
+    turn = (
+        ""
+        if orientation is None
+        else f" and orientation DMP (turning "
+        f"{np.degrees(np.linalg.norm(orientation.demonstrated_rotation)):.1f} deg)"
+    )
     print(
-        f"fitted {len(axes)} axis DMP ({','.join(axes)}), N = {args.basis}, tau = {dmp.tau:.3f} s"
+        f"fitted {len(axes)} axis DMP ({','.join(axes)}){turn}, N = {args.basis}, "
+        f"tau = {dmp.tau:.3f} s"
         + (f"; g ~ p0 on {','.join(flat)}: amplitude = demonstration range" if flat else "")
+        + ("" if force is None else "; the demonstration's force encoded as feed-forward")
         + f" -> {args.out}"
     )
     return 0
 
 
 def cmd_rollout(args):
+    from hlcmp_drake.core.demo_force import feedforward_along
     from hlcmp_drake.io.demos import write_trajectory
     from hlcmp_drake.io.skill import load_skill
 
-    dmp = load_skill(args.skill).dmp
+    skill = load_skill(args.skill)
+    dmp, orientation = skill.dmp, skill.orientation
+    if args.goal_orientation is not None:
+        if orientation is None:
+            raise InputError("--goal-orientation: the skill has no orientation (positions only)")
+        orientation = orientation.with_goal(_unit_quaternion(args.goal_orientation))
     if args.goal is not None:
         goal = _floats(args.goal, "--goal")
         if len(goal) != dmp.n_axes:
@@ -313,10 +346,37 @@ def cmd_rollout(args):
     tau = args.duration or dmp.tau
     if tau / args.dt > 2_000_000:
         raise InputError(f"--dt {args.dt} s over {tau} s would write more than 2,000,000 samples")
-    t, p, v, _, _ = dmp.rollout(dt=args.dt, tau=tau)
-    write_trajectory(args.out, t, p, dmp.axis_names, v)
-    print(f"rolled out {len(t)} samples over {t[-1]:.3f} s -> {args.out}")
+    t, p, v, _, s = dmp.rollout(dt=args.dt, tau=tau)
+    q = w = force = None
+    if orientation is not None:
+        _, q, w, _ = orientation.rollout(dt=args.dt, tau=tau)
+    if skill.demo_force is not None:  # the demonstration's force, at the rollout's phase
+        force = feedforward_along(skill.demo_force, s, dmp.settings)
+    write_trajectory(
+        args.out, t, p, dmp.axis_names, v, quaternions=q, angular_velocities=w, force=force
+    )
+    print(
+        f"rolled out {len(t)} samples over {t[-1]:.3f} s"
+        + ("" if force is None else ", with the demonstration's encoded force")
+        + f" -> {args.out}"
+    )
     return 0
+
+
+def _unit_quaternion(text):
+    """--goal-orientation's qw,qx,qy,qz, normalised; refused when off a unit norm."""
+    from hlcmp_drake.io.demos import MAX_QUATERNION_NORM_ERROR
+
+    q = np.array(_floats(text, "--goal-orientation"))
+    if len(q) != 4:
+        raise InputError(f"--goal-orientation: expected 4 values qw,qx,qy,qz, got {len(q)}")
+    norm = float(np.linalg.norm(q))
+    if abs(norm - 1.0) > MAX_QUATERNION_NORM_ERROR:
+        raise InputError(
+            f"--goal-orientation: norm {norm:.4g}; a unit quaternion qw,qx,qy,qz is expected "
+            f"(norm within 1 ± {MAX_QUATERNION_NORM_ERROR:g})"
+        )
+    return q / norm
 
 
 def _positive_count(text):
@@ -498,9 +558,90 @@ def _drake_driver(args):
     return 0
 
 
+def cmd_library(args):
+    from hlcmp_drake.run.library import build_library
+
+    _quiet_drake(args)
+    try:
+        result = build_library(
+            args.spec, args.out, args.engine, args.workers, args.address, Progress(args.quiet)
+        )
+    except KeyboardInterrupt:
+        print(
+            "hlcmp: interrupted; every learned skill is kept (listed in "
+            f"{args.out}/library.json); the same command again learns only the rest",
+            file=sys.stderr,
+        )
+        return 130
+    record = result.record
+    for entry in record["skills"]:
+        error_mm = 1000 * sum(entry["metrics"]["mean_abs_position_error_m"].values())
+        print(f"  {entry['id']}: last trial mean |e| {error_mm:.2f} mm -> {entry['skill']}")
+    for entry in record["not_learned"]:
+        print(f"  {entry['id']}: {entry['status'].upper()} {entry.get('error', '')}".rstrip())
+    learned = len(record["skills"])
+    if not result.ran:
+        print(f"all {learned} skills were already learned; nothing relearned")
+    else:
+        print(
+            f"{len(result.ran)} skill(s) learned, {result.already_done} already learned; "
+            f"{result.wall_s:.1f} s"
+        )
+    print(f"library: {result.out_dir}/library.json ({learned} skills)")
+    if result.failed:
+        return 1
+    return EXIT_UNSTABLE if result.unstable else 0
+
+
+def _query(items):
+    """--query KEY=VALUE ... as {key: number}; a malformed or repeated one is bad input."""
+    query = {}
+    for item in items:
+        key, sep, text = item.partition("=")
+        key = key.strip()
+        if not sep or not key:
+            raise InputError(
+                f"--query {item}: expected KEY=VALUE, e.g. task.puncture.depth_m=0.011"
+            )
+        if key in query:
+            raise InputError(f"--query {key}: given twice")
+        value = _floats(text.strip(), f"--query {key}")
+        if len(value) != 1:
+            raise InputError(f"--query {key}: expected one number, got '{text}'")
+        query[key] = value[0]
+    return query
+
+
+def cmd_generalize(args):
+    from hlcmp_drake.run.skill_library import SkillLibrary, save_generalized
+
+    library = SkillLibrary.load(args.library)
+    query = _query(args.query)
+    skill, prediction, notes = library.generalize(query, args.method, args.extrapolate)
+    for note in notes:
+        _warn(note)
+    save_generalized(args.out, skill, prediction, query)
+    where = ", ".join(f"{key}={value:g}" for key, value in query.items())
+    how = (
+        f"Gaussian-process regression over {len(library.skills)} skills"
+        if args.method == "regression"
+        else f"the nearest skill ({prediction.nearest})"
+    )
+    print(f"skill at {where} by {how} -> {args.out}")
+    for field, std in (prediction.std or {}).items():
+        mean = prediction.mean[field]
+        print(
+            f"  {field}: |weights| max {np.max(np.abs(mean)):.3g}, predictive std mean "
+            f"{np.mean(std):.3g}, max {np.max(std):.3g} (saved as std_{field})"
+        )
+    uses = " ".join(f"--set {shlex.quote(o)}" for o in library.overrides(query))
+    print(f"use it with: --skill {shlex.quote(str(args.out))} {uses}")
+    return 0
+
+
 def build_parser():
     from hlcmp_drake import __version__
-    from hlcmp_drake.io.paths import bundled_scenarios
+    from hlcmp_drake.io.paths import bundled_scenarios, bundled_variants
 
     bundled = bundled_scenarios()
     # --debug and --quiet are accepted before or after the subcommand.
@@ -557,6 +698,12 @@ def build_parser():
         help="the iiwa14 model: ours (models/iiwa14.sdf, default) or Drake's official "
         "one from drake_models (downloaded by Drake on first use: needs internet)",
     )
+    run.add_argument(
+        "--variant",
+        help="layer a variant over the scenario before --set: a bundled one "
+        f"({', '.join(bundled_variants())}; real_arm: a real iiwa's imperfections, "
+        "docs/worlds.md) or a .yaml of your own; the runs go to out/SCENARIO_VARIANT",
+    )
     run.set_defaults(func=cmd_run)
 
     report = sub.add_parser(
@@ -578,6 +725,15 @@ def build_parser():
         help="runs and probes at once, each in a process of its own (default: the number of "
         "CPUs; 1 runs them one after the other in this process)",
     )
+    report.add_argument(
+        "--variants",
+        nargs="+",
+        default=(),
+        metavar="VARIANT",
+        help="also run every arm scenario under these variants and show them beside its "
+        f"perfect robot: bundled ({', '.join(bundled_variants())}) or .yaml files of your "
+        "own (default none: each runs the arm scenarios again)",
+    )
     report.set_defaults(func=cmd_report)
 
     bench = sub.add_parser(
@@ -597,7 +753,9 @@ def build_parser():
         help="learn a skill from your demonstration by reproducing it in a scenario",
     )
     learn.add_argument(
-        "demo", help="demonstration CSV (t,x,y,z; world frame of the scenario, metres)"
+        "demo",
+        help="demonstration CSV (t,x,y,z; world frame of the scenario, metres; optionally "
+        "fx,fy,fz, the force on the tool in N)",
     )
     learn.add_argument(
         "--out",
@@ -612,6 +770,12 @@ def build_parser():
     )
     learn.add_argument(
         "--skill", help="start from this saved skill's profiles instead of theta = 0"
+    )
+    learn.add_argument(
+        "--demo-force",
+        action="store_true",
+        help="start the feed-forward theta_v from the demonstration's force columns "
+        "(fx,fy,fz) instead of 0",
     )
     learn.set_defaults(func=cmd_learn)
 
@@ -647,9 +811,16 @@ def build_parser():
     probe.set_defaults(func=cmd_probe)
 
     fit = sub.add_parser(
-        "fit", parents=[common], help="fit the DMP of a demonstration CSV (t,x,y,z)"
+        "fit",
+        parents=[common],
+        help="fit the DMP of a demonstration CSV (t,x,y,z or the pose t,x,y,z,qw,qx,qy,qz)",
     )
-    fit.add_argument("demo", help="demonstration CSV: t,x,y,z (time in s, then 1-3 positions in m)")
+    fit.add_argument(
+        "demo",
+        help="demonstration CSV: t,x,y,z (time in s, then 1-3 positions in m), optionally "
+        "followed by qw,qx,qy,qz (the tool's orientation in the world frame, unit quaternion), "
+        "then optionally fx,fy,fz (the force on the tool in N)",
+    )
     fit.add_argument("--out", required=True, help="skill file to write (.npz)")
     fit.add_argument(
         "--basis",
@@ -667,7 +838,10 @@ def build_parser():
     fit.set_defaults(func=cmd_fit)
 
     rollout = sub.add_parser(
-        "rollout", parents=[common], help="roll a skill's DMP out into a trajectory CSV"
+        "rollout",
+        parents=[common],
+        help="roll a skill's DMP out into a trajectory CSV (a pose skill's: "
+        "t,x,y,z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz, angular velocity in the world frame)",
     )
     rollout.add_argument("skill", help="skill file (.npz) from hlcmp fit or hlcmp learn")
     rollout.add_argument("--out", required=True, help="trajectory CSV to write")
@@ -675,6 +849,10 @@ def build_parser():
         "--duration", type=_positive, help="new duration tau in s (temporal scaling)"
     )
     rollout.add_argument("--goal", help="new goal, comma-separated, one value per axis")
+    rollout.add_argument(
+        "--goal-orientation",
+        help="a pose skill's new goal orientation: qw,qx,qy,qz (unit quaternion, world frame)",
+    )
     rollout.add_argument(
         "--dt", type=_positive, default=0.01, help="sample period in s (default 0.01)"
     )
@@ -782,11 +960,72 @@ def build_parser():
         "of this period)",
     )
     sim_driver.set_defaults(func=cmd_sim_driver)
+    _add_library_parsers(sub, common, quiet)
     return parser
 
 
+def _add_library_parsers(sub, common, quiet):
+    """The skill-library commands: `library` (learn one) and `generalize` (use one)."""
+    library = sub.add_parser(
+        "library",
+        parents=[common, quiet],
+        help="learn a skill at every combination of task parameters (resumable)",
+    )
+    library.add_argument(
+        "spec", help="a library file (.yaml) or a bundled library's name (diagrams/libraries/)"
+    )
+    library.add_argument(
+        "--out",
+        required=True,
+        help="the library's folder: library.json and skills/ID/; learned skills there are kept",
+    )
+    library.add_argument(
+        "--engine",
+        choices=("local", "ray"),
+        default="local",
+        help="local: a process pool on this machine (default); ray: Ray tasks, "
+        "needs pip install -e '.[ray]'",
+    )
+    library.add_argument(
+        "--address", help="with --engine ray: join the Ray cluster at this address"
+    )
+    library.add_argument(
+        "--workers",
+        type=_positive_count,
+        help="skills learned at once (local default: the number of CPUs)",
+    )
+    library.set_defaults(func=cmd_library)
+
+    generalize = sub.add_parser(
+        "generalize",
+        parents=[common],
+        help="a skill at new task parameters, by regression over a skill library",
+    )
+    generalize.add_argument("library", help="a folder written by hlcmp library")
+    generalize.add_argument(
+        "--query",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a task parameter's value (repeatable; every parameter the library varies)",
+    )
+    generalize.add_argument("--out", required=True, help="skill file to write (.npz)")
+    generalize.add_argument(
+        "--method",
+        choices=("regression", "nearest"),
+        default="regression",
+        help="regression: Gaussian-process regression (default); nearest: the nearest skill",
+    )
+    generalize.add_argument(
+        "--extrapolate",
+        action="store_true",
+        help="allow values beyond the library's range by more than 10%% of it (a warning)",
+    )
+    generalize.set_defaults(func=cmd_generalize)
+
+
 # Commands whose --out is a file; every other --out is a folder.
-WRITES_A_FILE = ("fit", "rollout")
+WRITES_A_FILE = ("fit", "rollout", "generalize")
 
 
 def _default_out(args):
@@ -798,7 +1037,7 @@ def _default_out(args):
     if args.command in ("run", "probe", "serve"):
         from hlcmp_drake.config.loading import load_scenario
 
-        scenario, _ = load_scenario(args.scenario, args.set)
+        scenario, _ = load_scenario(args.scenario, args.set, variant=getattr(args, "variant", None))
         prefix = {"run": "", "probe": "probe_", "serve": "serve_"}[args.command]
         return Path("out") / f"{prefix}{scenario.name}"
     if args.command == "sweep":

@@ -12,15 +12,33 @@ a physiological tremor (0.2 mm, 8-12 Hz, seeded), sampled at 100 Hz as a recordi
   while pressing, and lift back to the start height -- so the z goal equals the z start,
   the DMP's g ~ p0 case.
 
+Each demonstration also carries the force its wrist sensor read (`fx,fy,fz`, the force the
+environment exerts on the tool, world frame, as a run's `f_ext`), recorded in the task's
+own world (diagrams/{task}.yaml): the iiwa, its dynamics compensated as a gravity-
+compensated backdrivable arm's are, is moved along the demonstrated path (the DMP the
+scenario fits to it, the tremor smoothed away) by a stiff impedance -- the teacher's hand,
+TEACHER_STIFFNESS_N_PER_M, critically damped -- and the
+tool's contact force (with the torn foam's friction) is read every 10 ms at the samples'
+times. The hand is stiffer than any controller the scenarios compare, so the tool stays
+within a few millimetres of the path it is written with (the script prints how far).
+`--no-force` writes the positions only; they are the same either way.
+
     python scripts/make_demos.py [--task insertion|cutting|all] [--out-dir diagrams/demos]
+                                 [--no-force]
 """
 
 import argparse
+import dataclasses as dc
+import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.config.scenario import ConstantImpedanceConfig
 from hlcmp_drake.io.demos import write_trajectory
+from hlcmp_drake.run.simulate import simulate
+from hlcmp_drake.worlds.build import diagram_factory
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -54,6 +72,41 @@ def minimum_jerk_through(waypoints, t):
     return out
 
 
+# The teacher's hand about the demonstrated path [N/m]: 5x the stiffest constant impedance
+# the scenarios compare (2000 N/m), so the 14 N the foam resists with moves the tool about
+# 1.4 mm off the path; damped critically with the tip's apparent mass of about 4 kg.
+TEACHER_STIFFNESS_N_PER_M = 10000.0
+TEACHER = ConstantImpedanceConfig(
+    stiffness_N_per_m=[TEACHER_STIFFNESS_N_PER_M] * 3,
+    damping_Ns_per_m=[2.0 * np.sqrt(TEACHER_STIFFNESS_N_PER_M * 4.0)] * 3,
+    pi=5.0,
+    gain_l=[10.0] * 3,
+)
+
+
+def recorded_force(task, t, positions):
+    """The wrist force (T, 3) [N] at the times `t` while the teacher moves the tool along
+    `positions` in the task's world, and the largest distance [m] of the tool from them."""
+    with tempfile.TemporaryDirectory() as folder:
+        path = write_trajectory(Path(folder) / "path.csv", t, positions, ("x", "y", "z"))
+        scenario, _ = load_scenario(task)
+        scenario = dc.replace(
+            scenario,
+            controllers={"teacher": TEACHER},
+            reference=dc.replace(scenario.reference, file=str(path)),
+            duration_s=float(t[-1]) + scenario.log_period_s,
+        )
+        run = simulate(diagram_factory(scenario)("teacher"), scenario, "teacher")
+    if run.status != "ok":
+        raise SystemExit(f"{task}: the teacher's run stopped: {run.reason}")
+
+    def at_samples(series):
+        return np.column_stack([np.interp(t, run.t, series[:, m]) for m in range(3)])
+
+    off_path = np.linalg.norm(at_samples(run.series["x"]) - positions, axis=1).max()
+    return at_samples(run.series["f_ext"]), off_path
+
+
 def tremor(t, rng, amplitude=2e-4):
     """A small band-limited tremor: a few random sines between 8 and 12 Hz per axis."""
     out = np.zeros((len(t), 3))
@@ -69,14 +122,22 @@ def main():
     parser.add_argument("--task", choices=[*WAYPOINTS, "all"], default="all")
     parser.add_argument("--out-dir", type=Path, default=ROOT / "diagrams" / "demos")
     parser.add_argument("--seed", type=int, default=2022)
+    parser.add_argument("--no-force", action="store_true", help="write the positions only")
     args = parser.parse_args()
     for task in WAYPOINTS if args.task == "all" else [args.task]:
         waypoints = WAYPOINTS[task]
         t = np.arange(0.0, waypoints[-1][0] + 1e-9, 0.01)
         positions = minimum_jerk_through(waypoints, t) + tremor(t, np.random.default_rng(args.seed))
         out = args.out_dir / f"{task}_demo.csv"
-        write_trajectory(out, t, positions, ("x", "y", "z"))
-        print(f"wrote {len(t)} samples over {t[-1]:.2f} s to {out}")
+        force, note = None, ""
+        if not args.no_force:
+            force, off_path = recorded_force(task, t, positions)
+            note = (
+                f", force recorded in its world (peak |f| {np.abs(force).max():.2f} N; the "
+                f"tool at most {1000 * off_path:.1f} mm off the path)"
+            )
+        write_trajectory(out, t, positions, ("x", "y", "z"), force=force)
+        print(f"wrote {len(t)} samples over {t[-1]:.2f} s to {out}{note}")
 
 
 if __name__ == "__main__":

@@ -79,6 +79,37 @@ def smooth_demo():
     return t, np.column_stack([x, y, z])
 
 
+def tilted_turn(seed, samples=400, duration=3.0, noise_deg=0.2):
+    """A pose demonstration no one tuned for, made from `seed`: a rest-to-rest turn of 190 to
+    330 deg about a random tilted axis, with a wobble of up to 15 deg about another axis,
+    unevenly sampled (random times), orientation noise of `noise_deg` std-dev per axis, and
+    each quaternion's sign random (samples switch hemisphere). Returns (t, positions (T, 3),
+    quaternions (T, 4), truth) with truth(t) the noise-free orientation (T, 4)."""
+    from hlcmp_drake.core.quaternion import from_rotation_vector, multiply
+
+    rng = np.random.default_rng(seed)
+    axis, other = rng.normal(size=(2, 3))
+    axis, other = axis / np.linalg.norm(axis), other / np.linalg.norm(other)
+    turn = np.radians(rng.uniform(190.0, 330.0))
+    wobble = np.radians(rng.uniform(-15.0, 15.0))
+    start = from_rotation_vector(rng.normal(size=3))
+
+    def truth(t):
+        u = np.clip(np.asarray(t) / duration, 0.0, 1.0)
+        first = from_rotation_vector((turn * minimum_jerk(u))[:, None] * axis)
+        second = from_rotation_vector((wobble * np.sin(np.pi * u) ** 2)[:, None] * other)
+        return multiply(first, multiply(second, start))
+
+    t = np.sort(np.concatenate([[0.0, duration], rng.uniform(0.0, duration, samples - 2)]))
+    noise = from_rotation_vector(rng.normal(0.0, np.radians(noise_deg), (samples, 3)))
+    q = multiply(noise, truth(t)) * rng.choice([-1.0, 1.0], samples)[:, None]
+    u = t / duration
+    positions = np.column_stack(
+        [0.2 * minimum_jerk(u), 0.05 * np.sin(np.pi * u), 0.4 - 0.1 * minimum_jerk(u)]
+    )
+    return t, positions, q, truth
+
+
 def _shared_run(tmp_path_factory, scenario):
     """`hlcmp run SCENARIO` once for the whole session, however many pytest-xdist workers
     ask: the first computes it under a lock in the folder the workers share, the others

@@ -11,8 +11,9 @@ import time
 
 import numpy as np
 import pytest
-from conftest import DEMO_CSV, one_line_error, run_cli
+from conftest import DEMO_CSV, one_line_error, run_cli, tilted_turn
 
+from hlcmp_drake.core import quaternion as quat
 from hlcmp_drake.io.demos import read_demonstration
 
 
@@ -340,3 +341,68 @@ def test_the_module_run_as_a_process_says_what_it_says_in_process(tmp_path):
     alone = run_cli(*args, separate_process=True)
     assert alone == run_cli(*args)
     assert alone.returncode == 2 and "no such file" in one_line_error(alone)
+
+
+def test_fit_then_rollout_of_a_pose(tmp_path):
+    t, positions, quaternions, truth = tilted_turn(3)
+    demo = write_demo(
+        tmp_path / "pose.csv", t, np.hstack([positions, quaternions]), "t,x,y,z,qw,qx,qy,qz"
+    )
+    fit = run_cli("fit", demo, "--out", tmp_path / "skill.npz")
+    assert fit.returncode == 0, fit.stderr
+    assert "and orientation DMP (turning" in fit.stdout
+    out = tmp_path / "traj.csv"
+    assert run_cli("rollout", tmp_path / "skill.npz", "--out", out, "--dt", 0.002).returncode == 0
+    assert out.read_text().splitlines()[0] == "t,x,y,z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz"
+    t_r, _, _, q = read_demonstration(out, with_orientation=True)
+    error = np.degrees(quat.geodesic_angle(q, truth(t_r)))
+    assert np.sqrt(np.mean(error**2)) < 1.0 and error[-1] < 0.5
+    goal = quat.multiply(quat.from_rotation_vector([0.0, 0.2, 0.0]), truth(t[-1:])[0])
+    moved = tmp_path / "moved.csv"
+    text = ",".join(f"{v:.12g}" for v in goal)
+    roll = run_cli(
+        "rollout",
+        tmp_path / "skill.npz",
+        "--out",
+        moved,
+        "--duration",
+        2 * t[-1],
+        "--goal-orientation",
+        text,
+    )
+    assert roll.returncode == 0, roll.stderr
+    q_moved = read_demonstration(moved, with_orientation=True)[3]
+    assert np.degrees(quat.geodesic_angle(q_moved[-1], goal)) < 0.5
+
+
+def test_pose_inputs_refused_with_one_line(tmp_path, smooth_demo):
+    t, positions, quaternions, _ = tilted_turn(0, samples=30)
+    quaternions[12] = [0.0, 0.0, 0.0, 0.0]
+    rows = np.hstack([positions, quaternions])
+    demo = write_demo(tmp_path / "pose.csv", t, rows, "t,x,y,z,qw,qx,qy,qz")
+    out = tmp_path / "skill.npz"
+    line = one_line_error(run_cli("fit", demo, "--out", out))
+    assert line.endswith("pose.csv:14: the orientation (0,0,0,0) is zero, which is no rotation")
+    assert not out.exists()
+    plain = write_demo(tmp_path / "demo.csv", *smooth_demo)
+    assert run_cli("fit", plain, "--out", out).returncode == 0
+    line = one_line_error(
+        run_cli("rollout", out, "--out", tmp_path / "t.csv", "--goal-orientation", "1,0,0,0")
+    )
+    assert line == "hlcmp: error: --goal-orientation: the skill has no orientation (positions only)"
+    write_demo(
+        tmp_path / "pose.csv",
+        t,
+        np.hstack([positions, np.tile([1.0, 0, 0, 0], (30, 1))]),
+        "t,x,y,z,qw,qx,qy,qz",
+    )
+    assert run_cli("fit", demo, "--out", out).returncode == 0
+    for value, problem in (
+        ("1,0,0", "expected 4 values"),
+        ("2,0,0,0", "norm 2; a unit quaternion"),
+    ):
+        line = one_line_error(
+            run_cli("rollout", out, "--out", tmp_path / "t.csv", "--goal-orientation", value)
+        )
+        assert problem in line
+    assert not (tmp_path / "t.csv").exists()

@@ -205,6 +205,19 @@ BREAKS = [
     ("iiwa_driver.max_consecutive_missed", lambda v, s: [0, -3]),
     ("iiwa_driver.period_tolerance", lambda v, s: [0.0, 1.0, float("nan")]),
     ("iiwa_driver.*", _number("> 0")),  # the periods, the timeouts and the tolerance
+    # a robot that is not its model
+    ("robot_imperfection.*_mass_error", lambda v, s: [NAN, -1.0]),
+    ("robot_imperfection.tool_com_error_m", lambda v, s: [[0.0, 0.0], _with_nan(v)]),
+    (
+        "robot_imperfection.*_friction_*",  # one per joint of the plant (7 or 1), >= 0
+        lambda v, s: [[0.1] * 3, [NAN] * 7, [-1.0] * 7],
+    ),
+    ("robot_imperfection.friction_speed_rad_per_s", _number("> 0")),
+    ("robot_imperfection.force_noise_N", lambda v, s: [[0.0], [NAN, 0.0, 0.0], [-1.0, 0.0, 0.0]]),
+    ("robot_imperfection.force_bias_N", lambda v, s: [[0.0], [NAN, 0.0, 0.0]]),
+    ("robot_imperfection.noise_seed", lambda v, s: [-1]),
+    ("robot_imperfection.velocity_filter_hz", _number(">= 0")),
+    ("robot_imperfection.control_period_s", lambda v, s: [NAN, -1.0, 0.0015]),
 ]
 
 # (scenario or "*", dotted-path pattern, why the field has no value to break).

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 from conftest import DEMO_CSV, mutations
 
-from hlcmp_drake.io.demos import read_demonstration
+from hlcmp_drake.core import quaternion as quat
+from hlcmp_drake.io.demos import read_demonstration, write_trajectory
 from hlcmp_drake.io.errors import InputError
 
 
@@ -85,3 +86,124 @@ def test_the_bundled_demonstrations_pass_the_speed_bound():
 
     for path in sorted((DIAGRAMS_DIR / "demos").glob("*.csv")):
         assert len(read_demonstration(path)[0]) > 100
+
+
+def _pose_text(quaternions, header="t,x,y,z,qw,qx,qy,qz"):
+    rows = [
+        f"{0.01 * k:.2f},{0.001 * k:.3f},0,0.2," + ",".join(f"{v:.9g}" for v in q)
+        for k, q in enumerate(quaternions)
+    ]
+    return header + "\n" + "\n".join(rows) + "\n"
+
+
+def _turn(count=20):
+    angles = np.linspace(0.0, 1.0, count)[:, None] * np.array([0.0, 0.0, 1.0])
+    return quat.from_rotation_vector(angles)
+
+
+def test_a_pose_is_read_unit_and_hemisphere_continuous(tmp_path):
+    q = _turn()
+    signs = np.where(np.arange(len(q)) % 3 == 1, -1.0, 1.0)[:, None]
+    path = tmp_path / "pose.csv"
+    path.write_text(_pose_text(q * signs * 1.005))  # within the norm tolerance
+    t, positions, axes, read = read_demonstration(path, with_orientation=True)
+    np.testing.assert_allclose(read, q, atol=1e-9)
+    assert axes == ("x", "y", "z") and positions.shape == (20, 3)
+    plain = tmp_path / "plain.csv"
+    plain.write_text(
+        "t,x,y,z\n" + "".join(f"{0.01 * k:.2f},{0.001 * k:.3f},0,0.2\n" for k in range(20))
+    )
+    assert read_demonstration(plain, with_orientation=True)[3] is None
+    np.testing.assert_array_equal(read_demonstration(plain)[1], positions)
+
+
+@pytest.mark.parametrize(
+    "row, values, message",
+    [
+        (5, [0, 0, 0, 0], ":7: the orientation (0,0,0,0) is zero, which is no rotation"),
+        (8, [1.05, 0, 0, 0], ":10: the orientation (1.05,0,0,0) has norm 1.05; a unit quaternion"),
+        (3, [0.3, 0.2, 0.1, 0.1], ":5: the orientation (0.3,0.2,0.1,0.1) has norm 0.3873"),
+        (4, [1, 0, float("nan"), 0], ":6: column 'qy' is not finite"),
+    ],
+)
+def test_a_bad_quaternion_is_refused_with_its_line(tmp_path, row, values, message):
+    q = _turn().astype(object)
+    q[row] = values
+    path = tmp_path / "pose.csv"
+    path.write_text(_pose_text(q))
+    with pytest.raises(InputError) as error:
+        read_demonstration(path, with_orientation=True)
+    assert str(error.value).startswith(f"{path}{message}")
+
+
+@pytest.mark.parametrize(
+    "header, message",
+    [
+        ("t,x,y,z,qx,qw,qy,qz", "orientation columns must be qw,qx,qy,qz, in that order"),
+        ("t,qw,qx,qy,qz,x,y,z", "right after the positions"),
+        ("t,x,y,z,qw,qx,qy", "orientation columns must be qw,qx,qy,qz"),
+        ("t,x,y,z,wx,wy,wz", "angular velocity columns wx,wy,wz need qw,qx,qy,qz"),
+        (
+            "t,x,y,z,qw,qx,qy,qz,wx,wy,wz,vx,vy,vz",
+            "angular velocity columns must be wx,wy,wz, last",
+        ),
+    ],
+)
+def test_misplaced_orientation_columns_are_named(tmp_path, header, message):
+    path = tmp_path / "pose.csv"
+    path.write_text(header + "\n")
+    with pytest.raises(InputError, match=":1: ") as error:
+        read_demonstration(path, with_orientation=True)
+    assert message in str(error.value)
+
+
+def test_a_reader_of_positions_refuses_a_pose(tmp_path):
+    path = tmp_path / "pose.csv"
+    path.write_text(_pose_text(_turn()))
+    with pytest.raises(InputError, match=r":1: columns qw,qx,qy,qz: an orientation is not used"):
+        read_demonstration(path)
+
+
+def test_a_pose_trajectory_round_trips(tmp_path):
+    q = _turn()
+    t = 0.01 * np.arange(20)
+    positions = np.column_stack([t, 0 * t, 0.2 + 0 * t])
+    omega = np.tile([0.0, 0.0, 1.0 / 0.19], (20, 1))
+    path = write_trajectory(
+        tmp_path / "traj.csv",
+        t,
+        positions,
+        "xyz",
+        np.gradient(positions, t, axis=0),
+        quaternions=q,
+        angular_velocities=omega,
+    )
+    assert path.read_text().splitlines()[0] == "t,x,y,z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz"
+    _, read_positions, _, read_q = read_demonstration(path, with_orientation=True)
+    np.testing.assert_allclose(read_q, q, atol=1e-8)
+    np.testing.assert_allclose(read_positions, positions, atol=1e-9)
+
+
+def test_a_turn_faster_than_the_bound_is_refused_with_its_line(tmp_path):
+    from hlcmp_drake.io.demos import MAX_TURN_RATE_RAD_PER_S
+
+    q = _turn(30)
+    q[15:] = quat.multiply(quat.from_rotation_vector([np.pi / 2, 0.0, 0.0]), q[15:])
+    path = tmp_path / "flip.csv"
+    path.write_text(_pose_text(q))
+    with pytest.raises(InputError) as error:
+        read_demonstration(path, with_orientation=True)
+    message = str(error.value)
+    assert message.startswith(f"{path}:17: the demonstration turns 90.0 deg in 10 ms from line 16")
+    assert f"faster than the {MAX_TURN_RATE_RAD_PER_S:g} rad/s" in message
+    # 1 deg of noise at 1 kHz on a brisk turn (2 rad/s), and every sign switched: no jump.
+    rng = np.random.default_rng(5)
+    t = 0.001 * np.arange(2000)
+    smooth = quat.from_rotation_vector(2.0 * t[:, None] * np.array([0.0, 0.6, 0.8]))
+    noise = quat.from_rotation_vector(rng.normal(0.0, np.radians(1.0), (2000, 3)))
+    noisy = quat.multiply(noise, smooth) * rng.choice([-1.0, 1.0], 2000)[:, None]
+    rows = "".join(
+        f"{a:.3f},0,0,0," + ",".join(f"{v:.9g}" for v in b) + "\n" for a, b in zip(t, noisy)
+    )
+    path.write_text("t,x,y,z,qw,qx,qy,qz\n" + rows)
+    read_demonstration(path, with_orientation=True)

@@ -2,13 +2,23 @@
 format 1 file (no world) still loads; a bad, truncated, missing or non-skill file is one
 clear error."""
 
+import dataclasses as dc
+
 import numpy as np
 import pytest
-from conftest import DEMO_CSV
+from conftest import DEMO_CSV, tilted_turn
 
-from hlcmp_drake.core.dmp import Dmp
+from hlcmp_drake.core.dmp import Dmp, DmpSettings
+from hlcmp_drake.core.orientation_dmp import OrientationDmp
 from hlcmp_drake.io.errors import InputError
-from hlcmp_drake.io.skill import FORMAT_VERSION, Skill, SkillWorld, load_skill, save_skill
+from hlcmp_drake.io.skill import (
+    FORMAT_VERSION,
+    POSE_FORMAT_VERSION,
+    Skill,
+    SkillWorld,
+    load_skill,
+    save_skill,
+)
 
 WORLD = SkillWorld("insertion", "ArmTask", "0123456789abcdef" * 4)
 
@@ -70,8 +80,8 @@ def _rewrite(path, **changes):
     "changes, message",
     [
         (
-            {"format_version": np.array(FORMAT_VERSION + 1)},
-            "format_version 3 is not supported (this version reads 1, 2)",
+            {"format_version": np.array(POSE_FORMAT_VERSION + 1)},
+            "format_version 4 is not supported (this version reads 1, 2, 3)",
         ),
         ({"world_digest": None}, "missing field(s): world_digest"),
         ({"world_digest": np.array("abc")}, "field 'world_digest' must be 64 hex digits"),
@@ -125,3 +135,58 @@ def test_a_non_skill_file_gets_its_own_message(tmp_path, content, extra):
         + extra
     )
     assert "pickle" not in message
+
+
+@pytest.fixture
+def pose_skill():
+    t, positions, quaternions, _ = tilted_turn(4)
+    settings = DmpSettings(n_basis=20)
+    dmp = Dmp.fit(t, positions, "xyz", settings)
+    return Skill.untrained(dmp, OrientationDmp.fit(t, quaternions, settings))
+
+
+def test_a_pose_skill_round_trips_as_format_3_and_a_position_skill_stays_format_2(
+    tmp_path, skill, pose_skill
+):
+    path = save_skill(tmp_path / "pose.npz", pose_skill)
+    with np.load(path) as data:
+        assert int(data["format_version"]) == POSE_FORMAT_VERSION
+    loaded = load_skill(path).orientation
+    original = pose_skill.orientation
+    for key in ("start", "goal", "demonstrated_rotation", "theta"):
+        np.testing.assert_array_equal(getattr(loaded, key), getattr(original, key))
+    assert (loaded.amplitude, loaded.goal_scaled) == (original.amplitude, original.goal_scaled)
+    assert (loaded.settings, loaded.tau) == (original.settings, original.tau)
+    np.testing.assert_array_equal(loaded.rollout(dt=0.01)[1], original.rollout(dt=0.01)[1])
+    with np.load(save_skill(tmp_path / "position.npz", skill)) as data:
+        assert int(data["format_version"]) == FORMAT_VERSION
+        assert not any(key.startswith("orientation_") for key in data.files)
+    assert load_skill(tmp_path / "position.npz").orientation is None
+
+
+@pytest.mark.parametrize(
+    "changes, message",
+    [
+        ({"orientation_theta": None}, "missing field(s): orientation_theta"),
+        (
+            {"orientation_theta": np.zeros((3, 7))},
+            "field 'orientation_theta' has shape (3, 7), expected (3, 20)",
+        ),
+        ({"orientation_goal": np.array([1.0, 0, 0, 0.1])}, "'orientation_goal' is not a unit"),
+        ({"orientation_rotation": np.array([np.nan, 0, 0])}, "must hold finite numbers"),
+        ({"orientation_amplitude": np.array(0.0)}, "'orientation_amplitude' must be positive"),
+    ],
+)
+def test_bad_pose_skill_files(tmp_path, pose_skill, changes, message):
+    path = save_skill(tmp_path / "skill.npz", pose_skill)
+    _rewrite(path, **changes)
+    with pytest.raises(InputError) as error:
+        load_skill(path)
+    assert message in str(error.value)
+    assert str(error.value).startswith(str(path))
+
+
+def test_the_orientation_must_share_the_position_dmp_phase(pose_skill):
+    other = dc.replace(pose_skill.orientation, tau=2 * pose_skill.orientation.tau)
+    with pytest.raises(ValueError, match="settings and tau"):
+        Skill.untrained(pose_skill.dmp, other)

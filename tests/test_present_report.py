@@ -100,3 +100,48 @@ def test_readme_claims_summary_comes_from_the_runs(one_dof_run, insertion_run, c
         0
     ]
     assert block == to_markdown(claims_summary_table(metrics), code_first_column=False)
+
+
+def test_a_variant_is_compared_row_by_row_and_claim_by_claim():
+    from hlcmp_drake.present.report import robot_comparison
+
+    def controller(error_mm, done):
+        axes = {"x": 0.0, "y": 0.0, "z": 0.0}
+        return {
+            "mean_abs_position_error_m": {**axes, "z": error_mm / 1000},
+            "mean_abs_force_N": axes,
+            "force_smoothness_N": axes,
+            "max_abs_force_N": axes,
+            "task": {"done": done, "evidence": ""},
+        }
+
+    def run(error_mm, done, holds, unstable=False):
+        return {
+            "status": "unstable" if unstable else "ok",
+            "controllers": {"hlcmp": controller(error_mm, done), "k": controller(1.0, True)},
+            "learners": {"hlcmp": {"q_units": "per_second"}},
+            "claims": {} if unstable else {"hlcmp": {"C1": {"holds": holds, "paper_says": ""}}},
+            **({"instability": {"k": {"reason": "r", "time_s": 1.0}}} if unstable else {}),
+        }
+
+    metrics, claims = robot_comparison(
+        run(2.0, True, True), run(5.0, False, None), "real_arm", EXPERIMENTS["insertion"]
+    )
+    assert [row[:3] for row in metrics.rows] == [
+        ["hlcmp", "perfect", "yes"],
+        ["hlcmp", "real_arm", "no"],
+        ["k", "perfect", "yes"],
+        ["k", "real_arm", "yes"],
+    ]
+    assert metrics.rows[1][3] == "0.00/0.00/5.00"
+    assert claims.headers[2:] == ["perfect", "real_arm"]
+    assert claims.rows == [
+        ["C1", "hlcmp: Q per second (Eq. 31)", "yes", "not judged (task not done)"]
+    ]
+    metrics, claims = robot_comparison(
+        run(2.0, True, True),
+        run(5.0, True, None, unstable=True),
+        "real_arm",
+        EXPERIMENTS["insertion"],
+    )
+    assert metrics.rows[3][2] == "unstable" and claims.rows[0][3] == "–"

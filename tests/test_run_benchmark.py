@@ -40,9 +40,14 @@ def test_quick_benchmark_writes_every_measurement(tmp_path, capsys):
         len(w) == 1 for w in walls.values()
     )
     assert "dmp_vs_movement_primitives" in results
+    assert results["pose_dmp_fit_rollout_ms"] > 0
+    if results["pose_dmp_vs_cartesian_dmp"] is not None:  # movement_primitives is installed
+        assert set(results["cartesian_dmp_rms_deg"]) == {"150", "270"}
+    assert set(results["orientation_dmp_rms_deg"]) == {"150", "270"}
     assert set(results["scenario_wall_s"]) == {"one_dof", "insertion", "cutting"}
     out = capsys.readouterr().out
     assert "controller_overhead_ratio" in out and "quick smoke run" in out
+    assert "pose_dmp_vs_cartesian_dmp" in out
     assert "met" not in out.split() and "missed" not in out
 
 
@@ -84,3 +89,28 @@ def test_a_quick_run_is_labelled_a_smoke_run_and_judges_no_target():
     assert "`hlcmp run one_dof` cut to 0.5 s" in text
     full = to_text(table(_results("full")))
     assert "smoke" not in full and full.count("**missed**") == 6 and "(9.5 s, harnessed" in full
+
+
+def test_the_pose_dmp_rows_show_both_sides_or_say_n_a():
+    from hlcmp_drake.present.tables import to_text
+    from hlcmp_drake.run.benchmark import table
+
+    results = _results("full")
+    results.update(
+        orientation_dmp_rms_deg={"150": 0.0012, "270": 0.0014},
+        cartesian_dmp_rms_deg={"150": 0.052, "270": 0.085},
+        pose_dmp_fit_rollout_ms=40.0,
+        cartesian_dmp_fit_rollout_ms=320.0,
+        pose_dmp_vs_cartesian_dmp=0.25,
+    )
+    text = to_text(table(results))
+    assert "0.0012 / 0.0014°" in text and "0.0520 / 0.0850°" in text
+    (ratio,) = [line for line in text.splitlines() if "pose_dmp_vs_cartesian_dmp" in line]
+    assert "(40 ms / 320 ms)" in ratio and ratio.split()[-1] == "0.25"
+    results.update(
+        cartesian_dmp_rms_deg=None,
+        cartesian_dmp_fit_rollout_ms=None,
+        pose_dmp_vs_cartesian_dmp=None,
+    )
+    text = to_text(table(results))
+    assert "(40 ms / n/a)" in text and text.count("n/a") >= 3

@@ -406,3 +406,21 @@ def test_a_short_skill_runs_its_own_time_and_records_its_world(tmp_path):
             rtol=2e-3,
             atol=1e-3 * np.abs(theta).max(),
         )
+
+
+def test_a_pose_skill_is_refused_by_the_translational_scenarios(tmp_path):
+    from conftest import tilted_turn
+
+    from hlcmp_drake.config.loading import load_scenario
+    from hlcmp_drake.core.dmp import Dmp
+    from hlcmp_drake.core.orientation_dmp import OrientationDmp
+    from hlcmp_drake.io.errors import InputError
+    from hlcmp_drake.io.skill import Skill
+    from hlcmp_drake.run.learning import check_skill_fits
+
+    t, positions, quaternions, _ = tilted_turn(0)
+    dmp = Dmp.fit(t, positions, "xyz")
+    scenario, _ = load_scenario("insertion", [])
+    check_skill_fits(Skill.untrained(dmp), scenario)
+    with pytest.raises(InputError, match="has an orientation .* controls the translation only"):
+        check_skill_fits(Skill.untrained(dmp, OrientationDmp.fit(t, quaternions)), scenario)

@@ -77,3 +77,36 @@ def test_a_report_in_processes_writes_what_the_serial_one_writes(tmp_path):
         for file in ("metrics.json", "timeseries.npz"):
             assert (one / name / file).read_bytes() == (two / name / file).read_bytes()
     assert pages[1] == pages[2]
+
+
+@pytest.mark.slow  # an insertion of 0.3 s, on the perfect robot and on the real arm
+def test_a_report_shows_an_arm_on_the_real_arm_beside_the_perfect_one(tmp_path):
+    import json
+
+    from hlcmp_drake.io.paths import DIAGRAMS_DIR
+    from hlcmp_drake.run.report import _report_work, run_report
+
+    own = tmp_path / "short_insertion.yaml"
+    text = (DIAGRAMS_DIR / "insertion.yaml").read_text()
+    text = text.replace("name: insertion", "name: short_insertion", 1)
+    text = text.replace("file: demos/", f"file: {DIAGRAMS_DIR}/demos/", 1)
+    own.write_text(text.replace("duration_s: 9.5", "duration_s: 0.3", 1))
+    out = tmp_path / "report"
+    result = run_report(out, [str(own)], jobs=1, variants=["real_arm"])
+    assert result.all_ok and len(result.statuses) == 2
+    section = result.sections[0]
+    assert section.variants == {"real_arm": out / "short_insertion_real_arm"}
+    perfect = json.loads((out / "short_insertion" / "metrics.json").read_text())
+    real = json.loads((out / "short_insertion_real_arm" / "metrics.json").read_text())
+    assert real["scenario"] == "short_insertion_real_arm"
+    assert set(real["controllers"]) == set(perfect["controllers"])
+    page = result.page.read_text()
+    assert "The same controllers on another robot: real_arm" in page
+    assert "short_insertion_real_arm/metrics.json" in page
+    # one row per controller and robot, in the comparison
+    assert page.count("<td>real_arm</td>") == len(perfect["controllers"])
+    # without variants, only the runs and the probe
+    assert [task.variant for task in _report_work(str(own), out / "short_insertion", [])] == [
+        None,
+        None,
+    ]

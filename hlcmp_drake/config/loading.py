@@ -21,7 +21,7 @@ from pydrake.common.yaml import yaml_load_typed
 from hlcmp_drake.config.scenario import DemonstrationConfig, Scenario
 from hlcmp_drake.config.validation import validate_scenario
 from hlcmp_drake.io.errors import InputError
-from hlcmp_drake.io.paths import DIAGRAMS_DIR
+from hlcmp_drake.io.paths import DIAGRAMS_DIR, VARIANTS_DIR
 
 
 def resolve_yaml(name_or_path: str | Path, folder: Path, kind: str) -> Path:
@@ -56,6 +56,17 @@ def resolve_yaml(name_or_path: str | Path, folder: Path, kind: str) -> Path:
         return bundled
     names = ", ".join(sorted(p.stem for p in folder.glob("*.yaml")))
     raise InputError(f"{name_or_path}: not a bundled {kind} ({names}) nor a .yaml file")
+
+
+def resolve_variant_path(name_or_path: str | Path) -> Path:
+    """The YAML file of a bundled variant name (diagrams/variants/NAME.yaml) or of a path.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        See `resolve_yaml`.
+    """
+    return resolve_yaml(name_or_path, VARIANTS_DIR, "variant")
 
 
 def resolve_scenario_path(name_or_path: str | Path) -> Path:
@@ -141,14 +152,22 @@ def _leaf(dotted_key: str) -> str:
 
 
 class _Source:
-    """Where the scenario's values came from: the file's text and the overrides."""
+    """Where the scenario's values came from: the file's text, a variant's and the
+    overrides."""
 
-    def __init__(self, path: Path, text: str, overrides: list[tuple[str, str]]):
-        self.path, self.text, self.overrides = path, text, overrides
+    def __init__(
+        self,
+        path: Path,
+        text: str,
+        overrides: list[tuple[str, str]],
+        variant: tuple[Path, str] | None = None,
+    ):
+        self.path, self.text, self.overrides, self.variant = path, text, overrides, variant
 
     def error(self, dotted_key: str, problem: str) -> InputError:
         """`override 'k=v': key: problem` when an override set the key, else
-        `file:line: key: problem` (the line omitted when it cannot be found)."""
+        `file:line: key: problem` of the variant's file when it sets the key, else of the
+        scenario's (the line omitted when it cannot be found)."""
         leaf = _leaf(dotted_key)
         for label, key in reversed(self.overrides):
             if (
@@ -157,6 +176,11 @@ class _Source:
                 or dotted_key.startswith(key + ".")
             ):
                 return InputError(f"override '{label}': {leaf}: {problem}")
+        if self.variant is not None:
+            variant_path, variant_text = self.variant
+            line = line_of(variant_text, dotted_key)
+            if line:
+                return InputError(f"{variant_path}:{line}: {leaf}: {problem}")
         line = line_of(self.text, dotted_key) or line_of(self.text, leaf)
         where = f"{self.path}:{line}" if line else f"{self.path}"
         return InputError(f"{where}: {leaf}: {problem}")
@@ -322,6 +346,7 @@ def load_scenario(
     name_or_path: str | Path,
     overrides: Sequence[str | dict] = (),
     experiments: Mapping[str, type] | None = None,
+    variant: str | Path | None = None,
 ) -> tuple[Scenario, Path]:
     """Load, override and validate a scenario.
 
@@ -336,6 +361,10 @@ def load_scenario(
         The experiments the scenario may name, each to the task class its world needs
         (what a run evaluates with: `hlcmp_drake.experiments`); given, `experiment` is
         checked against them.
+    variant : str or Path, optional
+        A bundled variant's name (e.g. "real_arm": diagrams/variants/real_arm.yaml) or a
+        YAML file, layered over the scenario's file before the overrides; the scenario's
+        name gets "_" and the variant's name appended (its runs go to their own folder).
 
     Returns
     -------
@@ -352,7 +381,16 @@ def load_scenario(
         text = path.read_text()
     except (OSError, UnicodeDecodeError) as error:
         raise InputError(f"{path}: cannot be read as text ({error.__class__.__name__})") from None
-    return _load_text(text, path, overrides, experiments), path
+    layer = None
+    if variant is not None:
+        variant_path = resolve_variant_path(variant)
+        try:
+            layer = (variant_path, variant_path.read_text())
+        except (OSError, UnicodeDecodeError) as error:
+            raise InputError(
+                f"{variant_path}: cannot be read as text ({error.__class__.__name__})"
+            ) from None
+    return _load_text(text, path, overrides, experiments, layer), path
 
 
 def load_scenario_text(
@@ -392,12 +430,23 @@ def _load_text(
     path: Path,
     overrides: Sequence[str | dict],
     experiments: Mapping[str, type] | None = None,
+    variant: tuple[Path, str] | None = None,
 ) -> Scenario:
-    """`load_scenario` after the file is read: parse, override, validate, resolve."""
+    """`load_scenario` after the files are read: parse, layer the variant, override,
+    validate, resolve."""
     try:
         scenario = yaml_load_typed(schema=Scenario, data=text)
     except Exception as error:  # yaml errors come as several exception types
         raise _yaml_error(path, text, error) from None
+    if variant is not None:
+        variant_path, variant_text = variant
+        try:
+            scenario = yaml_load_typed(
+                schema=Scenario, data=variant_text, defaults=copy.deepcopy(scenario)
+            )
+        except Exception as error:
+            raise _yaml_error(variant_path, variant_text, error) from None
+        scenario.name = f"{scenario.name}_{variant_path.stem}"
     applied = []
     for override in overrides:
         for label, key, value in _parse_override(override):
@@ -417,7 +466,7 @@ def _load_text(
                 message = " ".join(str(getattr(error, "problem", None) or error).split())
                 raise InputError(f"override '{label}': {message}") from None
             applied.append((label, key))
-    source = _Source(path, text, applied)
+    source = _Source(path, text, applied, variant)
     validate_scenario(scenario, path.parent, source.fail, experiments)
     if isinstance(scenario.reference, DemonstrationConfig):
         # Resolve the demonstration next to the scenario file, once, for every later user.

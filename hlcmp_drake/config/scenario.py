@@ -1022,6 +1022,185 @@ class IiwaDriverConfig:
 
 
 @dc.dataclass
+class RobotImperfection:
+    """A real iiwa's imperfections: a robot that is not its model (`hlcmp run` only; a
+    served run meets the real arm's own). The defaults are a perfect robot: every field at
+    its default adds nothing to a run.
+
+    - **The controller's model.** The simulated arm is the scenario's models as they are;
+      the controller computes M, C, G and J on a context of the same plant whose
+      parameters are set off: each arm link's mass times (1 + `link_mass_error`) (its
+      rotational inertia scales with it), the tool body's mass times (1 +
+      `tool_mass_error`) and its centre of mass moved by `tool_com_error_m`.
+    - **Joint friction** on the simulated arm, which the controller does not know:
+      tau_f = -(F_v v + F_c tanh(v / v_s)) per joint (`core.robot.joint_friction_torque`).
+    - **The wrist force** the controller reads (a law that reads it) and the safety
+      monitor checks is the true one plus a bias and Gaussian noise of per-axis sigma,
+      drawn once per control period from `noise_seed`. The logged force, and so the
+      metrics and the claims, keep the true force: they judge what the world did.
+    - **Velocities**: with `velocity_filter_hz` > 0 the controller reads, instead of the
+      plant's exact v, the position differences over the control period through a
+      first-order low-pass (drake-iiwa-driver's velocity estimate).
+    - **The control period** `control_period_s`: the controller ticks and holds its
+      torque over a whole number of plant steps.
+
+    The bundled variant `real_arm` (diagrams/variants/real_arm.yaml, `hlcmp run SCENARIO
+    --variant real_arm`) sets every field from a source: the friction from the
+    identification of an iiwa 14 R820 by Stürz, Affolter and Smith (IFAC-PapersOnLine 50(1),
+    2017, Table 3), the velocity filter from drake-iiwa-driver (40 Hz on the differences
+    at the 1 ms FRI period), the noise from ATI's Axia80 manual (0.05 % of full scale,
+    calibration SI-500-20), the links' mass error's size from our model's gravity torques
+    against the identified arm's (3.3 %: scripts/iiwa_model_vs_identified.py); the tool's
+    errors are free parameters at the few percent a tool's data are known to
+    (docs/worlds.md says which is which).
+
+    Attributes
+    ----------
+    link_mass_error : float
+        The controller's model of every arm link's mass, relative to the arm's, minus 1:
+        finite and > -1. Default 0.
+    tool_mass_error : float
+        The same for the tool's body (the body of `task.tool_frame`): finite and > -1.
+        Default 0.
+    tool_com_error_m : list of float
+        Where the controller's model puts the tool's centre of mass, minus where it is,
+        in the tool body's frame (3 finite values) [m]. Default zeros.
+    viscous_friction_Nms_per_rad : list of float
+        F_v per arm joint [N m s/rad], finite and >= 0; empty (the default) or one per
+        joint of the plant.
+    coulomb_friction_Nm : list of float
+        F_c per arm joint [N m], finite and >= 0; empty (the default) or one per joint.
+    friction_speed_rad_per_s : float
+        v_s, the joint speed at which the Coulomb friction reaches tanh(1) = 76 % of
+        F_c [rad/s], finite and > 0 (it smooths the sign near v = 0). Default 0.002.
+    force_noise_N : list of float
+        The wrist force's noise sigma per world axis x, y, z [N] (3 finite values >= 0).
+        Default zeros.
+    force_bias_N : list of float
+        The wrist force's bias per world axis [N] (3 finite values). Default zeros.
+    noise_seed : int
+        The seed of the noise, >= 0: the same seed gives the same noise. Default 0.
+    velocity_filter_hz : float
+        The cutoff of the velocity estimate's first-order low-pass [Hz], finite and >= 0;
+        0 (the default): the controller reads the plant's exact velocities.
+    control_period_s : float
+        The controller's tick [s], finite and >= 0, a whole number of plant steps; 0 (the
+        default): one plant step.
+    """
+
+    link_mass_error: float = 0.0
+    tool_mass_error: float = 0.0
+    tool_com_error_m: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    viscous_friction_Nms_per_rad: list[float] = dc.field(default_factory=list)
+    coulomb_friction_Nm: list[float] = dc.field(default_factory=list)
+    friction_speed_rad_per_s: float = 0.002
+    force_noise_N: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    force_bias_N: list[float] = dc.field(default_factory=lambda: [0.0, 0.0, 0.0])
+    noise_seed: int = 0
+    velocity_filter_hz: float = 0.0
+    control_period_s: float = 0.0
+
+    @property
+    def model_differs(self) -> bool:
+        """Whether the controller's model differs from the simulated arm."""
+        return bool(self.link_mass_error or self.tool_mass_error or any(self.tool_com_error_m))
+
+    @property
+    def has_friction(self) -> bool:
+        """Whether the simulated arm has joint friction."""
+        return any(self.viscous_friction_Nms_per_rad) or any(self.coulomb_friction_Nm)
+
+    @property
+    def senses_force(self) -> bool:
+        """Whether the wrist force the controller reads is noisy or biased."""
+        return any(self.force_noise_N) or any(self.force_bias_N)
+
+    @property
+    def perfect(self) -> bool:
+        """Whether nothing is set: the robot is its model."""
+        return not (
+            self.model_differs
+            or self.has_friction
+            or self.senses_force
+            or self.velocity_filter_hz
+            or self.control_period_s
+        )
+
+    def check(self, fail: Fail) -> None:
+        """Every value finite and in its range, the vectors of their lengths.
+
+        Parameters
+        ----------
+        fail : callable(dotted_key: str, problem: str)
+            Raises the InputError that names where the key was set.
+        """
+        key = "robot_imperfection."
+        for name in ("link_mass_error", "tool_mass_error"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > -1):
+                fail(key + name, f"must be finite and > -1 (a mass stays positive), got {value}")
+        check_vector(self.tool_com_error_m, key + "tool_com_error_m", fail, (3,), " (x, y, z) [m]")
+        for name in ("viscous_friction_Nms_per_rad", "coulomb_friction_Nm"):
+            for value in getattr(self, name):
+                check_number(value, key + name, fail, ">= 0")
+        check_number(self.friction_speed_rad_per_s, key + "friction_speed_rad_per_s", fail)
+        check_vector(self.force_noise_N, key + "force_noise_N", fail, (3,), " (x, y, z) [N]")
+        for value in self.force_noise_N:
+            check_number(value, key + "force_noise_N", fail, ">= 0")
+        check_vector(self.force_bias_N, key + "force_bias_N", fail, (3,), " (x, y, z) [N]")
+        if not self.noise_seed >= 0:
+            fail(key + "noise_seed", f"must be >= 0, got {self.noise_seed}")
+        check_number(self.velocity_filter_hz, key + "velocity_filter_hz", fail, ">= 0")
+        check_number(self.control_period_s, key + "control_period_s", fail, ">= 0")
+
+    def check_scenario(self, scenario: "Scenario", fail: Fail) -> None:
+        """An imperfect robot is an arm on the fast path, its control period a whole number
+        of plant steps.
+
+        Parameters
+        ----------
+        scenario : Scenario
+        fail : callable(dotted_key: str, problem: str)
+            Raises the InputError that names where the key was set.
+        """
+        if self.perfect:
+            return
+        if not isinstance(scenario.task, ArmTask) or scenario.task.control_path != "fast":
+            fail(
+                "robot_imperfection",
+                "a robot that is not its model needs an !ArmTask on the fast control path "
+                "(task.control_path: fast)",
+            )
+        step = scenario.plant_config.time_step
+        steps = self.control_period_s / step if step > 0 else 0.0
+        if self.control_period_s and not (steps >= 1 and math.isclose(steps, round(steps))):
+            fail(
+                "robot_imperfection.control_period_s",
+                f"must be a whole number of plant steps (plant_config.time_step = {step:g} s), "
+                f"got {self.control_period_s:g}",
+            )
+
+    def check_models(self, plant: MultibodyPlant, fail: Fail) -> None:
+        """Each friction list empty or one value per joint of the scenario's plant.
+
+        Parameters
+        ----------
+        plant : MultibodyPlant
+            Finalized, with the scenario's models.
+        fail : callable(dotted_key: str, problem: str)
+            Raises the InputError that names where the key was set.
+        """
+        for name in ("viscous_friction_Nms_per_rad", "coulomb_friction_Nm"):
+            values = getattr(self, name)
+            if values and len(values) != plant.num_velocities():
+                fail(
+                    f"robot_imperfection.{name}",
+                    f"needs none or {plant.num_velocities()} values, one per joint of the "
+                    f"scenario's models, got {len(values)}",
+                )
+
+
+@dc.dataclass
 class Scenario:
     """A whole scenario: the world (models, plant and simulator configs, task), the
     reference motion, the DMP settings and the controllers to compare.
@@ -1086,6 +1265,9 @@ class Scenario:
     iiwa_driver : IiwaDriverConfig
         `hlcmp serve`'s LCM channels, period and watchdogs (arm scenarios; checked in every
         scenario). Default IiwaDriverConfig().
+    robot_imperfection : RobotImperfection
+        A real arm's imperfections in a simulated run (arm scenarios on the fast path;
+        checked in every scenario). Default a perfect robot.
     """
 
     name: str = ""
@@ -1107,6 +1289,7 @@ class Scenario:
     recording: RecordingConfig = dc.field(default_factory=RecordingConfig)
     probe: ProbeConfig = dc.field(default_factory=ProbeConfig)
     iiwa_driver: IiwaDriverConfig = dc.field(default_factory=IiwaDriverConfig)
+    robot_imperfection: RobotImperfection = dc.field(default_factory=RobotImperfection)
 
     @property
     def n_axes(self) -> int:

@@ -36,7 +36,7 @@ import itertools
 import math
 import re
 from pathlib import Path
-from typing import Optional
+from typing import Optional, Protocol
 
 import yaml
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
@@ -321,6 +321,36 @@ def load_sweep(name_or_path: str | Path) -> Sweep:
         parameter set twice, an unknown reduction and the like.
     """
     path = resolve_sweep_path(name_or_path)
+    text, config, fail = read_typed_file(path, SweepConfig)
+    _check(config, fail)
+    scenario_path = _scenario_path(config.scenario, path, fail)
+    parameters = ([CASE] if config.cases else []) + list(config.grid)
+    return Sweep(path, text, config, scenario_path, parameters)
+
+
+def read_typed_file(path: Path, schema: type) -> tuple:
+    """Read a sweep's or a skill library's YAML file into its typed config, every
+    override value as text (`_normalized`).
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+    schema : type
+        Its config dataclass (SweepConfig, LibraryConfig).
+
+    Returns
+    -------
+    (str, config, Fail)
+        The file's text, the config, and `fail(key, problem)`, which raises an InputError
+        naming the line that sets `key` (dotted, as in the file).
+
+    Raises
+    ------
+    InputError
+        ``file:line: problem`` for a file that cannot be read, a YAML error, an unknown
+        key or a wrong type.
+    """
     try:
         text = path.read_text()
     except (OSError, UnicodeDecodeError) as error:
@@ -348,16 +378,13 @@ def load_sweep(name_or_path: str | Path) -> Sweep:
         raise located(path, None, "expected a map with at least `scenario`")
     try:
         config = yaml_load_typed(
-            schema=SweepConfig, data=yaml.safe_dump(_normalized(raw, fail), sort_keys=False)
+            schema=schema, data=yaml.safe_dump(_normalized(raw, fail), sort_keys=False)
         )
     except InputError:
         raise
     except Exception as error:  # Drake's typed loader raises RuntimeError and TypeError
         raise _schema_error(path, text, error) from None
-    _check(config, fail)
-    scenario_path = _scenario_path(config.scenario, path, fail)
-    parameters = ([CASE] if config.cases else []) + list(config.grid)
-    return Sweep(path, text, config, scenario_path, parameters)
+    return text, config, fail
 
 
 def _scenario_path(scenario: str, sweep_path: Path, fail: Fail) -> Path:
@@ -599,7 +626,16 @@ def plan_tasks(sweep: Sweep, out_dir: str | Path) -> list[SweepTask]:
     return tasks
 
 
-def _load_task_scenario(sweep: Sweep, overrides: list, parameters: dict):
+class _ScenarioFile(Protocol):
+    """What loading a task's scenario needs of a sweep (or a skill library): its file, its
+    text (for the lines errors name) and the scenario file it overrides."""
+
+    path: Path
+    text: str
+    scenario_path: Path
+
+
+def _load_task_scenario(sweep: _ScenarioFile, overrides: list, parameters: dict):
     try:
         scenario, _ = load_scenario(sweep.scenario_path, overrides)
     except InputError as error:

@@ -124,6 +124,8 @@ def validate_scenario(
     scenario.recording.check(fail)
     scenario.probe.check(fail)
     scenario.iiwa_driver.check(fail)
+    scenario.robot_imperfection.check(fail)
+    scenario.robot_imperfection.check_scenario(scenario, fail)
     if scenario.probe.given and not isinstance(scenario.task, ArmTask):
         fail("probe.start_m", "a probe carries an arm's tool: it needs an !ArmTask task")
     if experiments is not None:
@@ -141,6 +143,7 @@ def validate_scenario(
             )
     plant = scenario_plant(scenario, fail)
     scenario.task.check_models(plant, fail)
+    scenario.robot_imperfection.check_models(plant, fail)
     if scenario.probe.given:
         arm = scenario.probe.arm_model
         problem = missing_model(plant, arm) or (

@@ -586,24 +586,87 @@ class Dmp:
             Phase [-].
         """
         tau = self.tau if tau is None else float(tau)
-        duration = tau if duration is None else float(duration)
-        n = int(round(duration / dt)) + 1
-        t = np.arange(n) * dt
-        s = phase_at(t, tau, self.settings.alpha_s)
+        t, s = rollout_times(tau, duration, dt, self.settings.alpha_s)
         forcing = self.forcing(s)  # (n, M)
         alpha, beta, goal = self.settings.alpha, self.settings.beta_value, self.goal
-        a, b = transformation_matrices(tau, alpha, beta)
-        phi, gamma0, gamma1 = _first_order_hold(a, b, dt)
-        u = alpha * beta * goal + forcing  # (n, M)
-        slope = np.diff(u, axis=0, append=u[-1:]) / dt
-        drive = gamma0[:, None, None] * u[None] + gamma1[:, None, None] * slope[None]  # (2, n, M)
-        x = np.empty((n, 2, self.n_axes))
-        x[0] = [self.start, np.zeros(self.n_axes)]
-        for k in range(n - 1):
-            x[k + 1] = phi @ x[k] + drive[:, k]
-        p, z = x[:, 0], x[:, 1]
+        p, z = step_transformation_system(self.start, goal, forcing, tau, dt, alpha, beta)
         pdot, zdot = transformation_rates(p, z, forcing, goal, tau, alpha, beta)
         return t, p, np.asarray(pdot), np.asarray(zdot) / tau, s
+
+
+def rollout_times(
+    tau: float, duration: float | None, dt: float, alpha_s: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """A rollout's sample times and their phase (Eq. 8's closed form).
+
+    Parameters
+    ----------
+    tau : float
+        Time constant [s].
+    duration : float or None
+        Length [s]; None means tau.
+    dt : float
+        Sample period [s].
+    alpha_s : float
+        Decay rate of the canonical system [-].
+
+    Returns
+    -------
+    t : (T,) array
+        Times [s] from 0, T = round(duration / dt) + 1.
+    s : (T,) array
+        Phase [-].
+    """
+    n = int(round((tau if duration is None else float(duration)) / dt)) + 1
+    t = np.arange(n) * dt
+    return t, phase_at(t, tau, alpha_s)
+
+
+def step_transformation_system(
+    start: np.ndarray,
+    goal: np.ndarray,
+    forcing: np.ndarray,
+    tau: float,
+    dt: float,
+    alpha: float,
+    beta: float,
+    start_rate: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Eqs. 7 and 15 from p = start and z = start_rate (default 0), stepped exactly for a
+    forcing term sampled every dt and linear between samples (first-order hold): the
+    system is linear (`transformation_matrices`), so each step is one 2 x 2 matrix product.
+
+    Parameters
+    ----------
+    start : (M,) array
+        p at the first sample.
+    goal : (M,) array
+        g of Eq. 15.
+    forcing : (T, M) array
+        f at every sample.
+    tau, dt : float
+        Time constant and sample period [s].
+    alpha, beta : float
+        Gains of Eq. 15 [-].
+    start_rate : (M,) array, optional
+        z at the first sample; default zero (at rest).
+
+    Returns
+    -------
+    p, z : (T, M) arrays
+        Position and scaled velocity z = tau p' at every sample.
+    """
+    n, m = forcing.shape
+    a, b = transformation_matrices(tau, alpha, beta)
+    phi, gamma0, gamma1 = _first_order_hold(a, b, dt)
+    u = alpha * beta * goal + forcing  # (n, M)
+    slope = np.diff(u, axis=0, append=u[-1:]) / dt
+    drive = gamma0[:, None, None] * u[None] + gamma1[:, None, None] * slope[None]  # (2, n, M)
+    x = np.empty((n, 2, m))
+    x[0] = [start, np.zeros(m) if start_rate is None else start_rate]
+    for k in range(n - 1):
+        x[k + 1] = phi @ x[k] + drive[:, k]
+    return x[:, 0], x[:, 1]
 
 
 def _first_order_hold(a, b, dt):

@@ -3,10 +3,20 @@
 Format: a header line `t,x,y,z` -- `t` in seconds first, then 1 to 3 position columns
 named from x, y, z (metres, in that order) -- and one sample per line, time strictly
 increasing, at least MIN_SAMPLES samples, never faster than MAX_SPEED_M_PER_S (see there).
-Trajectory files may add velocity columns
-`vx,vy,vz` after the positions. Files are UTF-8; a byte-order mark at the start (as
+A pose adds the tool frame's orientation in the world frame after the positions,
+`t,x,y,z,qw,qx,qy,qz`: a unit quaternion, scalar first (Drake's `Quaternion(w, x, y, z)`
+order), either sign (see `read_orientation`). Trajectory files may add velocity columns
+`vx,vy,vz` after these, and with an orientation the angular velocity `wx,wy,wz` [rad/s,
+world frame] after those. Files are UTF-8; a byte-order mark at the start (as
 spreadsheet programs write "CSV UTF-8") is accepted. Every problem is an InputError
 naming file and line.
+
+A demonstration may carry the force its wrist sensor read, `fx,fy,fz` [N], the last
+columns (`t,x,y,z,fx,fy,fz`; after the orientation of a pose, and after the velocities of
+a trajectory), one per position axis: the force the environment exerts on the tool during
+kinesthetic teaching, in the world frame of the positions, the tool's own weight and
+inertia removed -- the same quantity and sign as a run's logged `CTRL/f_ext`. A foam that
+resists a tool pushed down into it reads +z.
 """
 
 from __future__ import annotations
@@ -18,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from hlcmp_drake.core.quaternion import geodesic_angle, hemisphere_continuous
 from hlcmp_drake.io.errors import InputError, located
 
 MIN_SAMPLES = 10
@@ -36,9 +47,31 @@ MAX_SPEED_M_PER_S = 3.0
 # 1 m/s from one sample to the next, 0.1 m/s over 10 ms); a jump does not.
 SPEED_WINDOW_S = 0.01
 
+QUATERNION_COLUMNS = ("qw", "qx", "qy", "qz")
+ANGULAR_VELOCITY_COLUMNS = ("wx", "wy", "wz")
+# The force on the tool, by position axis (x, y, z).
+FORCE_COLUMNS = ("fx", "fy", "fz")
+# The fastest a demonstration may turn [rad/s], measured as MAX_SPEED_M_PER_S is. The
+# iiwa's seven joints at their speed limits (models/iiwa14.sdf) add up to 13 rad/s at the
+# tool, a bound no direction reaches; a hand turning a tool in a demonstration stays far
+# below. Faster is a jump: a marker's frame flipping, swapped columns, a pasted segment.
+# Sign changes (q to -q) are no turn. 1 deg of noise per sample reads as 3 rad/s over 10 ms.
+MAX_TURN_RATE_RAD_PER_S = 15.0
+# How far from 1 a quaternion's norm may be; it is normalised. Values rounded to 3 decimals
+# stay within 0.2 % of a unit norm; 1 % off is no rounding but another convention (angles,
+# a scaled or partly overwritten row), which normalising would silently turn into some
+# other rotation.
+MAX_QUATERNION_NORM_ERROR = 0.01
 
-def read_demonstration(path: str | Path, with_lines: bool = False) -> tuple:
-    """Returns (t (T,), positions (T, M), axis names), and with `with_lines` also each
+
+def read_demonstration(
+    path: str | Path,
+    with_lines: bool = False,
+    with_orientation: bool = False,
+    with_force: bool = False,
+) -> tuple:
+    """Returns (t (T,), positions (T, M), axis names), with `with_orientation` also the
+    orientations, with `with_force` also the force columns, and with `with_lines` also each
     sample's line number in the file. Raises InputError on bad input.
 
     Parameters
@@ -47,6 +80,11 @@ def read_demonstration(path: str | Path, with_lines: bool = False) -> tuple:
         The CSV file (format in the module docstring).
     with_lines : bool
         Also return the line number of each sample.
+    with_orientation : bool
+        Accept a pose (qw,qx,qy,qz columns) and return its orientations; without it a pose
+        file is refused, naming the columns (the caller would ignore them).
+    with_force : bool
+        Also return the demonstrated force (a file's force columns are read either way).
 
     Returns
     -------
@@ -56,6 +94,12 @@ def read_demonstration(path: str | Path, with_lines: bool = False) -> tuple:
         Positions [m], one column per axis; velocity columns are not returned.
     axes : tuple of M str
         The position columns' names, from ("x", "y", "z").
+    quaternions : (T, 4) array or None
+        Only with `with_orientation`: unit, hemisphere-continuous (`read_orientation`);
+        None for a file of positions only.
+    force : (T, M) array or None
+        Only with `with_force`: the columns `fx,fy,fz` [N] (module docstring), one per
+        position axis; None when the file has none.
     lines : list of T int
         Only with `with_lines`: each sample's 1-based line number in the file.
     """
@@ -73,7 +117,16 @@ def read_demonstration(path: str | Path, with_lines: bool = False) -> tuple:
         raise InputError(f"{path}: the file is empty (expected a header line 't,x,y,z')")
     header_line, header_text = lines[0]
     header = [name.strip() for name in next(csv.reader([header_text]))]
-    axes = _check_header(path, header_line, header)
+    kinematics, force_columns = _without_force(path, header_line, header)
+    axes = _check_header(path, header_line, _without_orientation(path, header_line, kinematics))
+    has_orientation = QUATERNION_COLUMNS[0] in header
+    if has_orientation and not with_orientation:
+        raise located(
+            path,
+            header_line,
+            f"columns {','.join(QUATERNION_COLUMNS)}: an orientation is not used here; "
+            "give positions only (t,x,y,z)",
+        )
     rows: list[tuple[int, list[float]]] = []
     for number, line in lines[1:]:
         fields = [f.strip() for f in next(csv.reader([line]))]
@@ -105,10 +158,65 @@ def read_demonstration(path: str | Path, with_lines: bool = False) -> tuple:
             f"{path}: {len(rows)} samples; a demonstration needs at least {MIN_SAMPLES}"
         )
     data = np.array([values for _, values in rows])
-    check_speed(path, data[:, 0], data[:, 1 : 1 + len(axes)], [number for number, _ in rows])
-    if with_lines:
-        return data[:, 0], data[:, 1 : 1 + len(axes)], axes, [number for number, _ in rows]
-    return data[:, 0], data[:, 1 : 1 + len(axes)], axes
+    numbers = [number for number, _ in rows]
+    check_speed(path, data[:, 0], data[:, 1 : 1 + len(axes)], numbers)
+    result: tuple = (data[:, 0], data[:, 1 : 1 + len(axes)], axes)
+    if with_orientation:
+        first = 1 + len(axes)
+        result += (
+            read_orientation(path, data[:, 0], data[:, first : first + 4], numbers)
+            if has_orientation
+            else None,
+        )
+    if with_force:
+        force = data[:, [header.index(name) for name in force_columns]]
+        result += (force if force_columns else None,)
+    return result + (numbers,) if with_lines else result
+
+
+def read_orientation(
+    path: str | Path, t: np.ndarray, quaternions: np.ndarray, lines: Sequence[int]
+) -> np.ndarray:
+    """Check, normalise and make hemisphere-continuous a demonstration's quaternions.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file, for the message.
+    t : (T,) array
+        Sample times [s], strictly increasing.
+    quaternions : (T, 4) array
+        The qw, qx, qy, qz columns (finite: the reader has checked).
+    lines : sequence of T int
+        Each sample's line in the file.
+
+    Returns
+    -------
+    (T, 4) array
+        Unit quaternions, each sign chosen so that neighbours lie in one hemisphere
+        (q and -q are one rotation; the first sample keeps its sign).
+
+    Raises
+    ------
+    InputError
+        ``FILE:LINE: ...`` at the first quaternion that is zero or whose norm is off 1 by
+        more than MAX_QUATERNION_NORM_ERROR, or where it turns too fast (`check_turn_rate`).
+    """
+    norms = np.linalg.norm(quaternions, axis=1)
+    bad = np.flatnonzero(np.abs(norms - 1.0) > MAX_QUATERNION_NORM_ERROR)
+    if len(bad):
+        k = int(bad[0])
+        values = ",".join(f"{v:g}" for v in quaternions[k])
+        problem = (
+            "is zero, which is no rotation"
+            if norms[k] == 0
+            else f"has norm {norms[k]:.4g}; a unit quaternion is expected (norm within "
+            f"1 ± {MAX_QUATERNION_NORM_ERROR:g}, scalar first: qw,qx,qy,qz)"
+        )
+        raise located(path, lines[k], f"the orientation ({values}) {problem}")
+    unit = quaternions / norms[:, None]
+    check_turn_rate(path, t, unit, lines)
+    return hemisphere_continuous(unit)
 
 
 def check_speed(
@@ -135,30 +243,125 @@ def check_speed(
         ``FILE:LINE: ...`` naming the sample that jumps (the one after the largest step
         inside the fastest window) and the line before it.
     """
+    _refuse_jumps(
+        path,
+        t,
+        lines,
+        lambda a, b: np.linalg.norm(positions[b] - positions[a], axis=-1),
+        (MAX_SPEED_M_PER_S, "m/s", "move"),
+        lambda step: f"moves {100 * step:.1f} cm",
+    )
+
+
+def check_turn_rate(
+    path: str | Path, t: np.ndarray, quaternions: np.ndarray, lines: Sequence[int]
+) -> None:
+    """Refuse a demonstration that turns faster than MAX_TURN_RATE_RAD_PER_S anywhere,
+    measured as `check_speed` measures speed, with the geodesic angle between orientations
+    (q and -q are no turn).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file, for the message.
+    t : (T,) array
+        Sample times [s], strictly increasing.
+    quaternions : (T, 4) array
+        Unit quaternions.
+    lines : sequence of T int
+        Each sample's line in the file.
+
+    Raises
+    ------
+    InputError
+        ``FILE:LINE: ...`` naming the sample that jumps and the line before it.
+    """
+    _refuse_jumps(
+        path,
+        t,
+        lines,
+        lambda a, b: geodesic_angle(quaternions[b], quaternions[a]),
+        (MAX_TURN_RATE_RAD_PER_S, "rad/s", "turn"),
+        lambda step: f"turns {np.degrees(step):.1f} deg",
+    )
+
+
+def _refuse_jumps(path, t, lines, distance, limit, describe_step):
+    """The fastest motion over windows of at least SPEED_WINDOW_S (from each sample to the
+    first one that much later), refused at the largest step inside it when it exceeds the
+    bound. `distance(a, b)`: the distances between the samples of index arrays a and b;
+    `limit`: (bound, its unit, the verb); `describe_step(step)`: the step in words."""
+    bound, unit, verb = limit
     count = len(t)
     start = np.arange(count)
     end = np.minimum(np.searchsorted(t, t + SPEED_WINDOW_S - 1e-12), count - 1)
     start, end = start[end > start], end[end > start]
     if not len(start):
         return
-    distance = np.linalg.norm(positions[end] - positions[start], axis=1)
-    speed = distance / np.maximum(t[end] - t[start], SPEED_WINDOW_S)
+    speed = distance(start, end) / np.maximum(t[end] - t[start], SPEED_WINDOW_S)
     fastest = int(np.argmax(speed))
-    if speed[fastest] <= MAX_SPEED_M_PER_S:
+    if speed[fastest] <= bound:
         return
     i, j = start[fastest], end[fastest]
-    steps = np.linalg.norm(np.diff(positions[i : j + 1], axis=0), axis=1)
+    steps = distance(np.arange(i, j), np.arange(i + 1, j + 1))
     k = i + int(np.argmax(steps))  # the largest step inside that window: k -> k + 1
-    step = float(np.linalg.norm(positions[k + 1] - positions[k]))
     raise located(
         path,
         lines[k + 1],
-        f"the demonstration moves {100 * step:.1f} cm in {1000 * (t[k + 1] - t[k]):.0f} ms "
-        f"from line {lines[k]} (t = {t[k]:g} s to {t[k + 1]:g} s): "
-        f"{speed[fastest]:.1f} m/s over {1000 * max(t[j] - t[i], SPEED_WINDOW_S):.0f} ms, "
-        f"faster than the {MAX_SPEED_M_PER_S:g} m/s a demonstration may move "
-        "(a jump in the recording?); remove or fix those samples",
+        f"the demonstration {describe_step(float(steps[k - i]))} in "
+        f"{1000 * (t[k + 1] - t[k]):.0f} ms from line {lines[k]} (t = {t[k]:g} s to "
+        f"{t[k + 1]:g} s): {speed[fastest]:.1f} {unit} over "
+        f"{1000 * max(t[j] - t[i], SPEED_WINDOW_S):.0f} ms, faster than the {bound:g} {unit} "
+        f"a demonstration may {verb} (a jump in the recording?); remove or fix those samples",
     )
+
+
+def _without_force(path, line, header):
+    """(the header without its force columns, those columns): `fx,fy,fz` last, one per
+    position axis, or none at all; anything else is refused naming the header line."""
+    names = [name for name in header if name in FORCE_COLUMNS]
+    if not names:
+        return header, []
+    expected = [FORCE_COLUMNS[AXES.index(axis)] for axis in header if axis in AXES]
+    if not expected:  # no position column, which _check_header names
+        return [name for name in header if name not in FORCE_COLUMNS], []
+    if names != expected:
+        raise located(
+            path,
+            line,
+            f"force columns must be {','.join(expected)}, one per position axis; "
+            f"found {','.join(names)}",
+        )
+    if header[-len(names) :] != names:
+        raise located(path, line, f"force columns {','.join(names)} must be the last columns")
+    return header[: -len(names)], names
+
+
+def _without_orientation(path, line, header):
+    """The header without its orientation columns, after checking where they are:
+    qw,qx,qy,qz together right after the positions, wx,wy,wz (only with them) last."""
+    names = [name for name in header if name in QUATERNION_COLUMNS]
+    if not names:
+        if any(name in ANGULAR_VELOCITY_COLUMNS for name in header):
+            raise located(path, line, "angular velocity columns wx,wy,wz need qw,qx,qy,qz")
+        return header
+    first = header.index(names[0])
+    if (
+        len(names) != len(QUATERNION_COLUMNS)
+        or header[first : first + 4] != list(QUATERNION_COLUMNS)
+        or header[1:first] != [name for name in header if name in AXES]
+    ):
+        raise located(
+            path,
+            line,
+            "the orientation columns must be qw,qx,qy,qz, in that order, right after the "
+            "positions (e.g. t,x,y,z,qw,qx,qy,qz)",
+        )
+    rest = header[:first] + header[first + 4 :]
+    angular = [name for name in rest if name in ANGULAR_VELOCITY_COLUMNS]
+    if angular and rest[-3:] != list(ANGULAR_VELOCITY_COLUMNS):
+        raise located(path, line, "angular velocity columns must be wx,wy,wz, last")
+    return rest[:-3] if angular else rest
 
 
 def _check_header(path, line, header):
@@ -173,7 +376,12 @@ def _check_header(path, line, header):
     velocities = header[1 + len(positions) :]
     for name in header[1:]:
         if name not in AXES and name not in tuple("v" + a for a in AXES):
-            raise located(path, line, f"unknown column '{name}' (allowed: t, x, y, z, vx, vy, vz)")
+            raise located(
+                path,
+                line,
+                f"unknown column '{name}' "
+                "(allowed: t, x, y, z, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz, fx, fy, fz)",
+            )
     if not positions:
         raise located(path, line, "no position column: expected one or more of x, y, z after t")
     if len(set(header)) != len(header):
@@ -195,8 +403,12 @@ def write_trajectory(
     positions: np.ndarray,
     axes: Sequence[str],
     velocities: np.ndarray | None = None,
+    quaternions: np.ndarray | None = None,
+    angular_velocities: np.ndarray | None = None,
+    force: np.ndarray | None = None,
 ) -> Path:
-    """Write a trajectory CSV (same format; velocity columns when given), atomically.
+    """Write a trajectory CSV (same format; velocity columns, an orientation and a force
+    when given), atomically.
 
     Parameters
     ----------
@@ -210,6 +422,12 @@ def write_trajectory(
         Column names of the positions, e.g. ("x", "y", "z").
     velocities : (T, M) array, optional
         Velocities [m/s], written as columns `v` + axis name.
+    quaternions : (T, 4) array, optional
+        Orientations (w, x, y, z), written as qw,qx,qy,qz after the positions.
+    angular_velocities : (T, 3) array, optional
+        Angular velocities [rad/s, world frame], written as wx,wy,wz.
+    force : (T, M) array, optional
+        The force on the tool [N] (module docstring), written as `f` + axis name, last.
 
     Returns
     -------
@@ -218,10 +436,16 @@ def write_trajectory(
     """
     from hlcmp_drake.io.outputs import write_text
 
-    header = ["t", *axes] + ([f"v{a}" for a in axes] if velocities is not None else [])
-    columns = [np.asarray(t)[:, None], np.asarray(positions)]
-    if velocities is not None:
-        columns.append(np.asarray(velocities))
+    groups = [
+        (list(axes), positions),
+        (list(QUATERNION_COLUMNS), quaternions),
+        ([f"v{a}" for a in axes], velocities),
+        (list(ANGULAR_VELOCITY_COLUMNS), angular_velocities),
+        ([f"f{a}" for a in axes], force),
+    ]
+    header = ["t"] + [name for names, values in groups if values is not None for name in names]
+    columns = [np.asarray(t)[:, None]]
+    columns += [np.asarray(values) for _, values in groups if values is not None]
     data = np.hstack(columns)
     body = "\n".join(",".join(f"{v:.9g}" for v in row) for row in data)
     return write_text(path, ",".join(header) + "\n" + body + "\n")

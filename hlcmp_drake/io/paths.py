@@ -24,6 +24,7 @@ def _data_root() -> Path:
 DATA_ROOT = _data_root()
 MODELS_DIR = DATA_ROOT / "models"
 DIAGRAMS_DIR = DATA_ROOT / "diagrams"
+VARIANTS_DIR = DIAGRAMS_DIR / "variants"
 PACKAGE_XML = DATA_ROOT / "package.xml"
 
 
@@ -43,3 +44,8 @@ def register_package(package_map: Any) -> None:
 def bundled_scenarios() -> list[str]:
     """Names of the bundled scenarios (diagrams/NAME.yaml), sorted."""
     return sorted(p.stem for p in DIAGRAMS_DIR.glob("*.yaml"))
+
+
+def bundled_variants() -> list[str]:
+    """Names of the bundled scenario variants (diagrams/variants/NAME.yaml), sorted."""
+    return sorted(p.stem for p in VARIANTS_DIR.glob("*.yaml"))

@@ -4,9 +4,16 @@ The file is a NumPy .npz with a `format_version`; it holds the DMP (theta_p and 
 settings, tau, start, goal, Eq. 13 amplitudes, axis names), the learned compliant
 profiles' weights (M x N each) and, from format 2 on, the world the skill was learned in
 (`SkillWorld`: the scenario's name, the world's kind and a digest of what defines it).
-Loading checks the version, the keys and every shape. A format 1 file (written before
-skills recorded their world) still loads; its world is unknown (`Skill.world` None), as is
-that of a skill `hlcmp fit` made from a demonstration alone.
+A pose skill (format 3) adds the orientation DMP (`core.orientation_dmp`) under keys
+starting with `orientation_`; it shares the position DMP's settings and tau. Position
+skills are still written as format 2, so a reader of format 2 reads them, and refuses a
+pose skill rather than drop its orientation. Loading checks the version, the keys and
+every shape. A format 1 file (written before skills recorded their world) still loads;
+its world is unknown (`Skill.world` None), as is that of a skill `hlcmp fit` made from a
+demonstration alone. A file of format 2 or 3 may also hold `demo_force` (M x N), the
+demonstration's wrist force on the phase basis (`hlcmp_drake.core.demo_force`); readers
+that do not know the field ignore it, and a file without it is a skill whose
+demonstration carried no force.
 """
 
 from __future__ import annotations
@@ -16,18 +23,34 @@ import dataclasses as dc
 import re
 import zipfile
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 
 from hlcmp_drake.core.dmp import Dmp, DmpSettings
+from hlcmp_drake.core.orientation_dmp import OrientationDmp
 from hlcmp_drake.io.errors import InputError
 
 FORMAT_VERSION = 2
+# A skill with an orientation DMP.
+POSE_FORMAT_VERSION = 3
 # The versions this one reads: 1 is a skill without its world (Skill.world None).
-READABLE_VERSIONS = (1, 2)
+READABLE_VERSIONS = (1, 2, 3)
+# Format 3's orientation DMP: key -> the shape it must have (N: the basis functions).
+ORIENTATION_FIELDS = {
+    "orientation_start": (4,),
+    "orientation_goal": (4,),
+    "orientation_rotation": (3,),
+    "orientation_theta": (3, "N"),
+    "orientation_amplitude": (),
+    "orientation_goal_scaled": (),
+}
+# How far from 1 a stored quaternion's norm may be (it was written normalised).
+UNIT_NORM_TOLERANCE = 1e-9
 # Format 2's record of the world (SkillWorld's fields), all empty when it is unknown.
 WORLD_FIELDS = ("world_scenario", "world_kind", "world_digest")
+# Optional from format 2 on: the demonstration's force as feed-forward weights.
+DEMO_FORCE_FIELD = "demo_force"
 NOT_A_SKILL = "not a skill file (a .npz written by hlcmp fit/learn)"
 _ZIP_MAGIC = (b"PK\x03\x04", b"PK\x05\x06")  # a .npz is a zip archive
 
@@ -95,6 +118,14 @@ class Skill:
     world : SkillWorld or None
         Where the profiles were learned; None when unknown (a skill of `hlcmp fit`, which
         learned nothing, or a format 1 file).
+    orientation : OrientationDmp or None
+        A pose skill's orientation DMP, with the position DMP's settings and tau; None
+        for a skill of positions only.
+    demo_force : (M, N) array or None
+        The demonstration's wrist force encoded on the phase basis, as feed-forward
+        weights [N] (`hlcmp_drake.core.demo_force.fit_feedforward_weights`): what
+        `hlcmp learn --demo-force` starts theta_v from. None when the demonstration
+        carried no force.
     """
 
     dmp: Dmp
@@ -102,15 +133,31 @@ class Skill:
     theta_d: np.ndarray
     theta_v: np.ndarray
     world: SkillWorld | None = None
+    orientation: OrientationDmp | None = None
+    demo_force: np.ndarray | None = None
+
+    def __post_init__(self):
+        o = self.orientation
+        if o is not None and (o.settings != self.dmp.settings or o.tau != self.dmp.tau):
+            raise ValueError("the orientation DMP must share the position DMP's settings and tau")
 
     @classmethod
-    def untrained(cls, dmp: Dmp) -> Skill:
+    def untrained(
+        cls,
+        dmp: Dmp,
+        orientation: OrientationDmp | None = None,
+        demo_force: np.ndarray | None = None,
+    ) -> Skill:
         """theta_k = theta_d = theta_v = 0, the paper's theta(t0).
 
         Parameters
         ----------
         dmp : Dmp
             The fitted DMP; its theta_p (M, N) gives the shape of the zero weights.
+        orientation : OrientationDmp, optional
+            A pose skill's orientation DMP.
+        demo_force : (M, N) array, optional
+            The demonstration's encoded force (`Skill.demo_force`).
 
         Returns
         -------
@@ -118,14 +165,20 @@ class Skill:
             The skill with zero compliant-profile weights.
         """
         zeros = np.zeros_like(dmp.theta_p)
-        return cls(dmp, zeros, zeros.copy(), zeros.copy())
+        return cls(
+            dmp, zeros, zeros.copy(), zeros.copy(), orientation=orientation, demo_force=demo_force
+        )
 
 
-def save_skill(path: str | Path, skill: Skill) -> Path:
+def save_skill(
+    path: str | Path, skill: Skill, extra: Mapping[str, np.ndarray] | None = None
+) -> Path:
     """Write a skill file (.npz with `format_version`), atomically.
 
     beta is stored by its value (alpha / 4 when the settings leave it at None); the world
-    as three strings world_scenario, world_kind, world_digest (all empty when unknown).
+    as three strings world_scenario, world_kind, world_digest (all empty when unknown); an
+    orientation DMP as the ORIENTATION_FIELDS, in format 3; `demo_force` only when the
+    skill has one.
 
     Parameters
     ----------
@@ -133,6 +186,10 @@ def save_skill(path: str | Path, skill: Skill) -> Path:
         The file to write.
     skill : Skill
         The skill.
+    extra : mapping of str to array, optional
+        Further arrays stored beside the skill's (e.g. a generalized skill's predictive
+        standard deviations); `load_skill` ignores them. A name of the skill's own is
+        refused (ValueError).
 
     Returns
     -------
@@ -142,8 +199,9 @@ def save_skill(path: str | Path, skill: Skill) -> Path:
     from hlcmp_drake.io.outputs import atomic_write
 
     d = skill.dmp
+    o = skill.orientation
     arrays: dict[str, Any] = dict(
-        format_version=np.array(FORMAT_VERSION),
+        format_version=np.array(FORMAT_VERSION if o is None else POSE_FORMAT_VERSION),
         axis_names=np.array(d.axis_names),
         n_basis=np.array(d.settings.n_basis),
         alpha=np.array(d.settings.alpha),
@@ -163,6 +221,21 @@ def save_skill(path: str | Path, skill: Skill) -> Path:
     world = skill.world or SkillWorld("", "", "")
     for key in ("scenario", "kind", "digest"):
         arrays[f"world_{key}"] = np.array(getattr(world, key))
+    if skill.demo_force is not None:
+        arrays[DEMO_FORCE_FIELD] = skill.demo_force
+    if o is not None:
+        arrays.update(
+            orientation_start=o.start,
+            orientation_goal=o.goal,
+            orientation_rotation=o.demonstrated_rotation,
+            orientation_theta=o.theta,
+            orientation_amplitude=np.array(o.amplitude),
+            orientation_goal_scaled=np.array(o.goal_scaled),
+        )
+    clashes = sorted(set(extra or {}) & set(arrays))
+    if clashes:
+        raise ValueError(f"extra arrays may not replace the skill's own: {', '.join(clashes)}")
+    arrays.update(extra or {})
 
     def write(temp):
         with open(temp, "wb") as stream:
@@ -237,7 +310,8 @@ def load_skill(path: str | Path) -> Skill:
             raise fail(
                 f"field '{key}' has shape {arrays[key].shape}, expected ({m},) for axes {axes}"
             )
-    for key in ("theta_p", "theta_k", "theta_d", "theta_v"):
+    has_force = DEMO_FORCE_FIELD in arrays
+    for key in ("theta_p", "theta_k", "theta_d", "theta_v") + (DEMO_FORCE_FIELD,) * has_force:
         if arrays[key].shape != (m, n):
             raise fail(f"field '{key}' has shape {arrays[key].shape}, expected ({m}, {n})")
         if not np.all(np.isfinite(arrays[key])):
@@ -272,6 +346,37 @@ def load_skill(path: str | Path) -> Skill:
         arrays["theta_d"].astype(float),
         arrays["theta_v"].astype(float),
         _world(arrays, fail) if version >= 2 else None,
+        _orientation(arrays, dmp, fail) if version >= POSE_FORMAT_VERSION else None,
+        arrays[DEMO_FORCE_FIELD].astype(float) if has_force else None,
+    )
+
+
+def _orientation(arrays, dmp, fail):
+    """The OrientationDmp of a format 3 file, every field checked."""
+    missing = [key for key in ORIENTATION_FIELDS if key not in arrays]
+    if missing:
+        raise fail(f"missing field(s): {', '.join(missing)}")
+    n = dmp.settings.n_basis
+    for key, shape in ORIENTATION_FIELDS.items():
+        expected = tuple(n if size == "N" else size for size in shape)
+        if arrays[key].shape != expected:
+            raise fail(f"field '{key}' has shape {arrays[key].shape}, expected {expected}")
+        if arrays[key].dtype.kind not in "fb" or not np.all(np.isfinite(arrays[key])):
+            raise fail(f"field '{key}' must hold finite numbers")
+    for key in ("orientation_start", "orientation_goal"):
+        if abs(np.linalg.norm(arrays[key]) - 1.0) > UNIT_NORM_TOLERANCE:
+            raise fail(f"field '{key}' is not a unit quaternion")
+    if not float(arrays["orientation_amplitude"]) > 0:
+        raise fail("field 'orientation_amplitude' must be positive")
+    return OrientationDmp(
+        dmp.settings,
+        dmp.tau,
+        arrays["orientation_start"].astype(float),
+        arrays["orientation_goal"].astype(float),
+        arrays["orientation_rotation"].astype(float),
+        arrays["orientation_theta"].astype(float),
+        float(arrays["orientation_amplitude"]),
+        bool(arrays["orientation_goal_scaled"]),
     )
 
 

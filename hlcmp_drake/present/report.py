@@ -151,13 +151,84 @@ code { background: #f4f4f4; padding: 0 0.2em; }
 @dc.dataclass
 class ReportSection:
     """One scenario's part of the report: its name, run folder, wall time [s], the
-    experiment that evaluated it, and the folder of its world's probe (None: no probe)."""
+    experiment that evaluated it, the folder of its world's probe (None: no probe) and
+    the folders of its runs under variants ({variant name: folder}; e.g. a real arm's)."""
 
     name: str
     run_dir: Path
     wall_s: float
     experiment: Experiment
     probe_dir: Path | None = None
+    variants: dict = dc.field(default_factory=dict)
+
+
+def _task_cell(metrics: dict, name: str) -> str:
+    """Whether controller `name` did the experiment's task: "yes", "no" or "unstable"."""
+    if name in metrics.get("instability", {}):
+        return "unstable"
+    task = metrics["controllers"][name].get("task")
+    return "–" if task is None else ("yes" if task["done"] else "no")
+
+
+def robot_comparison(
+    perfect: dict, other: dict, label: str, experiment: Experiment
+) -> tuple[Table, Table]:
+    """The same controllers on the perfect robot and on another (a variant's runs), side
+    by side: whether each did the task and its metrics, one row per robot; and each claim's
+    verdict under each reading of Q on both.
+
+    Parameters
+    ----------
+    perfect, other : dict
+        The two runs' metrics.json contents (the same controllers).
+    label : str
+        The other robot's name in the tables, e.g. "real_arm".
+    experiment : Experiment
+        Its `table` makes the metrics' cells.
+
+    Returns
+    -------
+    metrics : Table
+        Headers "controller", "robot", "task done" and the experiment's metric columns.
+    claims : Table
+        Headers "claim", "reading", "perfect" and `label`.
+    """
+    runs = {"perfect": perfect, label: other}
+    headers = experiment.table({}).headers
+    metrics_table = Table([headers[0], "robot", "task done", *headers[1:]])
+    for name in perfect["controllers"]:
+        for robot, metrics in runs.items():
+            if name not in metrics["controllers"]:
+                continue
+            row = experiment.table({name: metrics["controllers"][name]}).rows[0]
+            metrics_table.add(row[0], robot, _task_cell(metrics, name), *row[1:])
+    claims_table = Table(["claim", "reading", "perfect", label])
+    for learner, by_claim in perfect["claims"].items():
+        reading = reading_label(learner, perfect.get("learners", {}))
+        for claim_name, claim in by_claim.items():
+            theirs = other["claims"].get(learner, {}).get(claim_name)
+            claims_table.add(
+                claim_name,
+                reading,
+                verdict_text(claim["holds"]),
+                "–" if theirs is None else verdict_text(theirs["holds"]),
+            )
+    return metrics_table, claims_table
+
+
+def _variant_html(out_dir: Path, perfect: dict, variant: str, run_dir: Path, experiment) -> str:
+    """A variant's runs beside the perfect robot's (`robot_comparison`)."""
+    other = json.loads((Path(run_dir) / "metrics.json").read_text())
+    rel = Path(run_dir).resolve().relative_to(out_dir.resolve()).as_posix()
+    metrics_table, claims_table = robot_comparison(perfect, other, variant, experiment)
+    return (
+        f"<h3>The same controllers on another robot: {html.escape(variant)}</h3>"
+        f"<p>No gain changed (docs/worlds.md, &ldquo;A robot that is not its model&rdquo;). "
+        f"Status: <b>{other['status']}</b>. <a href='{rel}/metrics.json'>metrics.json</a> · "
+        f"<a href='{rel}/recording.html'>3-D recording</a></p>"
+        + to_html(metrics_table)
+        + to_html(claims_table, code_first_column=False, verdict_columns=("perfect", variant))
+    )
 
 
 def _probe_html(out_dir: Path, probe_dir: Path) -> str:
@@ -233,6 +304,8 @@ def report_page(out_dir: Path, sections: list) -> str:
             )
         )
         parts.append("<h3>Metrics</h3>" + to_html(experiment.table(metrics["controllers"])))
+        for variant, variant_dir in section.variants.items():
+            parts.append(_variant_html(out_dir, metrics, variant, variant_dir, experiment))
         if section.probe_dir is not None:
             parts.append(_probe_html(out_dir, Path(section.probe_dir)))
         parts.append("<h3>Figures</h3>")

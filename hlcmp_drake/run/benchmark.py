@@ -21,7 +21,9 @@ from pydrake.trajectories import PiecewisePolynomial
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.scenario import Scenario
+from hlcmp_drake.core import quaternion as quat
 from hlcmp_drake.core.dmp import Dmp, DmpSettings
+from hlcmp_drake.core.orientation_dmp import OrientationDmp
 from hlcmp_drake.experiments import EXPERIMENTS
 from hlcmp_drake.experiments.table import Table, number
 from hlcmp_drake.present.progress import SILENT, Progress
@@ -323,6 +325,94 @@ def dmp_timings(repetitions: int) -> dict:
     return out
 
 
+def _pose_demo(turn_deg, samples=2000):
+    """`_demo`'s positions with an orientation: a minimum-jerk turn of `turn_deg` about the
+    tilted axis (1, 2, 2) / 3, and a 20 deg swing about (0, 0.6, -0.8) out and back.
+    Returns (t, positions, quaternions, truth) with truth(t) the orientation at any time."""
+    t, positions = _demo(samples)
+    axis, swing_axis = np.array([1.0, 2.0, 2.0]) / 3.0, np.array([0.0, 0.6, -0.8])
+    start = quat.from_rotation_vector([0.3, -0.2, 0.1])
+
+    def truth(times):
+        u = np.clip(np.asarray(times) / t[-1], 0.0, 1.0)
+        turn = np.radians(turn_deg) * (10 * u**3 - 15 * u**4 + 6 * u**5)
+        swing = np.radians(20.0) * np.sin(np.pi * u) ** 2
+        return quat.multiply(
+            quat.from_rotation_vector(turn[:, None] * axis),
+            quat.multiply(quat.from_rotation_vector(swing[:, None] * swing_axis), start),
+        )
+
+    return t, positions, quat.hemisphere_continuous(truth(t)), truth
+
+
+def orientation_dmp_comparison(repetitions: int) -> dict:
+    """The pose DMP (`Dmp` for the position, `OrientationDmp`) against movement_primitives'
+    `CartesianDMP` on the same pose demonstrations (`_pose_demo`: 2000 samples over 4 s,
+    turns of 150 and 270 deg), both with 50 weights per dimension and rolled out at 1 ms:
+    the geodesic RMS error [deg] of the rolled-out orientation against the demonstrated
+    one at the rollout's times, and the fit + rollout time of the 150 deg demonstration,
+    alternating.
+
+    Parameters
+    ----------
+    repetitions : int
+        Timed repetitions of each side (medians are reported).
+
+    Returns
+    -------
+    dict
+        orientation_dmp_rms_deg and cartesian_dmp_rms_deg ({"150": ..., "270": ...}),
+        pose_dmp_fit_rollout_ms, cartesian_dmp_fit_rollout_ms and their ratio
+        pose_dmp_vs_cartesian_dmp; movement_primitives' entries None when it is not
+        installed.
+    """
+    try:
+        from movement_primitives.dmp import CartesianDMP
+    except ImportError:
+        CartesianDMP = None
+    settings = DmpSettings(n_basis=50, smoothing_s=0.0)
+
+    def ours(t, positions, quaternions):
+        position = Dmp.fit(t, positions, "xyz", settings)
+        orientation = OrientationDmp.fit(t, quaternions, settings)
+        position.rollout(dt=0.001)
+        times, q, _, _ = orientation.rollout(dt=0.001)
+        return times, q
+
+    def theirs(t, positions, quaternions):
+        dmp = CartesianDMP(execution_time=float(t[-1]), dt=0.001, n_weights_per_dim=50)
+        dmp.imitate(t, np.hstack([positions, quaternions]))
+        times, pose = dmp.open_loop()
+        return times, pose[:, 3:]
+
+    sides = {"orientation_dmp": ours, "cartesian_dmp": theirs if CartesianDMP else None}
+    out: dict = {}
+    for turn in (150, 270):
+        t, positions, quaternions, truth = _pose_demo(turn)
+        for name, side in sides.items():
+            if side is None:
+                out[f"{name}_rms_deg"] = None
+                continue
+            times, q = side(t, positions, quaternions)
+            error = np.degrees(quat.geodesic_angle(q, truth(times)))
+            out.setdefault(f"{name}_rms_deg", {})[str(turn)] = float(np.sqrt(np.mean(error**2)))
+    t, positions, quaternions, _ = _pose_demo(150)
+    walls: dict[str, list[float]] = {name: [] for name in sides}
+    for _ in range(repetitions):
+        for name, side in sides.items():
+            if side is not None:
+                walls[name].append(_wall(partial(side, t, positions, quaternions))[0])
+    out["pose_dmp_fit_rollout_ms"] = 1e3 * statistics.median(walls["orientation_dmp"])
+    if walls["cartesian_dmp"]:
+        out["cartesian_dmp_fit_rollout_ms"] = 1e3 * statistics.median(walls["cartesian_dmp"])
+        out["pose_dmp_vs_cartesian_dmp"] = statistics.median(
+            [a / b for a, b in zip(walls["orientation_dmp"], walls["cartesian_dmp"])]
+        )
+    else:
+        out["cartesian_dmp_fit_rollout_ms"] = out["pose_dmp_vs_cartesian_dmp"] = None
+    return out
+
+
 def scenario_walls(names: list[str], duration: float | None = None) -> dict:
     """The wall time [s] of each bundled scenario's full `hlcmp run` (outputs in a temp dir).
 
@@ -386,6 +476,8 @@ def run_benchmark(quick: bool = False, reporter: Progress = SILENT) -> dict:
     results.update(one_dof_runs(duration=plan["one_dof_s"], repetitions=plan["repetitions"]))
     reporter.say("DMP fit and rollout ...")
     results.update(dmp_timings(repetitions=plan["dmp_repetitions"]))
+    reporter.say("pose DMP against movement_primitives' CartesianDMP ...")
+    results.update(orientation_dmp_comparison(repetitions=plan["dmp_repetitions"]))
     reporter.say("bundled scenarios ...")
     results["scenario_wall_s"] = scenario_walls(list(EXPERIMENTS), duration=plan["scenario_s"])
     if quick:
@@ -499,6 +591,8 @@ def _rows(results):
             None if ratio is None else ratio <= 1.0,
         ),
     ]
+    if "orientation_dmp_rms_deg" in results:  # bench.json files from before the pose DMP lack it
+        rows += _pose_dmp_rows(results)
     cut = results.get("scenario_simulated_s")
     rows += [
         (
@@ -512,6 +606,41 @@ def _rows(results):
         for name, wall in results["scenario_wall_s"].items()
     ]
     return rows
+
+
+def _pose_dmp_rows(results):
+    """The orientation DMP against movement_primitives' CartesianDMP (n/a: not installed)."""
+
+    def errors(name):
+        value = results[f"{name}_rms_deg"]
+        return "n/a" if value is None else f"{value['150']:.4f} / {value['270']:.4f}°"
+
+    ratio = results["pose_dmp_vs_cartesian_dmp"]
+    theirs = results["cartesian_dmp_fit_rollout_ms"]
+    return [
+        (
+            "orientation_dmp_rms_deg: geodesic RMS error of our pose DMP's orientation, "
+            "turns of 150 / 270 deg about a tilted axis (2000 samples over 4 s, N = 50, 1 ms)",
+            errors("orientation_dmp"),
+            "",
+            None,
+        ),
+        (
+            "cartesian_dmp_rms_deg: the same for movement_primitives 0.9.1's CartesianDMP",
+            errors("cartesian_dmp"),
+            "",
+            None,
+        ),
+        (
+            "pose_dmp_vs_cartesian_dmp: our pose fit + rollout (150 deg) / CartesianDMP's "
+            f"({results['pose_dmp_fit_rollout_ms']:.0f} ms / "
+            + ("n/a" if theirs is None else f"{theirs:.0f} ms")
+            + ")",
+            "n/a" if ratio is None else number(ratio),
+            "",
+            None,
+        ),
+    ]
 
 
 SMOKE_HEADER = "quick smoke run (shortened runs: not measurements, no target judged)"

@@ -10,7 +10,9 @@ scenario's `reference.duration_s` when that rescales it) -- plus SETTLE_S, whate
 scenario's own `duration_s` is; an override ``duration_s=...`` sets it instead. A skill
 records the world it was learned in (`hlcmp_drake.config.world`); using it in another
 world is refused unless asked for (`any_scenario`), and a skill whose world is unknown (a
-skill of `hlcmp fit`, or a format 1 file) is used with a warning.
+skill of `hlcmp fit`, or a format 1 file) is used with a warning. A demonstration that
+carries its wrist force (fx,fy,fz) gives the skill its encoded force, from which the
+first trial's feed-forward starts when asked (`demo_force`).
 """
 
 from __future__ import annotations
@@ -25,12 +27,14 @@ from matplotlib.figure import Figure
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.scenario import DemonstrationConfig, Scenario
 from hlcmp_drake.config.world import world_of_scenario
+from hlcmp_drake.core.demo_force import fit_feedforward_weights
 from hlcmp_drake.core.dmp import Dmp
 from hlcmp_drake.experiments import experiment_of
 from hlcmp_drake.experiments.claims import learner
 from hlcmp_drake.experiments.plots import new_figure
 from hlcmp_drake.experiments.table import Table, number
 from hlcmp_drake.io import outputs
+from hlcmp_drake.io.demos import read_demonstration
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.io.runs import RunResult, instability_record
 from hlcmp_drake.io.skill import Skill, SkillWorld, save_skill
@@ -193,19 +197,69 @@ def learning_scenario(
 
 
 def check_skill_fits(skill: Skill, scenario: Scenario) -> None:
-    """Raise InputError when the skill's axes are not the ones the scenario controls.
+    """Raise InputError when the skill's axes are not the ones the scenario controls, or
+    when it is a pose skill (the scenarios control the translation only).
 
     Parameters
     ----------
     skill : Skill
     scenario : Scenario
     """
+    if skill.orientation is not None:
+        raise InputError(
+            f"the skill has an orientation (a pose skill), and the scenario '{scenario.name}' "
+            "controls the translation only; hlcmp rollout rolls a pose skill out"
+        )
     axes = ("x", "y", "z")[: scenario.n_axes]
     if skill.dmp.axis_names != axes:
         raise InputError(
             f"the skill's axes ({','.join(skill.dmp.axis_names)}) do not match the "
             f"scenario '{scenario.name}', which controls {','.join(axes)}"
         )
+
+
+def demonstration_force(scenario: Scenario) -> np.ndarray | None:
+    """The learning scenario's demonstration force encoded as feed-forward weights
+    (`fit_feedforward_weights`, on the scenario's basis), or None when its demonstration
+    has no force columns.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        A learning scenario (`learning_scenario`), its reference the demonstration.
+
+    Returns
+    -------
+    (M, N) array or None
+        theta_v [N] whose profile follows the demonstrated force.
+    """
+    t, _, _, force = read_demonstration(scenario.reference.file, with_force=True)
+    return None if force is None else fit_feedforward_weights(t, force, scenario.dmp)
+
+
+def demo_force_start(scenario: Scenario, demo_force: np.ndarray) -> tuple:
+    """The first trial's weights when the feed-forward starts from the demonstration:
+    theta_k and theta_d as the learner's config sets them, theta_v = `demo_force`.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        A learning scenario; its learner's theta_k0, theta_d0.
+    demo_force : (M, N) array
+        The demonstration's encoded force [N] (`demonstration_force`).
+
+    Returns
+    -------
+    tuple of three (M, N) arrays
+        (theta_k, theta_d, theta_v) at t0.
+    """
+    config = scenario.controllers[learner(scenario)]
+    shape = np.shape(demo_force)
+    return (
+        np.full(shape, float(config.theta_k0)),
+        np.full(shape, float(config.theta_d0)),
+        np.array(demo_force, dtype=float),
+    )
 
 
 def effort(run: RunResult) -> float:
@@ -406,6 +460,7 @@ def learn(
     trials: int = 1,
     freeze: bool = False,
     any_scenario: bool = False,
+    demo_force: bool = False,
     reporter: Progress = SILENT,
     overrides: Sequence[str] = (),
     warn: Callable[[str], None] | None = None,
@@ -434,6 +489,9 @@ def learn(
         No adaptation (learning rates 0): the skill's profiles as they are.
     any_scenario : bool
         Use a skill learned in another world all the same (`check_skill_world`).
+    demo_force : bool
+        Start the first trial's feed-forward theta_v from the demonstration's force
+        (`demo_force_start`) instead of the learner's theta_v0.
     reporter : Progress, optional
     overrides : sequence of str
         ``dotted.key=value`` overrides of the scenario.
@@ -445,8 +503,14 @@ def learn(
     ------
     InputError
         Before anything is simulated: a bad scenario or demonstration, a skill that does
-        not fit the scenario's axes, or one learned in another world.
+        not fit the scenario's axes, or one learned in another world; with `demo_force`, a
+        demonstration without force columns, or a `skill` as well.
     """
+    if demo_force and skill is not None:
+        raise InputError(
+            "--demo-force starts the feed-forward from the demonstration, --skill from a "
+            "skill: give one of them"
+        )
     return _learn_or_reproduce(
         "learn",
         scenario_name,
@@ -457,6 +521,7 @@ def learn(
         trials=trials,
         freeze=freeze,
         any_scenario=any_scenario,
+        demo_force=demo_force,
         reporter=reporter,
         overrides=overrides,
         warn=warn,
@@ -518,6 +583,7 @@ def reproduce(
         trials=1,
         freeze=freeze,
         any_scenario=any_scenario,
+        demo_force=False,
         reporter=reporter,
         overrides=overrides,
         warn=warn,
@@ -535,6 +601,7 @@ def _learn_or_reproduce(
     trials,
     freeze,
     any_scenario,
+    demo_force,
     reporter,
     overrides,
     warn,
@@ -548,7 +615,16 @@ def _learn_or_reproduce(
         if warning is not None:
             warnings.append(warning)
     scenario = learning_scenario(base, demo, skill, freeze)
-    dmp = fit_demonstration(scenario) if demo is not None or skill is None else skill.dmp
+    # The skill keeps the force of the demonstration its DMP comes from.
+    if demo is not None or skill is None:
+        dmp, encoded_force = fit_demonstration(scenario), demonstration_force(scenario)
+    else:
+        dmp, encoded_force = skill.dmp, skill.demo_force
+    if demo_force and encoded_force is None:
+        raise InputError(
+            f"{scenario.reference.file}: no force columns (fx,fy,fz) to start the "
+            "feed-forward from (--demo-force)"
+        )
     tau = skill_duration(scenario, dmp)
     if not sets_duration(overrides):
         scenario = dc.replace(scenario, duration_s=tau + SETTLE_S)
@@ -557,6 +633,8 @@ def _learn_or_reproduce(
             warn(warning)
     world = world_of_scenario(base)
     theta0 = (skill.theta_k, skill.theta_d, skill.theta_v) if skill else None
+    if demo_force:
+        theta0 = demo_force_start(scenario, encoded_force)
     runs = run_trials(scenario, dmp, trials, theta0=theta0, reporter=reporter)
     rows = trial_metrics(runs, scenario)
     unstable = instability_record(runs)
@@ -567,6 +645,7 @@ def _learn_or_reproduce(
         "status": "unstable" if unstable else "ok",
         "demonstration": None if demo is None else str(demo),
         "started_from_skill": None if skill_path is None else str(skill_path),
+        "feedforward_from_demo_force": bool(demo_force),
         "skill_world": _world_record(skill),
         "adaptation": "frozen" if freeze else "on",
         "duration_s": scenario.duration_s,
@@ -587,7 +666,10 @@ def _learn_or_reproduce(
     saved = None
     with outputs.replacing_outputs(out_dir, keep=[skill_path] if skill_path else []):
         if not unstable and not freeze:
-            saved = save_skill(out_dir / "skill.npz", Skill(dmp, *runs[-1].theta, world=world))
+            saved = save_skill(
+                out_dir / "skill.npz",
+                Skill(dmp, *runs[-1].theta, world=world, demo_force=encoded_force),
+            )
         write_results(out_dir, scenario, {run.controller: run for run in runs}, metrics, figures)
     return LearningResult(metrics, runs, out_dir, saved, warnings)
 

@@ -6,8 +6,10 @@ import dataclasses as dc
 import os
 import time
 from pathlib import Path
+from typing import Sequence
 
 from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.config.scenario import ArmTask
 from hlcmp_drake.experiments import experiment_of
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.io.outputs import WRITTEN, replacing_outputs, write_text
@@ -84,20 +86,27 @@ def report_folders(out_dir: str | Path, scenarios: list[str] | None = None) -> d
 
 @dc.dataclass(frozen=True)
 class _ReportTask:
-    """One piece of a report's work: a scenario's runs, or its world's probe."""
+    """One piece of a report's work: a scenario's runs (under a variant, when one is
+    named), or its world's probe."""
 
     entry: str
     folder: str
     probe: bool
+    variant: str | None = None
 
 
-def _report_work(entry: str, folder: Path) -> list[_ReportTask]:
+def _report_work(entry: str, folder: Path, variants: Sequence[str]) -> list[_ReportTask]:
     """A scenario's runs, then its world's probe (the world alone, no controller) where
-    the scenario has one."""
+    the scenario has one, then an arm scenario's runs under each variant (each loaded,
+    and so checked, here), in out_dir/<name>_<variant>."""
     scenario, _ = load_scenario(entry)
     work = [_ReportTask(entry, str(folder), probe=False)]
     if scenario.probe.push_m:
         work.append(_ReportTask(entry, str(folder / "probe"), probe=True))
+    if isinstance(scenario.task, ArmTask):
+        for variant in variants:
+            name = load_scenario(entry, variant=variant)[0].name
+            work.append(_ReportTask(entry, str(folder.parent / name), False, variant))
     return work
 
 
@@ -109,7 +118,8 @@ def _do(task: _ReportTask, reporter: Progress = SILENT) -> dict:
         run_probe(task.entry, task.folder)
         status = None
     else:
-        status = run_scenario(task.entry, task.folder, reporter=reporter).metrics["status"]
+        result = run_scenario(task.entry, task.folder, reporter=reporter, variant=task.variant)
+        status = result.metrics["status"]
     return {
         "status": status,
         "wall_s": time.perf_counter() - start,
@@ -123,9 +133,11 @@ def run_report(
     reporter: Progress = SILENT,
     *,
     jobs: int | None = None,
+    variants: Sequence[str] = (),
 ) -> ReportResult:
     """Run each scenario into out_dir/<its name> (its probe, if it has one, into
-    out_dir/<its name>/probe) and write out_dir/index.html, a page that works offline.
+    out_dir/<its name>/probe; an arm scenario under each variant into
+    out_dir/<its name>_<variant>) and write out_dir/index.html, a page that works offline.
 
     The runs and the probes are tasks of the sweep's local engine (`run_in_processes`),
     `jobs` at a time; with one job they run one after the other in this process. The
@@ -142,10 +154,16 @@ def run_report(
     reporter : Progress, optional
     jobs : int, optional
         Processes at a time, >= 1; default one per CPU (at most one per task).
+    variants : sequence of str
+        The variants each arm scenario also runs under, shown beside its perfect robot
+        (bundled names, e.g. "real_arm", or .yaml paths); default none (each runs the
+        arm scenarios again).
     """
     out_dir = Path(out_dir)
     folders = report_folders(out_dir, scenarios)
-    work = [task for entry, folder in folders.items() for task in _report_work(entry, folder)]
+    work = [
+        task for entry, folder in folders.items() for task in _report_work(entry, folder, variants)
+    ]
     if jobs is not None and jobs < 1:
         raise InputError(f"--jobs: must be at least 1, got {jobs}")
     jobs = max(1, min(jobs or os.cpu_count() or 1, len(work)))
@@ -156,7 +174,7 @@ def run_report(
         for entry, folder in folders.items():
             pieces = [(task, done[task]) for task in work if task.entry == entry]
             probe = next((Path(task.folder) for task, _ in pieces if task.probe), None)
-            run = next(result for task, result in pieces if not task.probe)
+            runs = [(task, result) for task, result in pieces if not task.probe]
             sections.append(
                 ReportSection(
                     folder.name,
@@ -164,9 +182,10 @@ def run_report(
                     sum(result["wall_s"] for _, result in pieces),
                     experiment_of(load_scenario(entry)[0]),
                     probe,
+                    {task.variant: Path(task.folder) for task, _ in runs if task.variant},
                 )
             )
-            statuses.append(run["status"])
+            statuses += [result["status"] for _, result in runs]
         page = write_text(out_dir / "index.html", report_page(out_dir, sections))
     return ReportResult(page, sections, statuses, time.perf_counter() - start)
 
@@ -175,6 +194,8 @@ def _run_work(work: list[_ReportTask], jobs: int, reporter: Progress) -> dict:
     """Each task's result, run here one after the other (one job) or in `jobs` processes."""
 
     def what(task):
+        if task.variant:
+            return f"{task.entry} ({task.variant})"
         return f"{task.entry}'s probe" if task.probe else task.entry
 
     if jobs == 1:

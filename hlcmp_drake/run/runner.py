@@ -196,6 +196,7 @@ def run_scenario(
     drake_models_iiwa: bool = False,
     overrides: Sequence[str] = (),
     meshcat: Meshcat | None = None,
+    variant: str | None = None,
 ) -> ScenarioResult:
     """Load, run, evaluate and write one scenario.
 
@@ -207,8 +208,11 @@ def run_scenario(
         As for `run_loaded_scenario`.
     overrides : sequence of str
         ``dotted.key=value`` overrides layered over the file (see `load_scenario`).
+    variant : str, optional
+        A variant layered over the file before the overrides (see `load_scenario`), e.g.
+        "real_arm".
     """
-    scenario, path = load_scenario(name_or_path, overrides, experiment_worlds())
+    scenario, path = load_scenario(name_or_path, overrides, experiment_worlds(), variant)
     return run_loaded_scenario(
         scenario,
         path,

@@ -2,6 +2,8 @@
 
 Both have the same output ports -- desired_position, desired_velocity,
 desired_acceleration (M each) and phase (1) -- so a controller cannot tell them apart.
+The orientation DMP's source (`orientation_dmp_source`) adds the desired orientation, its
+angular velocity and acceleration.
 """
 
 import numpy as np
@@ -17,6 +19,12 @@ from pydrake.systems.primitives import AffineSystem, Demultiplexer, TrajectorySo
 from pydrake.trajectories import PiecewisePolynomial
 
 from hlcmp_drake.core.dmp import Dmp, canonical_phase_rate, phase_at, transformation_matrices
+from hlcmp_drake.core.orientation_dmp import (
+    OrientationDmp,
+    angular_acceleration,
+    angular_velocity,
+    orientation_from_error,
+)
 
 # The forcing term's samples for the spline that drives linear_dmp_source [s]. Measured
 # error of the cubic: 4e-11 of f for the bundled DMPs (tau 8.5 s, N = 30); 7e-7 for tau 1 s,
@@ -171,6 +179,118 @@ def linear_dmp_source(dmp: Dmp, duration: float, tau: float | None = None) -> Di
         builder.ExportOutput(split.get_output_port(k), name)
     diagram = builder.Build()
     diagram.set_name("reference")
+    return diagram
+
+
+class OrientationFromError(LeafSystem):
+    """The orientation q = Exp(-e/2) q_g, its angular velocity and acceleration (world
+    frame) from the rotation vector e to a goal at rest and e's first two derivatives
+    (`core.orientation_dmp`: `orientation_from_error`, `angular_velocity`,
+    `angular_acceleration`), evaluated once per input change.
+
+    Input ports:
+
+    - ``rotation_error`` (3): e [rad].
+    - ``rotation_error_rate`` (3): e' [rad/s].
+    - ``rotation_error_acceleration`` (3): e'' [rad/s^2].
+
+    Output ports:
+
+    - ``desired_orientation`` (4): q (w, x, y, z).
+    - ``desired_angular_velocity`` (3): omega [rad/s], world frame.
+    - ``desired_angular_acceleration`` (3): omega' [rad/s^2], world frame.
+
+    Parameters
+    ----------
+    goal : (4,) array_like
+        q_g, a unit quaternion.
+    """
+
+    def __init__(self, goal):
+        super().__init__()
+        self._goal = np.asarray(goal, dtype=float)
+        self._inputs = [
+            self.DeclareVectorInputPort(name, 3)
+            for name in ("rotation_error", "rotation_error_rate", "rotation_error_acceleration")
+        ]
+        self._values = self.DeclareCacheEntry(
+            "orientation",
+            ValueProducer(allocate=lambda: AbstractValue.Make(None), calc=self._calc_values),
+            {self.all_input_ports_ticket()},
+        )
+        ticket = {self._values.ticket()}
+        for k, (name, size) in enumerate(
+            (
+                ("desired_orientation", 4),
+                ("desired_angular_velocity", 3),
+                ("desired_angular_acceleration", 3),
+            )
+        ):
+            self.DeclareVectorOutputPort(
+                name, size, lambda c, o, k=k: o.SetFromVector(self._values.Eval(c)[k]), ticket
+            )
+
+    def _calc_values(self, context, abstract_value):
+        e, rate, acceleration = (port.Eval(context) for port in self._inputs)
+        abstract_value.set_value(
+            (
+                orientation_from_error(e, self._goal),
+                angular_velocity(e, rate, np.zeros(3)),
+                angular_acceleration(e, rate, acceleration),
+            )
+        )
+
+
+def orientation_dmp_source(
+    dmp: OrientationDmp, duration: float, tau: float | None = None
+) -> Diagram:
+    """The orientation DMP for its present goal: the transformation system in e
+    (`OrientationDmp.error_dmp`, linear) as Drake's own C++ systems (`linear_dmp_source`),
+    and the map to the orientation (`OrientationFromError`, Python, run only when its
+    ports are evaluated).
+
+    Parameters
+    ----------
+    dmp : OrientationDmp
+        The fitted orientation DMP (with a new goal already set, if any).
+    duration : float
+        How long the source will be simulated [s].
+    tau : float, optional
+        Time constant [s]; default the demonstration's (another value: temporal scaling).
+
+    Returns
+    -------
+    Diagram
+        Named "orientation_reference", without input ports; output ports:
+
+        - ``rotation_error``, ``rotation_error_rate``, ``rotation_error_acceleration``
+          (3 each): e [rad], e' [rad/s], e'' [rad/s^2], from the C++ systems alone.
+        - ``desired_orientation`` (4), ``desired_angular_velocity`` (3),
+          ``desired_angular_acceleration`` (3): q_d (w, x, y, z), omega_d [rad/s] and
+          omega_d' [rad/s^2] in the world frame.
+        - ``phase`` (1): the canonical phase s [-] (Eq. 8).
+    """
+    builder = DiagramBuilder()
+    error = builder.AddSystem(linear_dmp_source(dmp.error_dmp(), duration, tau))
+    error.set_name("rotation_error_dmp")
+    to_orientation = builder.AddSystem(OrientationFromError(dmp.goal))
+    to_orientation.set_name("orientation_from_error")
+    for source, target in (
+        ("desired_position", "rotation_error"),
+        ("desired_velocity", "rotation_error_rate"),
+        ("desired_acceleration", "rotation_error_acceleration"),
+    ):
+        builder.Connect(error.GetOutputPort(source), to_orientation.GetInputPort(target))
+        builder.ExportOutput(error.GetOutputPort(source), target)
+    for name in (
+        "desired_orientation",
+        "desired_angular_velocity",
+        "desired_angular_acceleration",
+    ):
+        builder.ExportOutput(to_orientation.GetOutputPort(name), name)
+    builder.ExportOutput(error.GetOutputPort("phase"), "phase")
+    diagram = builder.Build()
+    diagram.set_name("orientation_reference")
     return diagram
 
 

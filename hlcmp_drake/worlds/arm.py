@@ -6,6 +6,7 @@ monitor."""
 from __future__ import annotations
 
 import dataclasses as dc
+import functools
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
@@ -18,6 +19,13 @@ from hlcmp_drake.core.dmp import Dmp
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.systems.arm import BelowTaskImpedance, NullSpaceImpedance, ToolContactForce
 from hlcmp_drake.systems.control_loop import ControlTick
+from hlcmp_drake.systems.robot import (
+    JointFriction,
+    arm_bodies,
+    sensed_force,
+    set_model_off,
+    velocity_estimate,
+)
 from hlcmp_drake.systems.task_space import TaskSpaceDynamics, TaskSpaceModel
 from hlcmp_drake.worlds.checks import check_demonstration_feasible
 from hlcmp_drake.worlds.common import (
@@ -202,6 +210,7 @@ def add_harness(
     *,
     log_ports: dict,
     saturated: OutputPort,
+    force: OutputPort | None = None,
 ) -> dict:
     """Add what a run carries besides its world and controller: the SafetyMonitor (with
     the arm's checks on the wrist force, the joint limits and `saturated`) and the loggers.
@@ -217,17 +226,21 @@ def add_harness(
         The series to log (see `add_loggers`).
     saturated : OutputPort
         The number of joints at their effort limit (1).
+    force : OutputPort, optional
+        The wrist force the monitor checks (3, world) [N]; default the sensor's.
 
     Returns
     -------
     dict of str to (VectorLogSink, slice)
         The loggers, as `add_loggers` returns them.
     """
+    if force is None:
+        force = world.sensor.GetOutputPort("force")
     add_safety_monitor(
         builder,
         scenario,
         world.plant,
-        extra_inputs={"contact_force": world.sensor.GetOutputPort("force"), "saturated": saturated},
+        extra_inputs={"contact_force": force, "saturated": saturated},
         extra_check=arm_check(world.plant, scenario.task),
     )
     return add_loggers(builder, scenario, log_ports)
@@ -244,7 +257,9 @@ def build(
     """The iiwa diagram: the world, one controller and the harness (safety monitor, loggers).
 
     The controller goes in as task.control_path says: "fast" (`_add_fast_controller`) or
-    "modular" (`_add_modular_controller`).
+    "modular" (`_add_modular_controller`). A robot that is not its model
+    (scenario.robot_imperfection, fast path only: checked at load) adds `add_real_arm`'s
+    systems and sets the controller's model off the arm.
 
     Parameters
     ----------
@@ -267,11 +282,18 @@ def build(
     """
     builder = DiagramBuilder()
     world = add_world(builder, scenario)
+    real = (
+        None
+        if scenario.robot_imperfection.perfect
+        else add_real_arm(builder, scenario, world, setup)
+    )
     fast = (
         scenario.task.control_path == "fast"
         and controller_kind(scenario, controller_name).law is not None
     )
-    add = _add_fast_controller if fast else _add_modular_controller
+    add = (
+        functools.partial(_add_fast_controller, real_arm=real) if fast else _add_modular_controller
+    )
     controller, log_ports, saturated = add(
         builder,
         scenario,
@@ -283,7 +305,14 @@ def build(
         theta0=theta0,
     )
     loggers = (
-        add_harness(builder, scenario, world, log_ports=log_ports, saturated=saturated)
+        add_harness(
+            builder,
+            scenario,
+            world,
+            log_ports=log_ports,
+            saturated=saturated,
+            force=real.force if real else None,
+        )
         if harness
         else {}
     )
@@ -380,22 +409,119 @@ def _add_modular_controller(
     return controller, ports, torque_map.GetOutputPort("saturated")
 
 
+@dc.dataclass
+class RealArm:
+    """What a robot that is not its model adds to an arm's diagram (`add_real_arm`).
+
+    Attributes
+    ----------
+    force : OutputPort
+        The wrist force as the controller and the safety monitor read it (3, world) [N]:
+        the sensor's reading, with its noise and bias when the scenario sets them. The
+        logged force (and so the metrics) stays the true one: what the world did.
+    measured_state : OutputPort or None
+        The plant state as the controller reads it (the velocity estimate), or None for
+        the plant's own.
+    period : float
+        The controller's tick [s].
+    """
+
+    force: OutputPort
+    measured_state: OutputPort | None
+    period: float
+
+
+def add_real_arm(
+    builder: DiagramBuilder, scenario: Scenario, world: ArmWorld, setup: ArmSetup
+) -> RealArm:
+    """Add what scenario.robot_imperfection sets to an arm's world: the joints' friction
+    on the plant, the wrist force sensor's noise and bias, the velocity estimate the
+    controller reads. (The controller's own model is set off in `_add_fast_controller`.)
+
+    Parameters
+    ----------
+    builder : DiagramBuilder
+    scenario : Scenario
+        With an ArmTask and an imperfect robot.
+    world : ArmWorld
+        From `add_world`.
+    setup : ArmSetup
+        Its q0 starts the velocity estimate.
+
+    Returns
+    -------
+    RealArm
+    """
+    real, plant = scenario.robot_imperfection, world.plant
+    period = real.control_period_s or plant.time_step()
+    if real.has_friction:
+        friction = builder.AddSystem(
+            JointFriction(
+                plant.num_positions(),
+                real.viscous_friction_Nms_per_rad,
+                real.coulomb_friction_Nm,
+                real.friction_speed_rad_per_s,
+            )
+        )
+        friction.set_name("joint_friction")
+        builder.Connect(plant.get_state_output_port(), friction.plant_state)
+        builder.Connect(
+            friction.GetOutputPort("generalized_force"),
+            plant.get_applied_generalized_force_input_port(),
+        )
+    force = world.sensor.GetOutputPort("force")
+    if real.senses_force:
+        force = sensed_force(
+            builder,
+            force,
+            sigma=np.asarray(real.force_noise_N),
+            bias=np.asarray(real.force_bias_N),
+            seed=real.noise_seed,
+            period=period,
+            duration=scenario.duration_s,
+        )
+    measured = None
+    if real.velocity_filter_hz:
+        estimate = builder.AddSystem(
+            velocity_estimate(plant.num_positions(), period, real.velocity_filter_hz, setup.q0)
+        )
+        builder.Connect(plant.get_state_output_port(), estimate.get_input_port())
+        measured = estimate.get_output_port()
+    return RealArm(force, measured, period)
+
+
 def _add_fast_controller(
-    builder, scenario, name, *, plant, tool_frame, setup, contact_force, theta0
+    builder, scenario, name, *, plant, tool_frame, setup, contact_force, theta0, real_arm=None
 ):
     """The C++ DMP source -> ControlLoop (one Python call per plant step) -> plant, θ in
-    a C++ Integrator fed the loop's held rate (`add_control_loop`)."""
+    a C++ Integrator fed the loop's held rate (`add_control_loop`); on a `RealArm`, at its
+    period, reading its state estimate, with the controller's model set off the arm."""
     reference = add_reference(builder, scenario, dmp=setup.dmp, compiled=True)
+    tick = arm_tick(scenario, name, plant=plant, setup=setup)
+    imperfection = scenario.robot_imperfection
+    if imperfection.model_differs:
+        set_model_off(
+            plant,
+            tick.model.context,
+            arm_bodies=arm_bodies(plant),
+            tool_body=tool_frame.body(),
+            link_mass_error=imperfection.link_mass_error,
+            tool_mass_error=imperfection.tool_mass_error,
+            tool_com_error=np.asarray(imperfection.tool_com_error_m),
+        )
     return add_control_loop(
         builder,
         scenario,
         name,
-        tick=arm_tick(scenario, name, plant=plant, setup=setup),
+        tick=tick,
         plant=plant,
         reference=reference,
         contact_force=contact_force,
         theta0=theta0,
         initial_position=setup.dmp.start,
+        measured_state=real_arm.measured_state if real_arm else None,
+        period=real_arm.period if real_arm else None,
+        sensed_force=real_arm.force if real_arm else None,
     )
 
 

@@ -245,6 +245,9 @@ def add_control_loop(
     contact_force: OutputPort,
     theta0: tuple[np.ndarray, ...] | None,
     initial_position: np.ndarray,
+    measured_state: OutputPort | None = None,
+    period: float | None = None,
+    sensed_force: OutputPort | None = None,
 ) -> tuple[AddedController, dict, OutputPort]:
     """A world's fast path: `tick` as a `ControlLoop` (one Python call per plant step)
     between the reference and the plant's actuation, the law's state θ in a C++
@@ -268,6 +271,14 @@ def add_control_loop(
         A learner's initial weights.
     initial_position : (M,) array
         The task-space position at t = 0 [m] (a variable impedance's x_c(0)).
+    measured_state : OutputPort, optional
+        The plant state as the controller reads it (a driver's estimate); default the
+        plant's state.
+    period : float, optional
+        The controller's tick [s]; default the plant's time step.
+    sensed_force : OutputPort, optional
+        The force a law that reads it gets (a sensor's reading, noise and bias in it)
+        (M,) [N]; default `contact_force`, which is logged either way.
 
     Returns
     -------
@@ -280,14 +291,18 @@ def add_control_loop(
     config = scenario.controllers[name]
     kind = controller_kind(scenario, name)
     law = tick.law
-    loop = builder.AddSystem(ControlLoop(tick, plant.time_step()))
+    loop = builder.AddSystem(ControlLoop(tick, period or plant.time_step()))
     loop.set_name(name)
-    builder.Connect(plant.get_state_output_port(), loop.plant_state)
+    if measured_state is None:
+        measured_state = plant.get_state_output_port()
+    builder.Connect(measured_state, loop.plant_state)
     for port in REFERENCE_PORTS:
         builder.Connect(reference.GetOutputPort(port), loop.GetInputPort(port))
     builder.Connect(loop.GetOutputPort("joint_torque"), plant.get_actuation_input_port())
     if loop.external_force is not None:
-        builder.Connect(contact_force, loop.external_force)
+        builder.Connect(
+            contact_force if sensed_force is None else sensed_force, loop.external_force
+        )
     read_theta = None
     if law.theta_size:
         integrator = builder.AddSystem(Integrator(law.theta_size))

@@ -113,6 +113,31 @@ def _stop_pool(executor: ProcessPoolExecutor) -> None:
         process.join(timeout=5)
 
 
+def check_engine(engine: str, workers: int | None, address: str | None) -> None:
+    """Refuse, in one line, an unknown engine, an address without Ray, fewer than one
+    worker, or Ray when it is not installed -- before anything is written.
+
+    Parameters
+    ----------
+    engine : str
+        "local" or "ray".
+    workers : int or None
+    address : str or None
+
+    Raises
+    ------
+    InputError
+    """
+    if engine not in ENGINES:
+        raise InputError(f"--engine: must be one of {', '.join(ENGINES)}, got '{engine}'")
+    if address and engine != "ray":
+        raise InputError("--address: joins a Ray cluster, so it needs --engine ray")
+    if workers is not None and workers < 1:
+        raise InputError(f"--workers: must be at least 1, got {workers}")
+    if engine == "ray":
+        _import_ray()
+
+
 def _import_ray():
     try:
         import ray
@@ -123,8 +148,15 @@ def _import_ray():
     return ray
 
 
-def _run_ray(tasks: list, workers: int | None, address: str | None, on_done: Done) -> None:
-    """One Ray task per sweep task (one CPU each), at most `workers` in flight."""
+def _run_ray(
+    tasks: list,
+    workers: int | None,
+    address: str | None,
+    on_done: Done,
+    returning_files: Callable = run_task_returning_files,
+) -> None:
+    """One Ray task per sweep task (one CPU each), at most `workers` in flight; each runs
+    `returning_files(task)` -> (info, files), whose files are stored in the task's run_dir."""
     ray = _import_ray()
     started = not ray.is_initialized()
     if started:
@@ -139,7 +171,7 @@ def _run_ray(tasks: list, workers: int | None, address: str | None, on_done: Don
             raise InputError(
                 f"--address {address}: cannot join a Ray cluster there ({error})"
             ) from None
-    remote = ray.remote(num_cpus=1)(run_task_returning_files)
+    remote = ray.remote(num_cpus=1)(returning_files)
     queue, in_flight = list(tasks), {}
     limit = workers or len(tasks)
     try:

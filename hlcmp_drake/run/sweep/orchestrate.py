@@ -10,15 +10,13 @@ from pathlib import Path
 
 from hlcmp_drake.config.sweep import SweepTask
 from hlcmp_drake.io import outputs
-from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.present.sweep import sweep_figures, sweep_table
 from hlcmp_drake.run.sweep.engines import (
-    ENGINES,
-    _import_ray,
     _run_local,
     _run_ray,
     _terminate_is_interrupt,
+    check_engine,
 )
 from hlcmp_drake.run.sweep.planning import check_metrics, plan_sweep
 from hlcmp_drake.run.sweep.results import SweepResult, _summary, _wall_s, _write_tables, task_values
@@ -66,14 +64,7 @@ def run_sweep(
         On Ctrl-C or SIGTERM, after the workers are stopped; every finished task is
         kept and listed in sweep.csv.
     """
-    if engine not in ENGINES:
-        raise InputError(f"--engine: must be one of {', '.join(ENGINES)}, got '{engine}'")
-    if address and engine != "ray":
-        raise InputError("--address: joins a Ray cluster, so it needs --engine ray")
-    if workers is not None and workers < 1:
-        raise InputError(f"--workers: must be at least 1, got {workers}")
-    if engine == "ray":
-        _import_ray()  # before anything is written
+    check_engine(engine, workers, address)  # before anything is written
     start = time.perf_counter()
     plan = plan_sweep(name_or_path, out_dir)
     reporter.say("checking the metrics on a short run of the scenario ...")

@@ -8,6 +8,7 @@ import logging
 import tempfile
 import time
 from pathlib import Path
+from typing import Any, Callable
 
 from hlcmp_drake.config.loading import load_scenario_text
 from hlcmp_drake.config.sweep import SweepTask
@@ -62,9 +63,26 @@ def run_task_returning_files(task: SweepTask) -> tuple[dict, dict]:
     (dict, dict of str to bytes)
         The sweep_task.json content, and every file of the run folder by relative path.
     """
+    return run_in_temporary_folder(run_task, task)
+
+
+def run_in_temporary_folder(function: Callable, task: Any) -> tuple[dict, dict]:
+    """`function(task)` with the task's run folder a temporary one, and that folder's files.
+
+    Parameters
+    ----------
+    function : callable(task) -> dict
+        Runs a task into its `run_dir` (`run_task`, a library's skill).
+    task : dataclass with a `run_dir`
+
+    Returns
+    -------
+    (dict, dict of str to bytes)
+        What `function` returned, and every file of the run folder by relative path.
+    """
     quiet_drake()
-    with tempfile.TemporaryDirectory(prefix="hlcmp-sweep-") as temp:
-        info = run_task(dc.replace(task, run_dir=temp))
+    with tempfile.TemporaryDirectory(prefix="hlcmp-task-") as temp:
+        info = function(dc.replace(task, run_dir=temp))
         files = {
             str(p.relative_to(temp)): p.read_bytes()
             for p in sorted(Path(temp).rglob("*"))
@@ -75,8 +93,8 @@ def run_task_returning_files(task: SweepTask) -> tuple[dict, dict]:
 
 def store_files(run_dir: str | Path, files: dict) -> None:
     """Write a run folder's files returned by a remote worker, each atomically, in the
-    order that keeps the finished-task rule: any old metrics.json goes first,
-    metrics.json and sweep_task.json come last.
+    order that keeps the finished-task rule: any old metrics.json and task record go first, then
+    everything else, then metrics.json, and the task's record (NAME_task.json) last.
 
     Parameters
     ----------
@@ -86,9 +104,13 @@ def store_files(run_dir: str | Path, files: dict) -> None:
         By path relative to the run folder.
     """
     run_dir = Path(run_dir)
-    (run_dir / "metrics.json").unlink(missing_ok=True)
-    last = ("metrics.json", "sweep_task.json")
-    for name in sorted(files, key=lambda n: (n in last, last.index(n) if n in last else 0, n)):
+    for name in ["metrics.json", *(n for n in files if n.endswith("_task.json"))]:
+        (run_dir / name).unlink(missing_ok=True)
+
+    def order(name):
+        return (name == "metrics.json") + 2 * name.endswith("_task.json"), name
+
+    for name in sorted(files, key=order):
         data = files[name]
         outputs.atomic_write(run_dir / name, lambda temp, data=data: Path(temp).write_bytes(data))
 

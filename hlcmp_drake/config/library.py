@@ -1,0 +1,262 @@
+"""Skill-library files: one scenario, the task parameters to learn a skill at, and the
+learning trials per skill; planned into tasks that each carry their whole scenario as YAML
+text, as a sweep's tasks do (`hlcmp_drake.config.sweep`).
+
+A library file (``diagrams/libraries/*.yaml``)::
+
+    scenario: insertion      # a bundled scenario, or a .yaml path relative to this file
+    trials: 3                # learning trials per skill, as `hlcmp learn --trials`
+    set:                     # fixed overrides, every skill
+      controllers.hlcmp.q_units: per_step
+    grid:                    # task parameter (any --set key) -> numbers; every combination
+      task.puncture.depth_m: [0.010, 0.0125, 0.015]       #   is one skill of the library
+      task.puncture.hole_friction_N_per_m: [60.0, 120.0]
+
+A grid key is a task parameter of the library (a query key of `hlcmp generalize`): it
+takes at least two values, each a finite number, since a skill is regressed on them.
+Planning loads every skill's scenario with its overrides, so a bad key or value stops the
+library before anything runs, naming the library file's line.
+"""
+
+import dataclasses as dc
+import itertools
+import math
+from pathlib import Path
+
+import yaml
+from pydrake.common.yaml import yaml_dump_typed
+
+from hlcmp_drake.config.loading import resolve_yaml
+from hlcmp_drake.config.sweep import (
+    _KEY,
+    _load_task_scenario,
+    _scenario_path,
+    read_typed_file,
+    task_id,
+)
+from hlcmp_drake.io.errors import located
+from hlcmp_drake.io.paths import DIAGRAMS_DIR
+
+# No `from __future__ import annotations` here: Drake's typed YAML reads the dataclasses'
+# field types, which must be types, not strings.
+
+LIBRARIES_DIR = DIAGRAMS_DIR / "libraries"
+MAX_TRIALS = 100  # as `hlcmp learn --trials`
+
+
+@dc.dataclass
+class LibraryConfig:
+    """What a library file holds (see the module's docstring for an example).
+
+    Attributes
+    ----------
+    scenario : str
+        A bundled scenario's name, or a .yaml path relative to the library file; it must
+        follow a demonstration and have a learning controller (an Hl-CMP).
+    trials : int
+        Learning trials per skill, each starting from the theta the previous one ended
+        with (the first from theta = 0), as `hlcmp learn --trials`.
+    set : dict of str to str
+        Fixed overrides, every skill (YAML value text).
+    grid : dict of str to list of str
+        Task parameter (an override key) -> at least two numbers (YAML text); every
+        combination is one skill.
+    """
+
+    scenario: str = ""
+    trials: int = 3
+    set: dict[str, str] = dc.field(default_factory=dict)
+    grid: dict[str, list[str]] = dc.field(default_factory=dict)
+
+
+@dc.dataclass
+class LibrarySpec:
+    """A loaded and checked library file.
+
+    Attributes
+    ----------
+    path : Path
+        The library file.
+    text : str
+        Its text (for the lines errors name).
+    config : LibraryConfig
+    scenario_path : Path
+        The scenario file the skills override.
+    parameters : list of str
+        The grid's keys, in file order: the library's task parameters.
+    values : dict of str to list of float
+        Each parameter's grid values.
+    """
+
+    path: Path
+    text: str
+    config: LibraryConfig
+    scenario_path: Path
+    parameters: list
+    values: dict
+
+
+@dc.dataclass
+class LibraryTask:
+    """One skill of a library to learn: plain values only, so that it travels to a worker
+    process or a Ray node as it is.
+
+    Attributes
+    ----------
+    id : str
+        Stable and readable, from the query (`hlcmp_drake.config.sweep.task_id`), e.g.
+        "depth_m=0.01,hole_friction_N_per_m=60.0"; the name of its folder.
+    query : dict of str to float
+        Task parameter -> its value at this skill.
+    overrides : list of str
+        Every ``key=value`` applied over the scenario file, in order (set, grid).
+    scenario_yaml : str
+        The whole scenario after the overrides (`yaml_dump_typed`).
+    scenario_path : str
+        The scenario file it came from (for messages and a relative demonstration).
+    trials : int
+        Learning trials.
+    run_dir : str
+        The skill's folder, OUT/skills/ID.
+    """
+
+    id: str
+    query: dict
+    overrides: list
+    scenario_yaml: str
+    scenario_path: str
+    trials: int
+    run_dir: str
+
+
+def resolve_library_path(name_or_path: str | Path) -> Path:
+    """The file of a bundled library (diagrams/libraries/NAME.yaml) or of a path.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        See `hlcmp_drake.config.loading.resolve_yaml`.
+
+    Returns
+    -------
+    Path
+    """
+    return resolve_yaml(name_or_path, LIBRARIES_DIR, "library")
+
+
+def load_library_spec(name_or_path: str | Path) -> LibrarySpec:
+    """Read and check a library file (not yet its skills' scenarios: see
+    `plan_library_tasks`).
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        A bundled library's name or a library file.
+
+    Returns
+    -------
+    LibrarySpec
+
+    Raises
+    ------
+    InputError
+        ``file:line: problem`` for a YAML error, an unknown key, a wrong type, a parameter
+        set twice or with fewer than two values, a value that is not a finite number, and
+        the like.
+    """
+    path = resolve_library_path(name_or_path)
+    text, config, fail = read_typed_file(path, LibraryConfig)
+    values = _check(config, fail)
+    scenario_path = _scenario_path(config.scenario, path, fail)
+    return LibrarySpec(path, text, config, scenario_path, list(config.grid), values)
+
+
+def _number(text: str) -> float | None:
+    """The finite number a YAML value text holds, or None."""
+    try:
+        value = yaml.safe_load(text)
+    except yaml.YAMLError:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    return float(value) if math.isfinite(value) else None
+
+
+def _check(config: LibraryConfig, fail) -> dict:
+    """The rules the schema cannot say; returns each parameter's values as numbers."""
+    if not 1 <= config.trials <= MAX_TRIALS:
+        fail("trials", f"trials: must be between 1 and {MAX_TRIALS}, got {config.trials}")
+    if not config.grid:
+        fail(
+            "grid",
+            "grid: a library needs at least one task parameter (an override key -> numbers)",
+        )
+    values = {}
+    for key, texts in config.grid.items():
+        if key in config.set:
+            fail(f"grid.{key}", f"grid: '{key}' is also in set")
+        if not _KEY.fullmatch(key):
+            fail(f"grid.{key}", f"'{key}': an override key is dotted, e.g. task.puncture.depth_m")
+        numbers = [_number(text) for text in texts]
+        bad = [text for text, number in zip(texts, numbers) if number is None]
+        if bad:
+            fail(f"grid.{key}", f"grid: '{key}': every value must be a finite number, got {bad[0]}")
+        if len(numbers) < 2:
+            fail(
+                f"grid.{key}",
+                f"grid: '{key}' needs at least two values (a skill is regressed on it)",
+            )
+        if len(set(numbers)) != len(numbers):
+            fail(f"grid.{key}", f"grid: '{key}' lists a value twice: {texts}")
+        values[key] = numbers
+    for key in config.set:
+        if not _KEY.fullmatch(key):
+            fail(key, f"'{key}': an override key is dotted, e.g. controllers.hlcmp.q_units")
+    return values
+
+
+def plan_library_tasks(spec: LibrarySpec, out_dir: str | Path) -> list[LibraryTask]:
+    """Every skill of a library, each scenario loaded with its overrides (so every bad
+    value is found before anything runs) and dumped as YAML text.
+
+    Parameters
+    ----------
+    spec : LibrarySpec
+        From `load_library_spec`.
+    out_dir : str or Path
+        The library's folder; skill ID is learned in OUT/skills/ID.
+
+    Returns
+    -------
+    list of LibraryTask
+        In grid order (first key slowest).
+
+    Raises
+    ------
+    InputError
+        Naming the library file's line for a bad override (with the problem the scenario
+        loader found) or two skills whose ids collide.
+    """
+    config = spec.config
+    tasks, seen = [], set()
+    for point in itertools.product(*config.grid.values()):
+        texts = dict(zip(config.grid, point))
+        overrides = [f"{k}={v}" for k, v in config.set.items()]
+        overrides += [f"{k}={v}" for k, v in texts.items()]
+        scenario = _load_task_scenario(spec, overrides, texts)
+        identifier = task_id(texts)
+        if identifier in seen:
+            raise located(spec.path, None, f"two skills would share the id '{identifier}'")
+        seen.add(identifier)
+        tasks.append(
+            LibraryTask(
+                identifier,
+                {key: float(yaml.safe_load(text)) for key, text in texts.items()},
+                overrides,
+                yaml_dump_typed(scenario),
+                str(spec.scenario_path),
+                config.trials,
+                str(Path(out_dir) / "skills" / identifier),
+            )
+        )
+    return tasks

@@ -1,0 +1,450 @@
+"""Generalising learned compliance over task parameters (`hlcmp generalize`): the paper's
+proposal (Sec. VI) to regress theta_k, theta_d and theta_v -- and the DMP, when the task
+parameters move it -- on the task parameters (queries) of a skill library.
+
+Regression: Gaussian-process regression (scikit-learn's `GaussianProcessRegressor`), one
+per array of the skill (theta_k, theta_d, theta_v, and each DMP array that differs across
+the library), each array's weights the outputs of one GP with shared hyperparameters.
+Inputs: each task parameter normalised to [0, 1] over the library's range. Outputs:
+normalised per weight to zero mean and unit variance over the library (`normalize_y`).
+Kernel (`KERNEL_DESCRIPTION`)::
+
+    k(x, x') = c * exp(-0.5 * sum_j (x_j - x'_j)^2 / l_j^2) + w * [x == x']
+
+a constant times an RBF with one length scale per task parameter (ARD), plus white noise
+w for what the trials' learning does not repeat. c, l_j and w are fitted by maximising the
+log marginal likelihood (L-BFGS-B from the initial values and `RESTARTS` random starts,
+seeded, so a fit is deterministic). The predictive standard deviation of each weight
+(including w) is saved beside the weights; it is 0 for a weight that every skill of the
+library holds at the same value.
+
+Nearest: the library skill whose query is nearest in the normalised parameters.
+
+A query must give every task parameter of the library and no other key; a value outside
+the library's range by more than `EXTRAPOLATION_MARGIN` of that range is refused unless
+extrapolation is asked for (then a warning).
+"""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import json
+import math
+import warnings
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.config.world import world_of_scenario
+from hlcmp_drake.io.errors import InputError
+from hlcmp_drake.io.skill import Skill, load_skill, save_skill
+from hlcmp_drake.run.library import LIBRARY_FILE
+
+METHODS = ("regression", "nearest")
+# How far outside the library's range a query may lie, as a fraction of the range: a
+# tenth of the span between the extreme grid values (so 0.5 mm for a 10-15 mm range).
+EXTRAPOLATION_MARGIN = 0.1
+RESTARTS = 4  # random restarts of the marginal-likelihood optimisation
+KERNEL_DESCRIPTION = (
+    "ConstantKernel * RBF (one length scale per task parameter, on [0, 1]-normalised "
+    "inputs) + WhiteKernel; hyperparameters by maximum marginal likelihood"
+)
+# The skill's arrays a library regresses: the learned profiles always, the DMP's where
+# the library's skills differ (a query that moves the goal).
+PROFILE_FIELDS = ("theta_k", "theta_d", "theta_v")
+DMP_FIELDS = ("theta_p", "start", "goal", "amplitude")
+
+
+@dc.dataclass(frozen=True)
+class Prediction:
+    """A skill's arrays at a query.
+
+    Attributes
+    ----------
+    mean : dict of str to array
+        Field name ("theta_k", "theta_d", "theta_v", and any regressed DMP array) ->
+        the predicted array, shaped as the skill's ((M, N) for the weights, (M,) for the
+        DMP's start, goal and amplitude).
+    std : dict of str to array or None
+        The predictive standard deviation of each regressed field, same shapes (None
+        for the nearest skill).
+    method : str
+        "regression" or "nearest".
+    nearest : str
+        The id of the library skill nearest to the query (normalised parameters).
+    """
+
+    mean: dict
+    std: dict | None
+    method: str
+    nearest: str
+
+
+class SkillLibrary:
+    """A skill library as `hlcmp library` wrote it (DIR/library.json and one skill per
+    query), and regression of its skills over the task parameters.
+
+    Parameters
+    ----------
+    folder : Path
+        The library's folder.
+    record : dict
+        library.json's content.
+    skills : list of Skill
+        One per entry of record["skills"], in that order.
+
+    Attributes
+    ----------
+    parameters : list of str
+        The task parameters (override keys), in the library's order.
+    queries : (S, P) array
+        Each skill's task parameters.
+    lower, upper : (P,) arrays
+        The library's range of each parameter.
+    ids : list of str
+        Each skill's id.
+    """
+
+    def __init__(self, folder: Path, record: dict, skills: list[Skill]):
+        self.folder, self.record, self.skills = Path(folder), record, skills
+        self.parameters = list(record["parameters"])
+        self.ids = [entry["id"] for entry in record["skills"]]
+        self.queries = np.array(
+            [[float(entry["query"][key]) for key in self.parameters] for entry in record["skills"]]
+        )
+        self.lower, self.upper = self.queries.min(axis=0), self.queries.max(axis=0)
+        self.fields = list(PROFILE_FIELDS) + [
+            field for field in DMP_FIELDS if _varies([_array(s, field) for s in skills])
+        ]
+        self._models: dict | None = None
+
+    @classmethod
+    def load(cls, folder: str | Path) -> SkillLibrary:
+        """Read DIR/library.json and every skill it lists.
+
+        Parameters
+        ----------
+        folder : str or Path
+            A folder written by `hlcmp library`.
+
+        Returns
+        -------
+        SkillLibrary
+
+        Raises
+        ------
+        InputError
+            One line naming the file: no library.json, not JSON, a missing key, a skill
+            file that cannot be read, fewer than two skills, skills whose DMPs cannot be
+            regressed together (another basis, duration or axes).
+        """
+        folder = Path(folder)
+        path = folder / LIBRARY_FILE
+        try:
+            record = json.loads(path.read_text())
+        except FileNotFoundError:
+            raise InputError(f"{path}: no such file (a folder written by hlcmp library)") from None
+        except (OSError, UnicodeDecodeError, ValueError) as error:
+            raise InputError(f"{path}: not a library.json ({type(error).__name__})") from None
+        missing = [
+            key
+            for key in ("scenario", "scenario_path", "set", "parameters", "skills")
+            if key not in record
+        ]
+        if not isinstance(record, dict) or missing:
+            raise InputError(f"{path}: missing key(s): {', '.join(missing) or 'all'}")
+        if len(record["skills"]) < 2:
+            raise InputError(
+                f"{path}: {len(record['skills'])} skill(s) learned; generalising needs at "
+                "least two (run hlcmp library again to learn the rest)"
+            )
+        for entry in record["skills"]:
+            absent = [key for key in record["parameters"] if key not in entry.get("query", {})]
+            if absent or "skill" not in entry:
+                raise InputError(f"{path}: skill '{entry.get('id')}' lacks its query or file")
+        skills = [load_skill(folder / entry["skill"]) for entry in record["skills"]]
+        _check_same_dmp(skills, path)
+        return cls(folder, record, skills)
+
+    def normalized(self, queries: np.ndarray) -> np.ndarray:
+        """Task parameters mapped to [0, 1] over the library's range.
+
+        Parameters
+        ----------
+        queries : (Q, P) array
+
+        Returns
+        -------
+        (Q, P) array
+        """
+        return (np.atleast_2d(queries) - self.lower) / (self.upper - self.lower)
+
+    def fit(self) -> SkillLibrary:
+        """Fit one Gaussian process per regressed field (see the module's docstring).
+
+        Returns
+        -------
+        SkillLibrary
+            This library, fitted.
+        """
+        _require_sklearn()
+        from sklearn.exceptions import ConvergenceWarning
+        from sklearn.gaussian_process import GaussianProcessRegressor
+        from threadpoolctl import threadpool_limits
+
+        inputs = self.normalized(self.queries)
+        self._models = {}
+        for field in self.fields:
+            outputs = np.array([_array(skill, field).ravel() for skill in self.skills])
+            model = GaussianProcessRegressor(
+                kernel=gp_kernel(len(self.parameters)),
+                normalize_y=True,
+                n_restarts_optimizer=RESTARTS,
+                random_state=0,
+            )
+            # A length scale at its bound is a result, not news; and matrices this small
+            # are slower on several BLAS threads than on one (5x on 2 busy cores).
+            with warnings.catch_warnings(), threadpool_limits(1):
+                warnings.simplefilter("ignore", ConvergenceWarning)
+                model.fit(inputs, outputs)
+            self._models[field] = model
+        return self
+
+    def kernels(self) -> dict:
+        """The fitted kernel of each regressed field, as text (after `fit`).
+
+        Returns
+        -------
+        dict of str to str
+        """
+        return {field: str(model.kernel_) for field, model in (self._models or {}).items()}
+
+    def query_vector(self, query: Mapping[str, float], extrapolate: bool = False) -> tuple:
+        """Check a query against the library and order its values as `parameters`.
+
+        Parameters
+        ----------
+        query : mapping of str to float
+            Every task parameter of the library, and no other key.
+        extrapolate : bool
+            Allow values outside the range by more than EXTRAPOLATION_MARGIN.
+
+        Returns
+        -------
+        ((P,) array, list of str)
+            The values, and a warning line per value outside the range (extrapolated).
+
+        Raises
+        ------
+        InputError
+            One line: a key the library does not vary, a missing key, a value that is not
+            a finite number, or one beyond the margin without `extrapolate`.
+        """
+        varied = ", ".join(self.parameters)
+        for key in query:
+            if key not in self.parameters:
+                raise InputError(
+                    f"--query {key}: the library does not vary it (it varies: {varied})"
+                )
+        missing = [key for key in self.parameters if key not in query]
+        if missing:
+            raise InputError(
+                f"--query: missing {', '.join(missing)} (the library varies: {varied})"
+            )
+        values, notes = [], []
+        for j, key in enumerate(self.parameters):
+            value = query[key]
+            if not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise InputError(f"--query {key}={value}: must be a finite number")
+            low, high = float(self.lower[j]), float(self.upper[j])
+            margin = EXTRAPOLATION_MARGIN * (high - low)
+            if not low - margin <= value <= high + margin:
+                where = (
+                    f"--query {key}={value:g}: outside the library's range [{low:g}, {high:g}] "
+                    f"by more than {EXTRAPOLATION_MARGIN:.0%} of it ({margin:g})"
+                )
+                if not extrapolate:
+                    raise InputError(where + "; pass --extrapolate to predict there all the same")
+                notes.append(where + "; extrapolated (--extrapolate)")
+            values.append(float(value))
+        return np.array(values), notes
+
+    def predict(self, query: Mapping[str, float], method: str = "regression") -> Prediction:
+        """The skill's arrays at a query (checked first: `query_vector` with extrapolation
+        allowed).
+
+        Parameters
+        ----------
+        query : mapping of str to float
+        method : str
+            "regression" (the fitted GPs' mean and standard deviation; fitted on first
+            use) or "nearest" (the nearest library skill's arrays, no std).
+
+        Returns
+        -------
+        Prediction
+        """
+        if method not in METHODS:
+            raise InputError(f"--method: must be one of {', '.join(METHODS)}, got '{method}'")
+        x, _ = self.query_vector(query, extrapolate=True)
+        distances = np.linalg.norm(self.normalized(self.queries) - self.normalized(x), axis=1)
+        nearest = int(np.argmin(distances))
+        if method == "nearest":
+            skill = self.skills[nearest]
+            mean = {field: _array(skill, field).copy() for field in self.fields}
+            return Prediction(mean, None, method, self.ids[nearest])
+        if self._models is None:
+            self.fit()
+        assert self._models is not None
+        mean, std = {}, {}
+        for field, model in self._models.items():
+            shape = _array(self.skills[0], field).shape
+            mu, sigma = model.predict(self.normalized(x), return_std=True)
+            # A weight every skill of the library holds at one value is known exactly (the
+            # GP's std of it would be in the unit normalize_y substitutes for a zero spread).
+            varies = np.ptp([_array(s, field) for s in self.skills], axis=0) > 0
+            mean[field] = np.asarray(mu).reshape(shape)
+            std[field] = np.asarray(sigma).reshape(shape) * varies
+        return Prediction(mean, std, method, self.ids[nearest])
+
+    def generalize(
+        self, query: Mapping[str, float], method: str = "regression", extrapolate: bool = False
+    ) -> tuple[Skill, Prediction, list]:
+        """The skill at a query, recording the world of the library's scenario with the
+        library's fixed overrides and the query's values (so `learn --skill`,
+        `reproduce` and `serve` with those --set values accept it).
+
+        Parameters
+        ----------
+        query : mapping of str to float
+        method : str
+            "regression" or "nearest".
+        extrapolate : bool
+            Allow a query beyond the range's margin (with a warning).
+
+        Returns
+        -------
+        (Skill, Prediction, list of str)
+            The skill, the prediction it was made of, and warning lines.
+        """
+        _, notes = self.query_vector(query, extrapolate)
+        prediction = self.predict(query, method)
+        base = self.skills[0]
+        dmp_arrays = {f: prediction.mean[f] for f in DMP_FIELDS if f in prediction.mean}
+        dmp = dc.replace(base.dmp, **dmp_arrays) if dmp_arrays else base.dmp
+        scenario, _ = load_scenario(self._scenario(), self.overrides(query))
+        skill = Skill(
+            dmp,
+            prediction.mean["theta_k"],
+            prediction.mean["theta_d"],
+            prediction.mean["theta_v"],
+            world=world_of_scenario(scenario),
+        )
+        return skill, prediction, notes
+
+    def overrides(self, query: Mapping[str, float]) -> list[str]:
+        """The --set overrides of the world at a query: the library's fixed ones, then
+        one per task parameter.
+
+        Parameters
+        ----------
+        query : mapping of str to float
+
+        Returns
+        -------
+        list of str
+        """
+        fixed = [f"{key}={value}" for key, value in self.record["set"].items()]
+        return fixed + [f"{key}={float(query[key])!r}" for key in self.parameters]
+
+    def _scenario(self) -> str:
+        """The library's scenario file, or its bundled name when the file is gone."""
+        path = Path(self.record["scenario_path"])
+        return str(path) if path.is_file() else self.record["scenario"]
+
+
+def gp_kernel(n_parameters: int) -> Any:
+    """The regression's kernel before fitting (`KERNEL_DESCRIPTION`): a constant times an
+    RBF with one length scale per task parameter, plus white noise, with the bounds the
+    marginal likelihood is maximised within (inputs on [0, 1], outputs normalised).
+
+    Parameters
+    ----------
+    n_parameters : int
+
+    Returns
+    -------
+    sklearn.gaussian_process.kernels.Kernel
+    """
+    from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
+
+    return ConstantKernel(1.0, (1e-2, 1e2)) * RBF(
+        length_scale=np.full(n_parameters, 0.5), length_scale_bounds=(0.1, 100.0)
+    ) + WhiteKernel(1e-2, (1e-6, 1.0))
+
+
+def save_generalized(
+    path: str | Path, skill: Skill, prediction: Prediction, query: Mapping
+) -> Path:
+    """Write a generalized skill: the skill, and beside its weights `std_<field>` (the
+    predictive standard deviation of each regressed field), `generalized_query` (JSON),
+    `generalized_method` and `generalized_nearest`.
+
+    Parameters
+    ----------
+    path : str or Path
+    skill : Skill
+    prediction : Prediction
+    query : mapping of str to float
+
+    Returns
+    -------
+    Path
+    """
+    extra = {
+        "generalized_query": np.array(json.dumps(dict(query))),
+        "generalized_method": np.array(prediction.method),
+        "generalized_nearest": np.array(prediction.nearest),
+    }
+    for field, std in (prediction.std or {}).items():
+        extra[f"std_{field}"] = std
+    return save_skill(path, skill, extra)
+
+
+def _require_sklearn() -> None:
+    """The regression needs scikit-learn (the `generalize` extra); say so in one line."""
+    try:
+        import sklearn  # noqa: F401
+    except ImportError:
+        raise InputError(
+            "--method regression needs scikit-learn, which is not installed: "
+            "pip install -e '.[generalize]' (--method nearest works without it)"
+        ) from None
+
+
+def _array(skill: Skill, field: str) -> np.ndarray:
+    return getattr(skill, field) if field in PROFILE_FIELDS else getattr(skill.dmp, field)
+
+
+def _varies(arrays: list) -> bool:
+    return any(not np.array_equal(arrays[0], other) for other in arrays[1:])
+
+
+def _check_same_dmp(skills: list, path: Path) -> None:
+    """The skills' DMPs must share what is not regressed: settings, tau, axes, scaling."""
+    first = skills[0].dmp
+    for skill in skills[1:]:
+        dmp = skill.dmp
+        same = (
+            dmp.settings == first.settings
+            and dmp.tau == first.tau
+            and dmp.axis_names == first.axis_names
+            and np.array_equal(dmp.goal_scaled, first.goal_scaled)
+        )
+        if not same:
+            raise InputError(
+                f"{path}: the skills' DMPs differ in their basis, duration or axes, which "
+                "cannot be regressed (learn every skill from one demonstration's DMP settings)"
+            )

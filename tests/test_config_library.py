@@ -1,0 +1,96 @@
+"""hlcmp_drake.config.library: library files load, plan one skill per grid point, and
+every problem is one line naming the file's line, exit 2, before anything is learned."""
+
+import pytest
+from conftest import one_line_error, run_cli
+
+from hlcmp_drake.config.library import LIBRARIES_DIR, load_library_spec, plan_library_tasks
+from hlcmp_drake.config.loading import load_scenario_text
+
+GOOD = """\
+scenario: insertion
+trials: 2
+set:
+  duration_s: 0.3
+grid:
+  task.puncture.depth_m: [0.010, 0.015]
+  task.puncture.hole_friction_N_per_m: [60.0, 90, 120.0]
+"""
+
+
+def write(tmp_path, text, name="lib.yaml"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+@pytest.mark.parametrize("name", ["insertion", "insertion_per_step"])
+def test_the_bundled_libraries_plan_six_skills_over_two_physical_parameters(tmp_path, name):
+    spec = load_library_spec(name)
+    assert spec.path == LIBRARIES_DIR / f"{name}.yaml"
+    assert spec.parameters == ["task.puncture.depth_m", "task.puncture.hole_friction_N_per_m"]
+    tasks = plan_library_tasks(spec, tmp_path)
+    assert len(tasks) == 6 == len({t.id for t in tasks})
+    assert all(t.trials == 3 for t in tasks)
+    units = {
+        load_scenario_text(t.scenario_yaml, t.scenario_path).controllers["hlcmp"].q_units
+        for t in tasks
+    }
+    assert units == {"per_step" if name.endswith("per_step") else "per_second"}
+
+
+def test_a_library_file_plans_every_combination_with_numbers_as_queries(tmp_path):
+    spec = load_library_spec(write(tmp_path, GOOD))
+    tasks = plan_library_tasks(spec, tmp_path / "out")
+    assert [t.query for t in tasks][:2] == [
+        {"task.puncture.depth_m": 0.01, "task.puncture.hole_friction_N_per_m": 60.0},
+        {"task.puncture.depth_m": 0.01, "task.puncture.hole_friction_N_per_m": 90.0},
+    ]
+    assert len(tasks) == 6
+    scenario = load_scenario_text(tasks[-1].scenario_yaml, tasks[-1].scenario_path)
+    assert scenario.task.puncture.depth_m == 0.015 and scenario.duration_s == 0.3
+    assert tasks[0].run_dir == str(tmp_path / "out" / "skills" / tasks[0].id)
+    assert tasks[0].overrides[0] == "duration_s=0.3"
+
+
+@pytest.mark.parametrize(
+    "text, line, expected",
+    [
+        (GOOD.replace("trials: 2", "trials: 0"), 2, "trials: must be between 1 and 100"),
+        (GOOD.replace("[0.010, 0.015]", "[0.010]"), 6, "needs at least two values"),
+        (GOOD.replace("[0.010, 0.015]", "[0.010, abc]"), 6, "must be a finite number, got abc"),
+        (GOOD.replace("[0.010, 0.015]", "[0.010, 0.010]"), 6, "lists a value twice"),
+        (GOOD.replace("task.puncture.depth_m:", "task.puncture.nope:"), 6, "no field 'nope'"),
+        (GOOD.replace("scenario: insertion", "scenario: nowhere"), 1, "not a bundled scenario"),
+        (
+            "scenario: one_dof\ngrid:\n  controllers.hlcmp.pi: [1.0, 5.0]\n",
+            1,
+            "scenario: scenario 'one_dof' does not follow a demonstration",
+        ),
+        (GOOD.replace("trials: 2", "trails: 2"), 2, "trails"),
+        (GOOD.replace("  duration_s: 0.3", "  task.puncture.depth_m: 0.01"), 6, "also in set"),
+        ("scenario: insertion\n", None, "grid: a library needs at least one task parameter"),
+        ("scenario: [insertion\n", 2, "expected ',' or ']'"),
+    ],
+)
+def test_a_bad_library_file_exits_2_naming_its_line_before_anything_runs(
+    tmp_path, text, line, expected
+):
+    path = write(tmp_path, text)
+    result = run_cli("library", path, "--out", tmp_path / "L")
+    message = one_line_error(result)
+    where = f"{path}:{line}:" if line else f"{path}: "
+    assert where in message and expected in message, message
+    assert not (tmp_path / "L").exists()
+
+
+def test_bad_engine_arguments_exit_2_with_one_line(tmp_path):
+    path = write(tmp_path, GOOD)
+    for args, expected in [
+        (["--workers", "0"], "must be at least 1"),
+        (["--address", "auto"], "--address: joins a Ray cluster, so it needs --engine ray"),
+        (["--engine", "spark"], "invalid choice"),
+    ]:
+        result = run_cli("library", path, "--out", tmp_path / "L", *args)
+        assert expected in one_line_error(result)
+        assert not (tmp_path / "L").exists()

@@ -1,0 +1,141 @@
+"""hlcmp_drake.run.library (`hlcmp library`): a tiny library (two skills, one short trial
+each) is learned on the local engine into library.json of the documented schema, each
+skill recording its query's world; a rerun relearns nothing, a changed number of trials or
+a lost record relearns only what changed; and the acceptance flow of the bundled library
+from the command line (slow)."""
+
+import json
+from pathlib import Path
+
+import pytest
+from conftest import INSERTION_DEMO, one_line_error, run_cli
+
+from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.config.world import world_of_scenario
+from hlcmp_drake.io.skill import load_skill
+from hlcmp_drake.run.library import TASK_RECORD, build_library
+
+DEPTH = "task.puncture.depth_m"
+TINY = """\
+scenario: insertion
+trials: {trials}
+set:
+  duration_s: 0.3
+grid:
+  task.puncture.depth_m: [0.010, 0.015]
+"""
+
+
+def tiny(folder, trials=1):
+    path = Path(folder) / "tiny_library.yaml"
+    path.write_text(TINY.format(trials=trials))
+    return path
+
+
+def test_a_tiny_library_is_learned_indexed_and_resumed(tmp_path):
+    out = tmp_path / "L"
+    result = build_library(tiny(tmp_path), out, workers=2)
+    assert sorted(result.ran) == ["depth_m=0.01", "depth_m=0.015"] and not result.failed
+    record = json.loads((out / "library.json").read_text())
+    assert record == result.record
+    assert record["scenario"] == "insertion" and record["parameters"] == [DEPTH]
+    assert record["set"] == {"duration_s": "0.3"} and record["trials"] == 1
+    assert record["not_learned"] == []
+    assert [entry["query"] for entry in record["skills"]] == [{DEPTH: 0.01}, {DEPTH: 0.015}]
+    for entry in record["skills"]:
+        assert set(entry) == {"id", "query", "skill", "metrics"}
+        assert entry["skill"] == f"skills/{entry['id']}/skill.npz"
+        assert entry["metrics"]["trial"] == 1 and entry["metrics"]["status"] == "ok"
+        skill = load_skill(out / entry["skill"])
+        scenario, _ = load_scenario("insertion", [f"{DEPTH}={entry['query'][DEPTH]}"])
+        assert skill.world == world_of_scenario(scenario)  # each skill knows its plank
+    stamps = {p: p.stat().st_mtime_ns for p in out.rglob("skill.npz")}
+
+    again = build_library(tiny(tmp_path), out, workers=2)
+    assert again.ran == [] and again.already_done == 2
+    assert {p: p.stat().st_mtime_ns for p in out.rglob("skill.npz")} == stamps
+
+    (out / "skills" / "depth_m=0.015" / TASK_RECORD).unlink()  # as if killed mid-learning
+    partial = build_library(tiny(tmp_path), out, workers=2)
+    assert partial.ran == ["depth_m=0.015"] and partial.already_done == 1
+
+    more = build_library(tiny(tmp_path, trials=2), out, workers=2)
+    assert sorted(more.ran) == ["depth_m=0.01", "depth_m=0.015"]
+    assert all(e["metrics"]["trial"] == 2 for e in more.record["skills"])
+
+
+def test_the_command_prints_the_skills_and_a_rerun_says_nothing_was_relearned(tmp_path):
+    spec, out = tiny(tmp_path), tmp_path / "L"
+    first = run_cli("library", spec, "--out", out, "--workers", "1", "--quiet")
+    assert first.returncode == 0, first.stderr
+    assert "2 skill(s) learned" in first.stdout
+    second = run_cli("library", spec, "--out", out, "--quiet")
+    assert second.returncode == 0, second.stderr
+    assert "all 2 skills were already learned; nothing relearned" in second.stdout
+    # A generalized skill replays in its query's world (check_skill_world, which serve
+    # shares), and is refused in the bundled plank's.
+    made = run_cli("generalize", out, "--query", f"{DEPTH}=0.012", "--out", tmp_path / "s.npz")
+    assert made.returncode == 0, made.stderr
+    replay = ["reproduce", tmp_path / "s.npz", "--scenario", "insertion", "--freeze", "--quiet"]
+    here = run_cli(
+        *replay, "--set", f"{DEPTH}=0.012", "--set", "duration_s=0.3", "--out", tmp_path / "r"
+    )
+    assert here.returncode == 0 and "warning" not in here.stderr, here.stderr
+    elsewhere = run_cli(*replay, "--set", "duration_s=0.3", "--out", tmp_path / "e")
+    assert "the skill was learned in 'insertion'" in one_line_error(elsewhere)
+
+
+@pytest.mark.slow
+def test_the_acceptance_flow_of_the_bundled_library(tmp_path):
+    # From a fresh clone: learn the bundled library, again (nothing relearned), generalize
+    # between its grid points, and learn one trial from the generalized skill.
+    out = tmp_path / "L"
+    first = run_cli("library", "diagrams/libraries/insertion.yaml", "--out", out, "--quiet")
+    assert first.returncode == 0, first.stderr
+    assert json.loads((out / "library.json").read_text())["parameters"] == [
+        DEPTH,
+        "task.puncture.hole_friction_N_per_m",
+    ]
+    again = run_cli("library", "diagrams/libraries/insertion.yaml", "--out", out, "--quiet")
+    assert "nothing relearned" in again.stdout, again.stdout
+    query = [f"{DEPTH}=0.01125", "task.puncture.hole_friction_N_per_m=90"]
+    made = run_cli(
+        "generalize", out, *[a for q in query for a in ("--query", q)], "--out", tmp_path / "s.npz"
+    )
+    assert made.returncode == 0, made.stderr
+    sets = [a for q in query for a in ("--set", q)]
+    learned = run_cli(
+        "learn",
+        INSERTION_DEMO,
+        "--scenario",
+        "insertion",
+        "--skill",
+        tmp_path / "s.npz",
+        *sets,
+        "--trials",
+        "1",
+        "--out",
+        tmp_path / "learn",
+        "--quiet",
+    )
+    assert learned.returncode == 0 and "warning" not in learned.stderr, learned.stderr
+
+
+def test_files_from_a_remote_worker_are_stored_with_the_task_record_last(tmp_path, monkeypatch):
+    # A Ray node returns a skill's files; a kill while they are stored must not leave a
+    # library_task.json (the finished mark) beside a missing skill.npz or metrics.json.
+    from hlcmp_drake.io import outputs
+    from hlcmp_drake.run.sweep import store_files
+
+    (tmp_path / TASK_RECORD).write_text("{}")
+    order = []
+    real = outputs.atomic_write
+    monkeypatch.setattr(
+        outputs,
+        "atomic_write",
+        lambda path, write: order.append(Path(path).name) or real(path, write),
+    )
+    files = {name: b"x" for name in (TASK_RECORD, "metrics.json", "skill.npz", "scenario.yaml")}
+    assert (tmp_path / TASK_RECORD).exists()
+    store_files(tmp_path, files)
+    assert order == ["scenario.yaml", "skill.npz", "metrics.json", TASK_RECORD]

@@ -1,0 +1,211 @@
+"""hlcmp_drake.run.skill_library (`hlcmp generalize`) on synthetic libraries -- skills
+written directly, no simulation: the Gaussian process recovers a smooth function of the
+task parameters, its standard deviation grows away from the data, nearest picks the
+nearest skill, a query is checked (each refusal exit 2, one line), and the written skill
+records the world of the query, so `learn --skill` with those --set values accepts it."""
+
+import json
+
+import numpy as np
+import pytest
+from conftest import DEMO_CSV, one_line_error, run_cli
+
+from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.config.world import world_of_scenario
+from hlcmp_drake.core.dmp import Dmp, DmpSettings
+from hlcmp_drake.io.demos import read_demonstration
+from hlcmp_drake.io.errors import InputError
+from hlcmp_drake.io.paths import DIAGRAMS_DIR
+from hlcmp_drake.io.skill import Skill, load_skill, save_skill
+from hlcmp_drake.run.skill_library import EXTRAPOLATION_MARGIN, SkillLibrary
+
+DEPTH, FRICTION = "task.puncture.depth_m", "task.puncture.hole_friction_N_per_m"
+
+
+def smooth(depth, friction):
+    """A smooth function of both parameters, one value per weight (shape (3, N))."""
+    d, f = (depth - 0.010) / 0.005, (friction - 60.0) / 60.0
+    n = np.arange(10)
+    return np.sin(1.3 * d + 0.2 * n)[None, :] * (1 + 0.5 * f) + np.array([[0.0], [1.0], [2.0]])
+
+
+def _dmp(tmp_path):
+    demo = tmp_path / "demo.csv"
+    demo.write_text(DEMO_CSV)
+    t, p, axes = read_demonstration(demo)
+    return Dmp.fit(t, p, axes, DmpSettings(n_basis=10))
+
+
+def write_library(tmp_path, depths, frictions, function=smooth, goal_shift=None):
+    """library.json and one skill per grid point, theta_v = function(query) (theta_k, theta_d
+    scaled copies); with `goal_shift`, each skill's goal moves with the depth."""
+    dmp = _dmp(tmp_path)
+    entries = []
+    for depth in depths:
+        for friction in frictions:
+            identifier = f"d={depth},f={friction}"
+            values = function(depth, friction)
+            skill_dmp = dmp
+            if goal_shift is not None:
+                skill_dmp = dmp.with_goal(dmp.goal + np.array([0.0, 0.0, goal_shift * depth]))
+            skill = Skill(skill_dmp, 100 * values, 10 * values, values)
+            save_skill(tmp_path / "L" / "skills" / identifier / "skill.npz", skill)
+            entries.append(
+                {
+                    "id": identifier,
+                    "query": {DEPTH: depth, FRICTION: friction},
+                    "skill": f"skills/{identifier}/skill.npz",
+                    "metrics": {},
+                }
+            )
+    record = {
+        "format_version": 1,
+        "scenario": "insertion",
+        "scenario_path": str(DIAGRAMS_DIR / "insertion.yaml"),
+        "set": {},
+        "trials": 1,
+        "parameters": [DEPTH, FRICTION],
+        "skills": entries,
+        "not_learned": [],
+    }
+    (tmp_path / "L" / "library.json").write_text(json.dumps(record))
+    return tmp_path / "L"
+
+
+GRID = ([0.010, 0.0125, 0.015], [60.0, 90.0, 120.0])
+
+
+def test_the_regression_recovers_a_smooth_function_between_the_grid_points(tmp_path):
+    library = SkillLibrary.load(write_library(tmp_path, *GRID)).fit()
+    for depth, friction in [(0.01125, 75.0), (0.01375, 105.0), (0.011, 110.0)]:
+        query = {DEPTH: depth, FRICTION: friction}
+        truth = smooth(depth, friction)
+        regressed = library.predict(query).mean["theta_v"]
+        nearest = library.predict(query, "nearest").mean["theta_v"]
+        regression_error = np.max(np.abs(regressed - truth))
+        assert regression_error < 0.05 * np.ptp(truth)
+        assert regression_error < 0.5 * np.max(np.abs(nearest - truth))
+        assert np.allclose(library.predict(query).mean["theta_k"], 100 * regressed, rtol=1e-6)
+
+
+def test_the_standard_deviation_grows_away_from_the_data(tmp_path):
+    library = SkillLibrary.load(write_library(tmp_path, *GRID)).fit()
+
+    def std(depth):
+        return np.mean(library.predict({DEPTH: depth, FRICTION: 90.0}).std["theta_v"])
+
+    at_a_point, between, outside = std(0.0125), std(0.01125), std(0.0155)
+    assert at_a_point < between < outside
+    assert std(0.020) > outside  # further out still (predict allows it; generalize refuses)
+
+
+def test_nearest_returns_the_nearest_skills_arrays(tmp_path):
+    library = SkillLibrary.load(write_library(tmp_path, *GRID))
+    prediction = library.predict({DEPTH: 0.0121, FRICTION: 65.0}, "nearest")
+    assert prediction.nearest == "d=0.0125,f=60.0" and prediction.std is None
+    assert np.array_equal(prediction.mean["theta_v"], smooth(0.0125, 60.0))
+
+
+def test_a_library_whose_goal_moves_regresses_the_dmp_too(tmp_path):
+    library = SkillLibrary.load(write_library(tmp_path, *GRID, goal_shift=2.0))
+    assert "goal" in library.fields
+    skill, prediction, _ = library.generalize({DEPTH: 0.01125, FRICTION: 90.0})
+    first = library.skills[0].dmp.goal
+    span = 2.0 * (0.015 - 0.010)  # the library's goals span 10 mm in z
+    truth = first[2] + 2.0 * (0.01125 - 0.010)
+    assert skill.dmp.goal[2] == pytest.approx(truth, abs=0.05 * span)
+    assert np.array_equal(skill.dmp.goal[:2], first[:2])
+    assert "goal" in prediction.std
+
+
+def test_the_written_skill_loads_and_records_the_querys_world(tmp_path):
+    folder = write_library(tmp_path, *GRID)
+    out = tmp_path / "s.npz"
+    result = run_cli(
+        "generalize",
+        folder,
+        "--query",
+        f"{DEPTH}=0.01125",
+        "--query",
+        f"{FRICTION}=90",
+        "--out",
+        out,
+    )
+    assert result.returncode == 0, result.stderr
+    skill = load_skill(out)
+    scenario, _ = load_scenario("insertion", [f"{DEPTH}=0.01125", f"{FRICTION}=90.0"])
+    assert skill.world == world_of_scenario(scenario)
+    other, _ = load_scenario("insertion")
+    assert not skill.world.same_world(world_of_scenario(other))
+    with np.load(out) as data:
+        assert data["std_theta_v"].shape == skill.theta_v.shape
+        assert json.loads(str(data["generalized_query"])) == {DEPTH: 0.01125, FRICTION: 90.0}
+        assert str(data["generalized_method"]) == "regression"
+    assert f"--set {DEPTH}=0.01125" in result.stdout
+
+
+@pytest.mark.parametrize(
+    "queries, expected",
+    [
+        ([f"{DEPTH}=0.012", f"{FRICTION}=90", "duration_s=3"], "--query duration_s: the library "),
+        ([f"{DEPTH}=0.012"], f"--query: missing {FRICTION}"),
+        ([f"{DEPTH}=0.012", f"{FRICTION}=200"], "outside the library's range [60, 120]"),
+        ([f"{DEPTH}=0.012", f"{FRICTION}=abc"], "expected comma-separated numbers"),
+        ([f"{DEPTH}=0.012", f"{DEPTH}=0.013", f"{FRICTION}=90"], "given twice"),
+        ([f"{DEPTH}=0.012", f"{FRICTION}=nan"], "must be finite"),
+    ],
+)
+def test_a_bad_query_exits_2_with_one_line_and_writes_nothing(tmp_path, queries, expected):
+    folder = write_library(tmp_path, *GRID)
+    args = [a for q in queries for a in ("--query", q)]
+    result = run_cli("generalize", folder, *args, "--out", tmp_path / "s.npz")
+    assert expected in one_line_error(result)
+    assert not (tmp_path / "s.npz").exists()
+
+
+def test_extrapolate_allows_a_query_beyond_the_margin_with_a_warning(tmp_path):
+    folder = write_library(tmp_path, *GRID)
+    inside = 120 + 0.9 * EXTRAPOLATION_MARGIN * 60
+    ok = run_cli(
+        "generalize",
+        folder,
+        "--query",
+        f"{DEPTH}=0.012",
+        "--query",
+        f"{FRICTION}={inside}",
+        "--out",
+        tmp_path / "a.npz",
+    )
+    assert ok.returncode == 0 and "warning" not in ok.stderr, ok.stderr
+    beyond = 120 + 1.1 * EXTRAPOLATION_MARGIN * 60
+    result = run_cli(
+        "generalize",
+        folder,
+        "--query",
+        f"{DEPTH}=0.012",
+        "--query",
+        f"{FRICTION}={beyond}",
+        "--out",
+        tmp_path / "b.npz",
+        "--extrapolate",
+    )
+    assert result.returncode == 0, result.stderr
+    assert "warning" in result.stderr and "extrapolated" in result.stderr
+    assert (tmp_path / "b.npz").is_file()
+
+
+def test_a_folder_that_is_no_library_exits_2_with_one_line(tmp_path):
+    result = run_cli("generalize", tmp_path, "--query", "a=1", "--out", tmp_path / "s.npz")
+    assert "library.json: no such file" in one_line_error(result)
+    folder = write_library(tmp_path, [0.010], [60.0])
+    result = run_cli("generalize", folder, "--query", "a=1", "--out", tmp_path / "s.npz")
+    assert "generalising needs at least two" in one_line_error(result)
+
+
+def test_skills_with_another_basis_are_refused(tmp_path):
+    folder = write_library(tmp_path, [0.010, 0.015], [60.0])
+    path = folder / "skills" / "d=0.015,f=60.0" / "skill.npz"
+    other = Dmp.fit(*read_demonstration(tmp_path / "demo.csv"), DmpSettings(n_basis=12))
+    save_skill(path, Skill.untrained(other))
+    with pytest.raises(InputError, match="differ in their basis"):
+        SkillLibrary.load(folder)
