@@ -15,14 +15,17 @@
     hlcmp sweep SWEEP.yaml [--out DIR] [--engine local|ray] [--address A] [--workers N] [--dry-run]
     hlcmp serve SCENARIO --lcm URL [--controller C] [--skill SKILL.npz [--freeze]
                 [--any-scenario]] [--duration S] [--out DIR]
-    hlcmp sim-driver SCENARIO --lcm URL [--realtime] [--duration S] [--idle-timeout S]
+    hlcmp sim-driver SCENARIO --lcm URL [--realtime] [--command-delay N] [--duration S]
+                [--idle-timeout S]
+    hlcmp sim-driver SCENARIO --lcm URL --drake-driver [--status-period S] [--duration S]
     hlcmp library SPEC.yaml --out DIR [--engine local|ray] [--address A] [--workers N]
     hlcmp generalize DIR --query KEY=VALUE [...] --out SKILL.npz [--method regression|nearest]
                 [--extrapolate]
 
 Exit codes: 0 success, 2 bad input (one line on stderr; --debug shows the traceback),
 3 a simulation went unstable or a served run was stopped (metrics.json / serve.json say
-where and why), 4 the simulated driver aborted.
+where and why; a served run also in one line on stderr), 4 the simulated driver aborted,
+5 a served run finished but missed more ticks than iiwa_driver allows (degraded).
 
 This module is argparse and printing only: every command calls one library function.
 """
@@ -81,6 +84,13 @@ def _positive(text):
 
 def _non_negative(text):
     return _number(text, 0.0, inclusive=True)
+
+
+def _step_count(text):
+    value = _number(text, 0.0, inclusive=True)
+    if value != int(value):
+        raise argparse.ArgumentTypeError(f"expected a whole number of steps, got '{text}'")
+    return int(value)
 
 
 def _trial_count(text):
@@ -471,8 +481,11 @@ def cmd_serve(args):
         f"served {record['controller']} for {record['served_s']:.3f} s: {record['ticks']} ticks, "
         f"{record['missed_ticks']} missed, {timing}"
     )
-    print(f"{record['status']}: {record['stopped_because']}")
     served = ", timeseries.npz, recording.html" if len(result.run.t) else ""
+    if record["status"] == "ok":
+        print(f"ok: {record['stopped_because']}")
+    else:  # one line on stderr says why, as for every other failure
+        print(f"hlcmp serve: {record['status']}: {record['stopped_because']}", file=sys.stderr)
     print(f"serve.json, metrics.json{served} in {result.out_dir}")
     if record["status"] == "degraded":
         return EXIT_DEGRADED
@@ -483,6 +496,20 @@ def cmd_sim_driver(args):
     from hlcmp_drake.run.sim_driver import DriverAbort, run_sim_driver
 
     _quiet_drake(args)
+    if args.drake_driver:
+        if args.command_delay is not None or args.realtime:
+            raise InputError(
+                "--drake-driver runs Drake's driver as it is: always in real time, each "
+                "command acting one plant step after its status (no --realtime, --command-delay)"
+            )
+        return _drake_driver(args)
+    if args.status_period is not None:
+        raise InputError(
+            "--status-period needs --drake-driver (the project's driver publishes every "
+            "iiwa_driver.period_s)"
+        )
+    if args.command_delay is None:
+        args.command_delay = 0
     try:
         summary = run_sim_driver(
             args.scenario,
@@ -492,6 +519,7 @@ def cmd_sim_driver(args):
             args.idle_timeout,
             args.set,
             Progress(args.quiet),
+            command_delay_steps=args.command_delay,
         )
     except DriverAbort as error:
         print(f"hlcmp sim-driver: aborted: {error}", file=sys.stderr)
@@ -501,6 +529,31 @@ def cmd_sim_driver(args):
         f"sim-driver: {summary.steps} steps ({summary.commanded_steps} commanded, "
         f"{summary.held_steps} held{late}), "
         f"{summary.sim_time_s:.3f} s simulated in {summary.wall_s:.1f} s; {summary.stopped_because}"
+    )
+    return 0
+
+
+def _drake_driver(args):
+    from hlcmp_drake.run.drake_driver import run_drake_driver
+    from hlcmp_drake.run.sim_driver import DriverAbort
+
+    try:
+        summary = run_drake_driver(
+            args.scenario,
+            args.lcm,
+            0.005 if args.status_period is None else args.status_period,
+            args.duration,
+            args.idle_timeout,
+            args.set,
+            Progress(args.quiet),
+        )
+    except DriverAbort as error:
+        print(f"hlcmp sim-driver: aborted: {error}", file=sys.stderr)
+        return EXIT_DRIVER_ABORT
+    print(
+        f"sim-driver (Drake's iiwa driver, status every {summary.status_period_s * 1000:g} ms): "
+        f"{summary.commands} commands, {summary.sim_time_s:.3f} s simulated in "
+        f"{summary.wall_s:.1f} s; {summary.stopped_because}"
     )
     return 0
 
@@ -886,6 +939,25 @@ def build_parser():
         type=_positive,
         default=1.0,
         help="seconds without a command after which the client counts as gone (default 1)",
+    )
+    sim_driver.add_argument(
+        "--command-delay",
+        type=_step_count,
+        help="plant steps between a status and the first step its command acts on "
+        "(default 0, as in a simulated run; 1 is Drake's simulated driver)",
+    )
+    sim_driver.add_argument(
+        "--drake-driver",
+        action="store_true",
+        help="drive the world with Drake's own simulated iiwa driver (pydrake's "
+        "BuildIiwaControl, torque-only), always in real time",
+    )
+    sim_driver.add_argument(
+        "--status-period",
+        type=_positive,
+        help="with --drake-driver: seconds between statuses (default 0.005, Drake's "
+        "BuildIiwaControl as it is; any other: Drake's driver systems behind a publisher "
+        "of this period)",
     )
     sim_driver.set_defaults(func=cmd_sim_driver)
     _add_library_parsers(sub, common, quiet)

@@ -225,6 +225,7 @@ EXEMPT = [
     ("*", "plant_config.adjacent_bodies_collision_filters", "Drake's switch: both values run"),
     ("*", "simulator_config.use_error_control", "Drake's switch: both values run"),
     ("*", "simulator_config.publish_every_time_step", "Drake's switch: both values run"),
+    ("*", "iiwa_driver.busy_wait", "a switch: both values serve"),
     (
         "one_dof",
         "plant_config.use_sampled_output_ports",

@@ -287,6 +287,29 @@ def test_saturated_torques_stop_the_client_after_max_saturation_s():
         (["serve", "insertion", "--lcm", "tcp://x:1"], "expected udpm://GROUP:PORT?ttl=0"),
         (["sim-driver", "insertion", "--lcm", "memq://"], "memq:// reaches only this process"),
         (
+            ["sim-driver", "insertion", "--lcm", "memq://", "--drake-driver"],
+            "memq:// reaches only this process",
+        ),
+        (
+            ["sim-driver", "insertion", "--lcm", "memq://", "--status-period", "0.001"],
+            "--status-period needs --drake-driver",
+        ),
+        (
+            ["sim-driver", "insertion", "--lcm", "memq://", "--drake-driver", "--realtime"],
+            "--drake-driver runs Drake's driver as it is",
+        ),
+        (["sim-driver", "insertion", "--lcm", "memq://", "--command-delay", "0.5"], "whole"),
+        (
+            ["sim-driver", "insertion", "--lcm", "udpm://239.255.76.1:7667?ttl=0"]
+            + ["--drake-driver", "--status-period", "0.0015"],
+            "must be a whole number of plant steps",
+        ),
+        (
+            ["sim-driver", "insertion", "--lcm", "udpm://239.255.76.1:7667?ttl=0"]
+            + ["--drake-driver", "--set", "iiwa_driver.status_channel=OTHER"],
+            "Drake's iiwa driver publishes on IIWA_STATUS",
+        ),
+        (
             ["serve", "insertion", "--lcm", "memq://", "--set", "iiwa_driver.force_source=guess"],
             "iiwa_driver.force_source",
         ),
@@ -420,8 +443,10 @@ def test_a_status_period_other_than_the_configured_one_stops_before_any_command(
     """A driver publishing every 5 ms to a client configured for 1 ms: said from the stamps
     during the start guard, with the fix, before a command goes out."""
     client, send, commands = _client_fed_by_hand(["iiwa_driver.start_guard_s=5.0"])
-    for utime in (0, 5000, 10000):
+    for utime in range(0, 50000, 5000):  # nine steps: not yet enough to call it
         send(utime, client.q0)
+    assert not client.done
+    send(50000, client.q0)
     assert client.status == STOPPED and not commands
     assert client.stopped_because.startswith("the driver's statuses come every 5 ms")
     assert "--set iiwa_driver.period_s=0.005" in client.stopped_because
@@ -481,3 +506,118 @@ def test_a_driver_that_goes_quiet_before_any_logged_tick_ends_in_one_line(tmp_pa
     result = write_served(client, tmp_path, "memq://")
     assert result.metrics["status"] == "stopped" and result.metrics["controllers"] == {}
     assert json.loads((tmp_path / "serve.json").read_text())["ticks"] == 0
+
+
+def test_statuses_queued_while_the_client_was_busy_do_not_fool_the_period():
+    """A driver at 5 ms whose statuses reach the client three at a time (the client was
+    busy, e.g. collecting garbage before serving): each status's stamp counts, so the
+    period is 5 ms and the run goes on, though only every third status is decoded."""
+    client, send, commands = _client_fed_by_hand(
+        ["iiwa_driver.period_s=0.005", "iiwa_driver.start_guard_s=5.0"]
+    )
+    channel = client.config.status_channel
+    for burst in range(4):
+        for k in range(3):
+            stamp = 5000 * (3 * burst + k)
+            client._lcm.Publish(
+                channel,
+                encode_status(IiwaStatus(stamp, client.q0, *(np.zeros(7) for _ in range(4)))),
+            )
+        client._lcm.HandleSubscriptions(0)
+        client.poll()
+    assert not client.done, client.stopped_because
+    assert client.record("memq://")["status_period_s"] == pytest.approx(0.005)
+
+
+@pytest.mark.parametrize(
+    "driver_duration, ticks, reason",
+    [
+        (None, [0], "no status on IIWA_STATUS at udpm://"),  # no driver: it stopped before
+        (0.0005, [1], "no status for 500 ms (stale) at t = 0.000 s"),  # after the first tick
+        (0.3, [300, 301], "no status for 500 ms (stale) at t = 0.3"),  # mid-run
+    ],
+)
+def test_a_driver_that_stops_ends_the_served_run_in_one_line(
+    driver_duration, ticks, reason, tmp_path
+):
+    """hlcmp serve against a driver that stops before its first status, right after the
+    first tick, or mid-run: exit 3, one line on stderr saying why, no traceback, and
+    serve.json counting the ticks answered. (The stale watchdog is given 0.5 s here, so a
+    busy machine cannot end the run before the driver does. Mid-run, the driver's last
+    status, sent as it exits and never sent again, may be lost: 300 or 301 ticks.)"""
+    url = f"udpm://239.255.76.{random.randint(100, 250)}:{random.randint(20000, 60000)}?ttl=0"
+    driver = None
+    if driver_duration is not None:
+        driver = hlcmp("sim-driver", "insertion", "--lcm", url, "--duration", driver_duration)
+    try:
+        result = run_cli(
+            "serve",
+            "insertion",
+            "--lcm",
+            url,
+            "--duration",
+            "2",
+            "--out",
+            tmp_path,
+            "--set",
+            "iiwa_driver.stale_status_s=0.5",
+            "--set",
+            f"iiwa_driver.first_status_timeout_s={2 if driver is None else 120}",
+        )
+    finally:
+        if driver is not None:
+            driver_out, driver_err = driver.communicate(timeout=60)
+    line = one_line_error(result, code=3)
+    assert "Traceback" not in result.stdout
+    record = json.loads((tmp_path / "serve.json").read_text())
+    assert record["status"] == "stopped" and record["ticks"] in ticks
+    served = f"{record['served_s']:.3f} s"
+    assert reason in line and (driver is None or line.endswith(served)), line
+    if driver is not None:
+        assert driver.returncode == 0 and "reached --duration" in driver_out, driver_err
+
+
+def test_jitter_in_the_statuses_arrival_changes_no_command():
+    """The same statuses (1 ms stamps, a drifting arm) delivered back to back and with
+    0-3 ms of random lateness each: the same commands, byte for byte, and the same θ.
+    The client steps θ and samples the reference by the stamps, never by the clock."""
+    rng = random.Random(7)
+    runs = []
+    for jitter in (False, True):
+        client, send, commands = _client_fed_by_hand()
+        send(0, client.q0)
+        time.sleep(0.002)
+        for k in range(40):
+            if jitter:
+                time.sleep(rng.uniform(0.0, 0.003))
+            send(1000 * k, client.q0 + 0.0005 * k, v=np.full(7, 0.5))
+        runs.append((commands, client.theta.copy()))
+    (steady, theta), (late, theta_late) = runs
+    assert len(steady) == 40 and late == steady
+    np.testing.assert_array_equal(theta_late, theta)
+    assert np.abs(theta).max() > 0  # θ moved
+
+
+def test_statuses_that_queue_up_are_answered_once_the_newest_only():
+    """Two statuses reach the client at once (one was late): only the newer is answered,
+    the older counts as missed, and θ takes one period's step; a copy of the older one
+    arriving after that (out of order) is ignored."""
+    client, send, commands = _client_fed_by_hand()
+    send(0, client.q0)
+    time.sleep(0.002)
+    displaced = client.q0 + 0.01
+    send(0, displaced)
+    send(1000, displaced)
+    theta, rate, answered = client.theta.copy(), client._rate, len(commands)
+    channel = client.config.status_channel
+    for stamp in (2000, 3000):  # queued together
+        client._lcm.Publish(
+            channel, encode_status(IiwaStatus(stamp, displaced, *(np.zeros(7) for _ in range(4))))
+        )
+    client._lcm.HandleSubscriptions(0)
+    client.poll()
+    client._lcm.HandleSubscriptions(0)
+    assert len(commands) == answered + 1 and client.missed_ticks == 1
+    np.testing.assert_allclose(client.theta, theta + 0.001 * rate)
+    send(2000, displaced)  # the late one again, after the newer was answered
+    assert len(commands) == answered + 1 and client.ticks == 3

@@ -960,6 +960,10 @@ class IiwaDriverConfig:
         How far the status period measured from the statuses' stamps may be from
         `period_s`, relative, in (0, 1). Further, the client stops before it commands at
         the wrong rate. Default 0.1.
+    busy_wait : bool
+        Between statuses, poll without sleeping (true: the tick starts from warm caches,
+        but the poll starves LCM's own receiving, which loses datagrams unless the client
+        has cores to spare) or sleep until a status comes (default false; docs/iiwa.md).
     """
 
     status_channel: str = "IIWA_STATUS"
@@ -974,6 +978,7 @@ class IiwaDriverConfig:
     max_missed_fraction: float = 0.01
     max_consecutive_missed: int = 10
     period_tolerance: float = 0.1
+    busy_wait: bool = False
 
     def check(self, fail: Fail) -> None:
         """Known force source, non-empty channels, positive times and tolerance, the

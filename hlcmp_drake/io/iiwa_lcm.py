@@ -48,11 +48,15 @@ class IiwaStatus:
     velocity : (n,) array
         Estimated joint velocities [rad/s].
     torque_commanded : (n,) array
-        The torque the driver last applied on top of its gravity compensation [N m].
+        The joint torque commanded, gravity compensation included, negated: Drake's
+        simulated iiwa reports it so (manipulation/README.md), not the client's command
+        alone [N m].
     torque_measured : (n,) array
-        The joint torque sensors' reading [N m].
+        The joint torque sensors' reading, negated, as the iiwa reports it (in Drake's
+        simulation, the same as `torque_commanded`) [N m].
     torque_external : (n,) array
-        The driver's estimate of the external joint torques [N m].
+        The driver's estimate of the external joint torques, positive along the joint
+        motion an external force drives (not negated) [N m].
     """
 
     utime: int
@@ -118,6 +122,28 @@ def decode_status(data: bytes, num_joints: int) -> IiwaStatus:
         np.array(message.joint_torque_measured),
         np.array(message.joint_torque_external),
     )
+
+
+_STATUS_FINGERPRINT = lcmt_iiwa_status._get_packed_fingerprint()
+
+
+def status_stamp(data: bytes) -> int | None:
+    """The time stamp of lcmt_iiwa_status bytes, read from the header alone (the LCM
+    fingerprint, then `utime` as a big-endian int64): cheap enough for every status
+    received, decoded or not.
+
+    Parameters
+    ----------
+    data : bytes
+
+    Returns
+    -------
+    int or None
+        [µs]; None when the bytes are not an lcmt_iiwa_status.
+    """
+    if len(data) < 16 or data[:8] != _STATUS_FINGERPRINT:
+        return None
+    return int.from_bytes(data[8:16], "big", signed=True)
 
 
 def encode_torque_command(utime: int, position: np.ndarray, torque: np.ndarray) -> bytes:

@@ -41,6 +41,7 @@ from hlcmp_drake.io.iiwa_lcm import (
     decode_wrench,
     encode_torque_command,
     open_lcm,
+    status_stamp,
 )
 from hlcmp_drake.io.runs import RunResult
 from hlcmp_drake.io.skill import Skill
@@ -59,6 +60,9 @@ from hlcmp_drake.worlds.models import load_models, scoped_frame
 # The statuses a served run may end with: "ok" (served its duration), "unstable" (a
 # safety watchdog), "stopped" (the driver went quiet or sent something unreadable).
 FINISHED, UNSAFE, STOPPED, DEGRADED = "ok", "unstable", "stopped", "degraded"
+# Steps between statuses the period is measured over before a mismatch is called: the
+# smallest of them is the period unless every one spans a lost datagram.
+PERIOD_EVIDENCE_STEPS = 10
 
 
 def served_scenario(
@@ -192,7 +196,9 @@ class TorqueClient:
         self.ticks = self.missed_ticks = 0
         self.longest_missed_run = 0
         # The status period as the driver's stamps say: the smallest step between two
-        # statuses decoded one after the other (a status skipped only makes a step longer).
+        # statuses received one after the other, each read as it comes, whether answered
+        # or not (a status lost only makes a step longer; a burst of statuses queued
+        # while the client was busy makes none).
         self.status_period_s: float | None = None
         self._previous_stamp: int | None = None
         self._stamp_steps = 0
@@ -220,6 +226,20 @@ class TorqueClient:
         self.last_status_wall = now
         self.first_status_wall = self.first_status_wall or now
         self._latest = (now, data)
+        self._measure_period(status_stamp(data))
+
+    def _measure_period(self, utime: int | None) -> None:
+        """Take the step from the previous status's stamp into the measured period."""
+        if utime is None:
+            return  # not a status: decoding the newest says so
+        previous, self._previous_stamp = self._previous_stamp, utime
+        if previous is None or utime <= previous:
+            return  # the first, a duplicate or an older status: no step to measure
+        step = (utime - previous) / 1e6
+        self.status_period_s = (
+            step if self.status_period_s is None else min(self.status_period_s, step)
+        )
+        self._stamp_steps += 1
 
     def _on_wrench(self, data: bytes) -> None:
         self._wrist = data
@@ -260,23 +280,15 @@ class TorqueClient:
         except ProtocolError as error:
             self.stop(STOPPED, f"the driver sent {error}")
             return
-        if self._period_mismatch(status.utime):
+        if self._period_mismatch():
             return
         self._answer(status, received)
 
-    def _period_mismatch(self, utime: int) -> bool:
-        """Measure the status period from the stamps; stop (True) when it is not the
-        configured one, since the reference is sampled and θ stepped at `period_s`."""
-        previous, self._previous_stamp = self._previous_stamp, utime
-        if previous is None or utime <= previous:
-            return False  # the first, a duplicate or an older status: no step to measure
-        step = (utime - previous) / 1e6
-        self.status_period_s = (
-            step if self.status_period_s is None else min(self.status_period_s, step)
-        )
-        self._stamp_steps += 1
+    def _period_mismatch(self) -> bool:
+        """Stop (True) when the measured status period is not the configured one, since
+        the reference is sampled and θ stepped at `period_s`."""
         configured = self.config.period_s
-        if self._stamp_steps < 2 or abs(self.status_period_s - configured) <= (
+        if self._stamp_steps < PERIOD_EVIDENCE_STEPS or abs(self.status_period_s - configured) <= (
             self.config.period_tolerance * configured
         ):
             return False
@@ -522,9 +534,11 @@ def serve(client: TorqueClient, lcm: DrakeLcm, lcm_url: str, reporter: Progress 
     start = time.perf_counter()
     with without_garbage_collection():
         while not client.done:
-            # Once statuses come, poll without sleeping: a process woken from a sleep runs
-            # its tick from cold caches, measured 2-3x slower on a 2-core VM (docs/iiwa.md).
-            lcm.HandleSubscriptions(0 if client.first_status_wall is not None else 10)
+            # Sleep until a status comes: polling without sleeping (busy_wait) starts the
+            # tick from warm caches, but starves LCM's receiving of the CPU, and it loses
+            # datagrams then (docs/iiwa.md).
+            polling = config.busy_wait and client.first_status_wall is not None
+            lcm.HandleSubscriptions(0 if polling else 10)
             client.poll()
             if (
                 client.first_status_wall is None

@@ -13,9 +13,10 @@ that answers it, so no tick is ever missed and the run is deterministic), or rea
 (a period of wall-clock time per step; the latest command is applied, as on the robot).
 Simulated time stands still at 0, the arm held, until the first command.
 
-The simulation is stepped from Python, one period per command, with the command fixed on
-the plant's actuation input: no LCM systems inside the diagram, so an LCM event never
-splits a plant step.
+The simulation is stepped from Python, one plant step at a time and a period per command,
+with the command (plus gravity compensation) fixed on the plant's actuation input: no LCM
+systems inside the diagram, so an LCM event never splits a plant step. A command acts from
+its status on, or `command_delay_steps` plant steps later (1: Drake's simulated driver).
 """
 
 from __future__ import annotations
@@ -87,15 +88,27 @@ class SimulatedIiwaDriver:
         Where to publish and subscribe.
     setup : ArmSetup, optional
         The start posture (default: `prepare(scenario)`, as a run would start).
+    command_delay_steps : int
+        Plant steps between a status and the first step its command acts on: 0 (default)
+        acts from the status on, as the simulated run's controller does; 1 is Drake's
+        simulated iiwa driver, whose LCM subscriber takes a command in after the plant
+        step that has already begun (`run.drake_driver`).
 
     Raises
     ------
     InputError
-        For a scenario that is not an arm's, or a period that is not a whole number of
-        plant steps.
+        For a scenario that is not an arm's, a period that is not a whole number of
+        plant steps, or a negative delay.
     """
 
-    def __init__(self, scenario: Scenario, lcm: DrakeLcm, setup: ArmSetup | None = None):
+    def __init__(
+        self,
+        scenario: Scenario,
+        lcm: DrakeLcm,
+        setup: ArmSetup | None = None,
+        *,
+        command_delay_steps: int = 0,
+    ):
         world = driven_world_of(scenario, "the simulated iiwa driver drives an arm")
         self.config = scenario.iiwa_driver
         step = scenario.plant_config.time_step
@@ -105,6 +118,11 @@ class SimulatedIiwaDriver:
                 f"{scenario.name}: iiwa_driver.period_s = {self.period} s must be a whole number "
                 f"of plant steps (plant_config.time_step = {step} s)"
             )
+        if command_delay_steps < 0:
+            raise InputError(f"--command-delay {command_delay_steps}: expected 0 or more steps")
+        self.command_delay_steps = command_delay_steps
+        self._plant_step = step
+        self._steps_per_period = int(round(self.period / step))
         self._lcm = lcm
         setup = setup or world.prepare(scenario, None)
         assert world.build_driven is not None
@@ -128,10 +146,10 @@ class SimulatedIiwaDriver:
             ]
         )
         self.nv = self.plant.num_velocities()
-        self._applied = np.zeros(self.nv)  # the last command's torque (or the hold's)
-        self._total = np.zeros(self.nv)  # with gravity compensation: what the joints feel
+        self._applied = np.zeros(self.nv)  # the torque in force (a command's or the hold's)
+        self._pending: list[tuple[int, np.ndarray]] = []  # (the plant step it acts from, torque)
         self._hold = None
-        self._steps = 0
+        self._plant_steps = 0
         self.command: tuple[int, np.ndarray, float] | None = (
             None  # utime, torque, wall time received
         )
@@ -159,9 +177,13 @@ class SimulatedIiwaDriver:
             plant.world_frame(),
         )
         self.status_utime = int(round(self.time * 1e6))
-        # The wrist force, taken to act at the tool point, is the arm's external torque.
+        # As Drake's simulated iiwa reports them: the joint torque (the command in force
+        # plus gravity compensation at this state, saturated) negated, for both the
+        # commanded and the measured torque; the wrist force, taken to act at the tool
+        # point, is the arm's external torque, with its own sign.
+        joint_torque = -self._joint_torque(self._applied)
         status = IiwaStatus(
-            self.status_utime, q, v, self._applied, self._total, jacobian.T @ force_world
+            self.status_utime, q, v, joint_torque, joint_torque, jacobian.T @ force_world
         )
         self._lcm.Publish(
             self.config.wrist_channel,
@@ -184,9 +206,16 @@ class SimulatedIiwaDriver:
             )
         self.command = (utime, torque, now)
 
+    def _joint_torque(self, torque: np.ndarray) -> np.ndarray:
+        """What the joints get for a command's `torque`: it plus gravity compensation
+        G(q) at the present state, saturated at the effort limits [N m]."""
+        gravity = -self.plant.CalcGravityGeneralizedForces(self._context)
+        return np.clip(torque + gravity, -self._limits, self._limits)
+
     def step(self, torque: np.ndarray | None) -> None:
-        """Advance one period with `torque` on top of gravity compensation, or (None) hold
-        the arm where it is with the driver's joint PD.
+        """Advance one period with `torque` on top of gravity compensation (recomputed
+        every plant step), from `command_delay_steps` plant steps on, or (None) hold the
+        arm where it is with the driver's joint PD.
 
         Parameters
         ----------
@@ -202,25 +231,29 @@ class SimulatedIiwaDriver:
         q, v = plant.GetPositions(context), plant.GetVelocities(context)
         if torque is None:
             self._hold = q.copy() if self._hold is None else self._hold
-            torque = -HOLD_KP * (q - self._hold) - HOLD_KD * v
+            self._pending.clear()
+            self._applied = -HOLD_KP * (q - self._hold) - HOLD_KD * v
         else:
             self._hold = None
-        gravity = -plant.CalcGravityGeneralizedForces(context)
-        self._applied = np.asarray(torque, dtype=float)
-        self._total = np.clip(self._applied + gravity, -self._limits, self._limits)
-        self._actuation.FixValue(context, self._total)
-        # To a whole number of periods, as Drake times the plant's steps: t + period could
-        # land a rounding error past a step and take it too.
-        self._steps += 1
-        try:
-            status = self.simulator.AdvanceTo(self._steps * self.period)
-        except RuntimeError as error:
-            message = " ".join(str(error).split())[:200]
-            raise DriverAbort(
-                f"the simulation failed at t = {self.time:.3f} s: {message}"
-            ) from None
-        if status.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition:
-            raise DriverAbort(f"the world stopped at t = {self.time:.3f} s: {status.message()}")
+            self._pending.append(
+                (self._plant_steps + self.command_delay_steps, np.asarray(torque, dtype=float))
+            )
+        for _ in range(self._steps_per_period):
+            while self._pending and self._pending[0][0] <= self._plant_steps:
+                self._applied = self._pending.pop(0)[1]
+            self._actuation.FixValue(context, self._joint_torque(self._applied))
+            # To a whole number of plant steps, as Drake times them: t + step could land a
+            # rounding error past a step and take it too.
+            self._plant_steps += 1
+            try:
+                status = self.simulator.AdvanceTo(self._plant_steps * self._plant_step)
+            except RuntimeError as error:
+                message = " ".join(str(error).split())[:200]
+                raise DriverAbort(
+                    f"the simulation failed at t = {self.time:.3f} s: {message}"
+                ) from None
+            if status.reason() == SimulatorStatus.ReturnReason.kReachedTerminationCondition:
+                raise DriverAbort(f"the world stopped at t = {self.time:.3f} s: {status.message()}")
         if not np.all(np.isfinite(plant.GetPositionsAndVelocities(context))):
             raise DriverAbort(f"the simulated arm's state is not finite at t = {self.time:.3f} s")
 
@@ -366,6 +399,8 @@ def run_sim_driver(
     idle_timeout_s: float = 1.0,
     overrides: Sequence[str] = (),
     reporter: Progress = SILENT,
+    *,
+    command_delay_steps: int = 0,
 ) -> DriverSummary:
     """Load a scenario and run its simulated iiwa driver on `lcm_url` until the client stops.
 
@@ -379,6 +414,8 @@ def run_sim_driver(
         As for `drive`.
     overrides : sequence of str
         ``dotted.key=value`` overrides of the scenario.
+    command_delay_steps : int
+        As for `SimulatedIiwaDriver` (1: Drake's simulated driver's timing).
 
     Returns
     -------
@@ -393,5 +430,5 @@ def run_sim_driver(
         )
     scenario, _ = load_scenario(name_or_path, overrides)
     lcm = open_lcm(lcm_url)
-    driver = SimulatedIiwaDriver(scenario, lcm)
+    driver = SimulatedIiwaDriver(scenario, lcm, command_delay_steps=command_delay_steps)
     return drive(driver, lcm, realtime, duration, idle_timeout_s, reporter=reporter)

@@ -328,10 +328,15 @@ def build(
     )
 
 
-def build_driven(scenario: Scenario, setup: ArmSetup) -> BuiltDiagram:
+def build_driven(
+    scenario: Scenario,
+    setup: ArmSetup,
+    *,
+    add_driver: Callable[[DiagramBuilder, MultibodyPlant], None] | None = None,
+) -> BuiltDiagram:
     """The arm's world with no controller: the plant's actuation input is left open for
     whoever drives the joints (`hlcmp sim-driver`, which fixes it to a driver's command
-    plus gravity compensation every period).
+    plus gravity compensation every period), or taken by a driver's systems.
 
     Parameters
     ----------
@@ -339,6 +344,9 @@ def build_driven(scenario: Scenario, setup: ArmSetup) -> BuiltDiagram:
         With an ArmTask.
     setup : ArmSetup
         Its q0 is the start posture.
+    add_driver : callable(builder, plant), optional
+        Adds a driver's systems to the world's builder and connects them to the plant
+        (Drake's own simulated iiwa driver: `run.drake_driver`).
 
     Returns
     -------
@@ -348,6 +356,8 @@ def build_driven(scenario: Scenario, setup: ArmSetup) -> BuiltDiagram:
     """
     builder = DiagramBuilder()
     world = add_world(builder, scenario)
+    if add_driver is not None:
+        add_driver(builder, world.plant)
     diagram = builder.Build()
     diagram.set_name(f"{scenario.name}_driven")
     return BuiltDiagram(

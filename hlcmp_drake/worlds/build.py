@@ -34,9 +34,10 @@ class World:
         is given, and the start posture); its result is `build`'s `setup`.
     build : callable(scenario, controller_name, setup, theta0) -> BuiltDiagram
         One controller's diagram: the world, the controller and the harness.
-    build_driven : callable(scenario, setup) -> BuiltDiagram, optional
+    build_driven : callable(scenario, setup, *, add_driver=None) -> BuiltDiagram, optional
         The world with its joints' torques left open for an external driver (`hlcmp
-        sim-driver`); None for a world with no arm to drive.
+        sim-driver`), or taken by the driver systems `add_driver(builder, plant)` adds;
+        None for a world with no arm to drive.
     build_probe : callable(scenario, speed, tilt_rad) -> ProbeWorld, optional
         The world measured alone, the tool on a carriage (`hlcmp probe`); None for a world
         without a probe.
@@ -45,7 +46,7 @@ class World:
     name: str
     prepare: Callable[[Scenario, Dmp | None], Any]
     build: Callable[[Scenario, str, Any, Theta | None], BuiltDiagram]
-    build_driven: Callable[[Scenario, Any], BuiltDiagram] | None = None
+    build_driven: Callable[..., BuiltDiagram] | None = None
     build_probe: Callable[..., probe.ProbeWorld] | None = None
 
 
