@@ -19,7 +19,8 @@ from hlcmp_drake.core.rotation_law import (
 
 
 def _matrix(q):
-    """R(q) from its columns, the images of the unit vectors."""
+    """R(q) from its columns, the images of the unit vectors (independent of
+    `quaternion.to_matrix`, which the law uses)."""
     return np.column_stack([quat.rotate(q, axis) for axis in np.eye(3)])
 
 
@@ -91,7 +92,9 @@ def test_the_reference_rate_is_the_derivative_of_the_reference():
         def reference(t, q=q, q_d=q_d, omega=omega, omega_d=omega_d):
             qt, qdt = _turned(q, omega, t), _turned(q_d, omega_d, t)
             e_r, omega_e = rotation_errors(qt, omega, qdt, omega_d)
-            return rotational_reference(qt, omega, e_r, omega_e, omega_d, np.zeros(3), pi)
+            return rotational_reference(
+                quat.to_matrix(qt), omega, e_r, omega_e, omega_d, np.zeros(3), pi
+            )
 
         rate = (reference(h)[0] - reference(-h)[0]) / (2 * h)
         np.testing.assert_allclose(reference(0.0)[1], rate, atol=1e-6)

@@ -118,12 +118,12 @@ def rotation_errors(
         The angular velocity error [rad/s], the measured tool frame.
     """
     e_r = quat.to_rotation_vector(quat.multiply(quat.conjugate(q_d), q))
-    omega_e = quat.rotate(quat.conjugate(q), np.asarray(omega, float) - omega_d)
+    omega_e = quat.to_matrix(q).T @ (np.asarray(omega, float) - omega_d)
     return e_r, omega_e
 
 
 def rotational_reference(
-    q: np.ndarray,
+    rotation: np.ndarray,
     omega: np.ndarray,
     e_r: np.ndarray,
     omega_e: np.ndarray,
@@ -143,8 +143,8 @@ def rotational_reference(
 
     Parameters
     ----------
-    q : (4,) array
-        Measured tool orientation (w, x, y, z).
+    rotation : (3, 3) array
+        R, the measured tool orientation (`quaternion.to_matrix`).
     omega : (3,) array
         Measured angular velocity, world [rad/s].
     e_r, omega_e : (3,) arrays
@@ -159,16 +159,16 @@ def rotational_reference(
     omega_ref, omega_ref_dot : (3,) arrays
         World frame [rad/s], [rad/s^2].
     """
-    error_world = quat.rotate(q, e_r)
+    error_world = rotation @ e_r
     error_rate = np.linalg.solve(quat.left_jacobian(-np.asarray(e_r, float)), omega_e)
     omega_ref = omega_d - pi * error_world
-    omega_ref_dot = omega_d_dot - pi * (np.cross(omega, error_world) + quat.rotate(q, error_rate))
+    omega_ref_dot = omega_d_dot - pi * (np.cross(omega, error_world) + rotation @ error_rate)
     return omega_ref, omega_ref_dot
 
 
 def rotational_torque(
     torque_nominal: np.ndarray,
-    q: np.ndarray,
+    rotation: np.ndarray,
     gain_l: np.ndarray,
     eps_r: np.ndarray,
     u_r: np.ndarray,
@@ -186,8 +186,8 @@ def rotational_torque(
     ----------
     torque_nominal : (3,) array
         tau_0 [N m], world.
-    q : (4,) array
-        Measured tool orientation (w, x, y, z).
+    rotation : (3, 3) array
+        R, the measured tool orientation (`quaternion.to_matrix`).
     gain_l : (3,) array
         Diagonal of L_r [N m s/rad], tool frame.
     eps_r : (3,) array
@@ -200,7 +200,7 @@ def rotational_torque(
     (3,) array
         tau_c [N m], world.
     """
-    return torque_nominal - quat.rotate(q, gain_l * eps_r + u_r + v_r)
+    return torque_nominal - rotation @ (gain_l * eps_r + u_r + v_r)
 
 
 @dataclass(frozen=True)
@@ -312,8 +312,13 @@ class RotationalHlcmp:
         return 9 * self.n_basis
 
     def feedback(
-        self, phase: float, e_r: np.ndarray, omega_e: np.ndarray, eps_r: np.ndarray, theta
-    ) -> tuple[np.ndarray, np.ndarray, dict, Callable[[], np.ndarray]]:
+        self,
+        phase: float,
+        e_r: np.ndarray,
+        omega_e: np.ndarray,
+        eps_r: np.ndarray,
+        theta: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray, dict, Callable[[], np.ndarray] | None]:
         """u_r, v_r, the series and θ_r' at this instant.
 
         Parameters
@@ -378,8 +383,35 @@ class RotationalImpedance:
             np.zeros(3), np.zeros(3), np.zeros(3), float(pi), np.asarray(gain_l, float)
         )
 
-    def feedback(self, phase, e_r, omega_e, eps_r, theta):
-        """u_r, v_r = 0, no series and no rates (as `RotationalHlcmp.feedback`)."""
+    def feedback(
+        self,
+        phase: float,
+        e_r: np.ndarray,
+        omega_e: np.ndarray,
+        eps_r: np.ndarray,
+        theta: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray, dict, Callable[[], np.ndarray] | None]:
+        """u_r = K_r e_r + D_r omega_e, v_r = 0, no series and no rates.
+
+        Parameters
+        ----------
+        phase : float
+            Unused (the impedance is constant).
+        e_r, omega_e : (3,) arrays
+            [rad], [rad/s], tool frame.
+        eps_r : (3,) array
+            Unused (L_r eps_r is `rotational_torque`'s).
+        theta : (0,) array
+            Unused.
+
+        Returns
+        -------
+        u_r, v_r : (3,) arrays
+            [N m], tool frame.
+        logs : dict
+            Empty.
+        rates_of : None
+        """
         return impedance_force(self.stiffness, self.damping, e_r, omega_e), np.zeros(3), {}, None
 
 
@@ -457,8 +489,9 @@ class PoseLaw:
             now.orientation, now.omega, now.desired_orientation, now.omega_d
         )
         eps_r = sliding_error(e_r, omega_e, rot.pi)
+        rotation = quat.to_matrix(now.orientation)
         omega_ref, omega_ref_dot = rotational_reference(
-            now.orientation, now.omega, e_r, omega_e, now.omega_d, now.omega_d_dot, rot.pi
+            rotation, now.omega, e_r, omega_e, now.omega_d, now.omega_d_dot, rot.pi
         )
         inertia = now.inertia
         coriolis = CoriolisWithRotationFixed(now.coriolis, omega_ref)
@@ -489,7 +522,7 @@ class PoseLaw:
         )
         wrench = np.concatenate(
             [
-                rotational_torque(torque_nominal, now.orientation, rot.gain_l, eps_r, u_r, v_r),
+                rotational_torque(torque_nominal, rotation, rot.gain_l, eps_r, u_r, v_r),
                 translational.force,
             ]
         )

@@ -32,10 +32,12 @@ def conditioned_task_inertia(
     than the true inertia along the near-singular directions -- the task asks less force
     there, where the arm can hardly move the tool -- and bounded by max(S)^2 / rho. The
     dynamically consistent projector built from a floored Lambda is then only nearly one.
-    rho = 1e-3 keeps the scaled condition number below about 6000 for a 6-D task; on the
-    iiwa with the insertion tool the smallest scaled eigenvalue is 0.03-0.1 at working
-    postures and the floor acts only within a few degrees of the stretched arm (tests/
-    test_systems_spatial_task_space.py).
+    rho = 1e-3 keeps the scaled condition number below about 6000 for a 6-D task. On the
+    iiwa with the insertion tool (measured; tests/test_systems_spatial_task_space.py): the
+    smallest scaled eigenvalue is 0.033 at the insertion's start posture; bending the
+    stretched arm by a at joints 2, 4, 6 (a, -2a, a), the floor acts at a = 0.05 rad and
+    not at 0.1 rad; of 500 postures drawn uniformly in +-1.5 rad per joint, 15.8 % have a
+    floored direction (the stretched elbow and the aligned wrist, joint 6 near 0).
 
     Parameters
     ----------
