@@ -163,16 +163,15 @@ def test_the_null_space_is_the_seventh_joints_and_moves_no_part_of_the_pose(arm,
         )
 
 
-def test_the_wrench_map_adds_gravity_and_posture_in_the_null_space_and_saturates(arm, model):
+def test_the_wrench_map_adds_the_torque_below_the_task_and_saturates(arm, model):
     terms = _at_rest(arm, model)
     limits = np.array([320.0, 320, 176, 176, 110, 40, 40])
-    posture = np.array([0.0, 0, 0, 0, 0, 0, 3.0])
-    torque, saturated = wrench_to_joint_torque(terms, np.zeros(6), posture, limits)
-    np.testing.assert_allclose(
-        torque, terms.jacobian.T @ np.zeros(6) + terms.null_space @ (terms.joint_gravity + posture)
-    )
+    below = terms.null_space @ terms.joint_gravity
+    wrench = np.array([0.5, -1.0, 2.0, 5.0, -3.0, 10.0])
+    torque, saturated = wrench_to_joint_torque(terms, wrench, below, limits)
+    np.testing.assert_allclose(torque, terms.jacobian.T @ wrench + below)
     assert saturated == 0
-    torque, saturated = wrench_to_joint_torque(terms, np.full(6, 1e4), posture, limits)
+    torque, saturated = wrench_to_joint_torque(terms, np.full(6, 1e4), below, limits)
     assert saturated > 0 and np.all(np.abs(torque) <= limits)
 
 
@@ -182,6 +181,7 @@ def _closed_loop(arm, law, tilt, seconds, theta0=None, tool_torque=(0.0, 0.0, 0.
     the desired orientation, with a constant torque `tool_torque` about the tool's axes at
     the start [N m] applied to the tool's body. Returns the last tick's e [m] and e_r
     [rad], and θ."""
+    from pydrake.math import RotationMatrix
     from pydrake.multibody.math import SpatialForce
     from pydrake.multibody.parsing import ModelDirectives, Parser, ProcessModelDirectives
     from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, ExternallyAppliedSpatialForce
@@ -189,8 +189,10 @@ def _closed_loop(arm, law, tilt, seconds, theta0=None, tool_torque=(0.0, 0.0, 0.
     from pydrake.systems.analysis import Simulator
     from pydrake.systems.framework import DiagramBuilder
 
-    from hlcmp_drake.core.rotation_law import PoseInstant, rotation_errors
+    from hlcmp_drake.core.rotation_law import rotation_errors
     from hlcmp_drake.io.paths import register_package
+    from hlcmp_drake.systems.arm import BelowTaskImpedance
+    from hlcmp_drake.systems.pose_control import PoseControlTick, PoseReference
     from hlcmp_drake.worlds.models import scoped_frame
 
     builder = DiagramBuilder()
@@ -207,6 +209,8 @@ def _closed_loop(arm, law, tilt, seconds, theta0=None, tool_torque=(0.0, 0.0, 0.
         [plant.get_joint_actuator(JointActuatorIndex(i)).effort_limit() for i in range(7)]
     )
     model = SpatialTaskSpaceModel(arm.plant, arm.tip)
+    posture = BelowTaskImpedance(arm.plant, arm.tip, RotationMatrix(), arm.setup.q0, 0, 0, 20, 5)
+    tick = PoseControlTick(model, posture, law, limits)
     start = model.terms(np.concatenate([arm.setup.q0, np.zeros(7)]))
     desired = quat.multiply(start.orientation, quat.from_rotation_vector(-np.asarray(tilt)))
     disturbance = ExternallyAppliedSpatialForce()
@@ -214,24 +218,16 @@ def _closed_loop(arm, law, tilt, seconds, theta0=None, tool_torque=(0.0, 0.0, 0.
     disturbance.F_Bq_W = SpatialForce(quat.rotate(start.orientation, tool_torque), np.zeros(3))
     plant.get_applied_spatial_force_input_port().FixValue(context, [disturbance])
     theta = np.zeros(law.theta_size) if theta0 is None else np.array(theta0, dtype=float)
-    zero = np.zeros(3)
-    for k in range(int(seconds / 1e-3)):
-        state = plant.GetPositionsAndVelocities(context)
-        terms = model.terms(state, coriolis_matrix=False)
-        omega, velocity = terms.spatial_velocity[:3], terms.spatial_velocity[3:]
-        now = PoseInstant(
-            terms.position, velocity, start.position, zero, zero,
-            terms.orientation, omega, desired, zero, zero,
-            1.0 - k / (seconds / 1e-3), terms.inertia, terms.coriolis, terms.gravity,
-        )  # fmt: skip
-        out = law.command(now, theta)
-        posture = -20.0 * (state[:7] - arm.setup.q0) - 5.0 * state[7:]
-        torque, _ = wrench_to_joint_torque(terms, out.force, posture, limits)
-        plant.get_actuation_input_port().FixValue(context, torque)
-        if out.rates is not None:
-            theta = theta + 1e-3 * out.rates
+    zero, steps = np.zeros(3), round(seconds / 1e-3)
+    for k in range(steps):
+        reference = PoseReference(start.position, zero, zero, desired, zero, zero, 1.0 - k / steps)
+        result = tick.evaluate(plant.GetPositionsAndVelocities(context), reference, theta)
+        plant.get_actuation_input_port().FixValue(context, result.torque)
+        if result.law.rates is not None:
+            theta = theta + 1e-3 * result.law.rates
         simulator.AdvanceTo((k + 1) * 1e-3)
-    e_r, _ = rotation_errors(terms.orientation, omega, desired, zero)
+    terms = result.terms
+    e_r, _ = rotation_errors(terms.orientation, zero, desired, zero)
     return terms.position - start.position, e_r, theta
 
 

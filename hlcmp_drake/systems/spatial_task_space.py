@@ -246,10 +246,13 @@ def wrench_to_joint_torque(
     below_task: np.ndarray,
     effort_limits: np.ndarray,
 ) -> tuple[np.ndarray, int]:
-    """tau = sat(J^T F + N^T (G(q) + tau_0)): the commanded wrench through the spatial
-    Jacobian, the null-space share of the gravity compensation (the task's share J^T
-    Jbar^T G is in F's p) and a posture torque tau_0 in the null space, saturated at the
-    effort limits (`systems.task_space.saturate`).
+    """tau = sat(J^T F + tau_0): the commanded wrench through the spatial Jacobian plus the
+    torque below the task, saturated at the effort limits (`systems.task_space.saturate`).
+
+    tau_0 must lie in the task's null space and carry the null-space share N^T G(q) of the
+    gravity compensation (the task's share J^T Jbar^T G is in F's p): e.g.
+    `systems.arm.BelowTaskImpedance.torque` with N^T = `terms.null_space` and its
+    orientation gains 0 (the orientation is the task's now), which holds the posture.
 
     Parameters
     ----------
@@ -258,7 +261,7 @@ def wrench_to_joint_torque(
     wrench : (6,) array
         F = [tau_c; f_c] [N m; N], world.
     below_task : (nv,) array
-        tau_0, e.g. a posture impedance -K_p (q - q_0) - D_p q' [N m], before projection.
+        tau_0 [N m].
     effort_limits : (nv,) array
         [N m], > 0.
 
@@ -269,5 +272,4 @@ def wrench_to_joint_torque(
     saturated : int
         The number of joints at their limit.
     """
-    torque = terms.jacobian.T @ wrench + terms.null_space @ (terms.joint_gravity + below_task)
-    return saturate(torque, effort_limits)
+    return saturate(terms.jacobian.T @ wrench + below_task, effort_limits)
