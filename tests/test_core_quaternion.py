@@ -114,3 +114,13 @@ def test_the_left_jacobian_rate_is_its_derivative_along_the_motion():
         np.testing.assert_allclose(
             quat.left_jacobian_rate(v, vdot), (ahead - behind) @ vdot / (2 * h), atol=1e-9
         )
+
+
+def test_the_matrix_rotates_as_the_quaternion_does():
+    rng = np.random.default_rng(9)
+    q = quat.from_rotation_vector(_random_rotation_vectors(rng, 20, largest=2 * np.pi))
+    v = rng.normal(size=(20, 3))
+    matrices = quat.to_matrix(q)
+    np.testing.assert_allclose(np.einsum("kij,kj->ki", matrices, v), quat.rotate(q, v), atol=1e-14)
+    np.testing.assert_allclose(quat.to_matrix(-q[0]), matrices[0], atol=1e-15)
+    np.testing.assert_allclose(matrices[3] @ matrices[3].T, np.eye(3), atol=1e-14)

@@ -121,6 +121,34 @@ def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     return v + w * t + np.cross(u, t)
 
 
+def to_matrix(q: np.ndarray) -> np.ndarray:
+    """R(q), the rotation matrix of a unit quaternion: R(q) v = `rotate`(q, v).
+
+    .. math:: R = \\begin{pmatrix} 1 - 2(y^2 + z^2) & 2(xy - wz) & 2(xz + wy) \\\\
+              2(xy + wz) & 1 - 2(x^2 + z^2) & 2(yz - wx) \\\\
+              2(xz - wy) & 2(yz + wx) & 1 - 2(x^2 + y^2) \\end{pmatrix}
+
+    A matrix-vector product is several times cheaper than `rotate` for one vector, so a
+    controller that turns several vectors by one orientation forms R once.
+
+    Parameters
+    ----------
+    q : (..., 4) array
+        Unit quaternion(s) (w, x, y, z); either sign.
+
+    Returns
+    -------
+    (..., 3, 3) array
+    """
+    w, x, y, z = np.moveaxis(np.asarray(q, dtype=float), -1, 0)
+    rows = [
+        [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
+        [2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)],
+        [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)],
+    ]
+    return np.moveaxis(np.array(rows), (0, 1), (-2, -1))
+
+
 def left_jacobian(v: np.ndarray) -> np.ndarray:
     """The left Jacobian of SO(3): the world-frame angular velocity of Exp(v) is J_l(v) v'.
 
