@@ -1,5 +1,6 @@
-"""Make the bundled demonstrations diagrams/demos/{insertion,cutting}_demo.csv: stand-ins for
-kinesthetic demonstrations (paper Table I, step I), as a person guiding the tool would make them.
+"""Make the bundled demonstrations diagrams/demos/{insertion,cutting,peg_in_hole}_demo.csv:
+stand-ins for kinesthetic demonstrations (paper Table I, step I), as a person guiding the
+tool would make them.
 
 The tool point (world frame, metres) moves by minimum-jerk segments through waypoints, plus
 a physiological tremor (0.2 mm, 8-12 Hz, seeded), sampled at 100 Hz as a recording would be.
@@ -11,8 +12,12 @@ a physiological tremor (0.2 mm, 8-12 Hz, seeded), sampled at 100 Hz as a recordi
   diagrams/cutting.yaml) reach down 1.5 cm into it, cut 18 cm along y (drifting 2 cm in x)
   while pressing, and lift back to the start height -- so the z goal equals the z start,
   the DMP's g ~ p0 case.
+- peg_in_hole: a pose demonstration (t,x,y,z,qw,qx,qy,qz), the peg held vertical (tool +z
+  straight down) throughout: approach to 2 cm above where the hole is meant to be (entrance
+  at x = 0.6, y = 0, z = 0.30; diagrams/peg_in_hole.yaml places the real one 0.5 mm off and
+  tilted 3 degrees), insert straight down 2 cm into it, hold, and withdraw.
 
-    python scripts/make_demos.py [--task insertion|cutting|all] [--out-dir diagrams/demos]
+    python scripts/make_demos.py [--task insertion|cutting|peg_in_hole|all] [--out-dir ...]
 """
 
 import argparse
@@ -33,6 +38,13 @@ WAYPOINTS = {
         (6.0, (0.60, 0.00, 0.26)),  # hold
         (8.5, (0.60, 0.00, 0.42)),  # retreat: back up out of the plank
     ],
+    "peg_in_hole": [
+        (0.0, (0.55, -0.05, 0.42)),  # start: above and beside the fixture
+        (2.0, (0.60, 0.00, 0.32)),  # approach: 2 cm above the hole's entrance, peg vertical
+        (4.5, (0.60, 0.00, 0.28)),  # insert straight down, 2 cm into the hole
+        (5.5, (0.60, 0.00, 0.28)),  # hold
+        (7.5, (0.60, 0.00, 0.36)),  # withdraw: back up out of the hole
+    ],
     "cutting": [
         (0.0, (0.60, -0.10, 0.34)),  # start: 7 cm above the block
         (2.0, (0.60, -0.10, 0.255)),  # reach down: the edge 1.5 cm into the block
@@ -40,6 +52,9 @@ WAYPOINTS = {
         (8.0, (0.62, 0.08, 0.34)),  # lift back to the start height
     ],
 }
+
+# The tasks demonstrated as a pose: the tool's orientation (w, x, y, z), held throughout.
+HELD_ORIENTATION = {"peg_in_hole": (0.0, 1.0, 0.0, 0.0)}  # half a turn about x: +z down
 
 
 def minimum_jerk_through(waypoints, t):
@@ -75,7 +90,10 @@ def main():
         t = np.arange(0.0, waypoints[-1][0] + 1e-9, 0.01)
         positions = minimum_jerk_through(waypoints, t) + tremor(t, np.random.default_rng(args.seed))
         out = args.out_dir / f"{task}_demo.csv"
-        write_trajectory(out, t, positions, ("x", "y", "z"))
+        quaternions = None
+        if task in HELD_ORIENTATION:
+            quaternions = np.tile(HELD_ORIENTATION[task], (len(t), 1))
+        write_trajectory(out, t, positions, ("x", "y", "z"), quaternions=quaternions)
         print(f"wrote {len(t)} samples over {t[-1]:.2f} s to {out}")
 
 
