@@ -106,6 +106,14 @@ def claims(
 ) -> dict:
     """None yet (see the module's docstring).
 
+    Parameters
+    ----------
+    metrics : dict
+        Every controller's metrics, by label.
+    scenario : Scenario
+    runs : dict, optional
+    learner_name : str, optional
+
     Returns
     -------
     dict
