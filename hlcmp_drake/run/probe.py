@@ -159,7 +159,8 @@ def run_probe(
     Parameters
     ----------
     name_or_path : str or Path
-        A bundled arm scenario (insertion, cutting) or a YAML file with a `probe` section.
+        A bundled arm scenario (insertion, cutting, peg_in_hole) or a YAML file with a
+        `probe` section.
     out_dir : str or Path, optional
         Default out/probe_<scenario>.
     speed : float, optional

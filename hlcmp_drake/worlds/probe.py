@@ -1,6 +1,7 @@
 """The probe world: a scenario's tool and objects without the arm, the tool on a stiff
-prescribed-motion carriage (three prismatic joints held by Drake's PD actuators), so that
-the world itself can be measured with no controller under test (`hlcmp probe`)."""
+prescribed-motion carriage (three prismatic joints held by Drake's PD actuators) -- welded
+to it, or on a wrist about the tool point (three revolute joints, PD-held, stiff or free)
+-- so that the world itself can be measured with no controller under test (`hlcmp probe`)."""
 
 from __future__ import annotations
 
