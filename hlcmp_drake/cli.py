@@ -802,7 +802,8 @@ def build_parser():
         help="measure a scenario's world alone: its tool pushed through its object",
     )
     probe.add_argument(
-        "scenario", help="an arm scenario with a probe section (insertion, cutting) or a YAML path"
+        "scenario",
+        help="an arm scenario with a probe (insertion, cutting, peg_in_hole) or a YAML path",
     )
     probe.add_argument("--out", help="output folder (default out/probe_SCENARIO)")
     probe.add_argument(

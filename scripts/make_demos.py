@@ -1,5 +1,6 @@
-"""Make the bundled demonstrations diagrams/demos/{insertion,cutting}_demo.csv: stand-ins for
-kinesthetic demonstrations (paper Table I, step I), as a person guiding the tool would make them.
+"""Make the bundled demonstrations diagrams/demos/{insertion,cutting,peg_in_hole}_demo.csv:
+stand-ins for kinesthetic demonstrations (paper Table I, step I), as a person guiding the
+tool would make them.
 
 The tool point (world frame, metres) moves by minimum-jerk segments through waypoints, plus
 a physiological tremor (0.2 mm, 8-12 Hz, seeded), sampled at 100 Hz as a recording would be.
@@ -11,11 +12,15 @@ a physiological tremor (0.2 mm, 8-12 Hz, seeded), sampled at 100 Hz as a recordi
   diagrams/cutting.yaml) reach down 1.5 cm into it, cut 18 cm along y (drifting 2 cm in x)
   while pressing, and lift back to the start height -- so the z goal equals the z start,
   the DMP's g ~ p0 case.
+- peg_in_hole: a pose demonstration (t,x,y,z,qw,qx,qy,qz), the peg held vertical (tool +z
+  straight down) throughout: approach to 2 cm above where the hole is meant to be (entrance
+  at x = 0.6, y = 0, z = 0.30; diagrams/peg_in_hole.yaml places the real one 0.5 mm off and
+  tilted 3 degrees), insert straight down 2 cm into it, hold, and withdraw.
 
-Each demonstration also carries the force its wrist sensor read (`fx,fy,fz`, the force the
-environment exerts on the tool, world frame, as a run's `f_ext`), recorded in the task's
-own world (diagrams/{task}.yaml): the iiwa, its dynamics compensated as a gravity-
-compensated backdrivable arm's are, is moved along the demonstrated path (the DMP the
+The insertion's and the cutting's demonstrations (FORCE_RECORDED) also carry the force
+their wrist sensor read (`fx,fy,fz`, the force the environment exerts on the tool, world
+frame, as a run's `f_ext`), recorded in the task's own world (diagrams/{task}.yaml): the
+iiwa, its dynamics compensated as a gravity-compensated backdrivable arm's are, is moved along the demonstrated path (the DMP the
 scenario fits to it, the tremor smoothed away) by a stiff impedance -- the teacher's hand,
 TEACHER_STIFFNESS_N_PER_M, critically damped -- and the
 tool's contact force (with the torn foam's friction) is read every 10 ms at the samples'
@@ -23,8 +28,8 @@ times. The hand is stiffer than any controller the scenarios compare, so the too
 within a few millimetres of the path it is written with (the script prints how far).
 `--no-force` writes the positions only; they are the same either way.
 
-    python scripts/make_demos.py [--task insertion|cutting|all] [--out-dir diagrams/demos]
-                                 [--no-force]
+    python scripts/make_demos.py [--task insertion|cutting|peg_in_hole|all]
+                                 [--out-dir diagrams/demos] [--no-force]
 """
 
 import argparse
@@ -51,6 +56,13 @@ WAYPOINTS = {
         (6.0, (0.60, 0.00, 0.26)),  # hold
         (8.5, (0.60, 0.00, 0.42)),  # retreat: back up out of the plank
     ],
+    "peg_in_hole": [
+        (0.0, (0.55, -0.05, 0.42)),  # start: above and beside the fixture
+        (2.0, (0.60, 0.00, 0.32)),  # approach: 2 cm above the hole's entrance, peg vertical
+        (4.5, (0.60, 0.00, 0.28)),  # insert straight down, 2 cm into the hole
+        (5.5, (0.60, 0.00, 0.28)),  # hold
+        (7.5, (0.60, 0.00, 0.36)),  # withdraw: back up out of the hole
+    ],
     "cutting": [
         (0.0, (0.60, -0.10, 0.34)),  # start: 7 cm above the block
         (2.0, (0.60, -0.10, 0.255)),  # reach down: the edge 1.5 cm into the block
@@ -58,6 +70,11 @@ WAYPOINTS = {
         (8.0, (0.62, 0.08, 0.34)),  # lift back to the start height
     ],
 }
+
+# The tasks demonstrated as a pose: the tool's orientation (w, x, y, z), held throughout.
+HELD_ORIENTATION = {"peg_in_hole": (0.0, 1.0, 0.0, 0.0)}  # half a turn about x: +z down
+# The tasks whose demonstration carries the wrist force recorded in its world.
+FORCE_RECORDED = ("insertion", "cutting")
 
 
 def minimum_jerk_through(waypoints, t):
@@ -130,13 +147,16 @@ def main():
         positions = minimum_jerk_through(waypoints, t) + tremor(t, np.random.default_rng(args.seed))
         out = args.out_dir / f"{task}_demo.csv"
         force, note = None, ""
-        if not args.no_force:
+        if task in FORCE_RECORDED and not args.no_force:
             force, off_path = recorded_force(task, t, positions)
             note = (
                 f", force recorded in its world (peak |f| {np.abs(force).max():.2f} N; the "
                 f"tool at most {1000 * off_path:.1f} mm off the path)"
             )
-        write_trajectory(out, t, positions, ("x", "y", "z"), force=force)
+        quaternions = None
+        if task in HELD_ORIENTATION:
+            quaternions = np.tile(HELD_ORIENTATION[task], (len(t), 1))
+        write_trajectory(out, t, positions, ("x", "y", "z"), quaternions=quaternions, force=force)
         print(f"wrote {len(t)} samples over {t[-1]:.2f} s to {out}{note}")
 
 

@@ -278,7 +278,7 @@ def test_version_debug_anywhere_bench_default_and_bundled_names_in_help(tmp_path
     assert "Traceback" in late.stderr and "no such file" in late.stderr
     assert "default out/bench" in run_cli("bench", "--help").stdout
     run_help = " ".join(run_cli("run", "--help").stdout.split())
-    assert "(cutting, insertion, one_dof)" in run_help
+    assert "(cutting, insertion, one_dof, peg_in_hole)" in run_help
 
 
 @pytest.mark.slow  # a whole (short) one_dof run with its figures and recording: about 5 s

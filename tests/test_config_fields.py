@@ -29,7 +29,7 @@ from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.validation import DIRECTIVE_KINDS
 from hlcmp_drake.io.outputs import WRITTEN
 
-SCENARIOS = ("one_dof", "insertion", "cutting")
+SCENARIOS = ("one_dof", "insertion", "cutting", "peg_in_hole")
 NAN = math.nan
 LOAD_LIMIT_S = 15.0
 
@@ -86,7 +86,9 @@ def _not_an_arm(value, scenario):
     """A model the probe cannot carry: a misspelt one, and one with no tool welded to it."""
     return [
         _misspelt(value),
-        {"insertion": "foam_plank", "cutting": "cutting_block"}[scenario.name],
+        {"insertion": "foam_plank", "cutting": "cutting_block", "peg_in_hole": "peg_fixture"}[
+            scenario.name
+        ],
     ]
 
 
@@ -199,6 +201,11 @@ BREAKS = [
     ("probe.lateral_axis", lambda v, s: [[1.0], [NAN, 0.0, 0.0], [0.0, 0.0, 0.0]]),
     ("probe.speed_m_per_s", _number("> 0")),
     ("probe.tilt_rad", _number("any")),
+    (
+        "probe.wrist_stiffness_Nm_per_rad",
+        lambda v, s: [[0.0, 0.0], [NAN, 0.0, 0.0], [-1.0, 0.0, 0.0]],
+    ),
+    ("probe.wrist_damping_Nms_per_rad", _number(">= 0")),
     ("iiwa_driver.*_channel", lambda v, s: [""]),
     ("iiwa_driver.force_source", lambda v, s: ["nope"]),
     ("iiwa_driver.max_missed_fraction", lambda v, s: [-0.1, 1.0, float("nan")]),

@@ -10,6 +10,7 @@ from hlcmp_drake.core.metrics import (
     mean_abs_position_error,
     settle_time,
     value_at,
+    wrist_readings,
 )
 
 
@@ -55,3 +56,16 @@ def test_probe_readings_by_hand():
     assert readings["residual_force_N"] == pytest.approx(3.0)
     assert readings["max_lateral_force_N"] == pytest.approx(0.4)
     assert readings["min_resisting_force_N"] == 0.0
+
+
+def test_wrist_readings_tilt_the_tool_axis_and_hold_it_with_k_q_plus_d_v():
+    angles = np.array([[0.0, 0.0, 0.0], [0.0, 0.1, 0.0], [0.03, 0.04, 0.5]])
+    rates = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -2.0]])
+    down = np.diag([1.0, -1.0, -1.0])  # the tool's +z straight down: half a turn about x
+    readings = wrist_readings(
+        down, angles, rates, np.array([100.0, 200.0, 0.0]), 0.5, [0, 0, -3], np.ones(3, bool)
+    )
+    assert readings["start_tilt_rad"] == pytest.approx(0.0)
+    # Rx(a) Ry(b) e_z makes an angle arccos(cos a cos b) with e_z; Rz turns about the axis.
+    assert readings["final_tilt_rad"] == pytest.approx(np.arccos(np.cos(0.03) * np.cos(0.04)))
+    assert readings["max_abs_wrist_torque_Nm"] == pytest.approx([3.0, 20.0, 1.0])

@@ -85,7 +85,7 @@ def test_the_bundled_demonstrations_pass_the_speed_bound():
     from hlcmp_drake.io.paths import DIAGRAMS_DIR
 
     for path in sorted((DIAGRAMS_DIR / "demos").glob("*.csv")):
-        assert len(read_demonstration(path)[0]) > 100
+        assert len(read_demonstration(path, with_orientation=True)[0]) > 100
 
 
 def _pose_text(quaternions, header="t,x,y,z,qw,qx,qy,qz"):

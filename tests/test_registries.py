@@ -94,7 +94,8 @@ def test_every_controller_kind_builds_steps_and_logs_in_every_world(world_name, 
 @pytest.mark.parametrize("name", sorted(EXPERIMENTS))
 def test_every_experiment_evaluates_short_runs_of_its_bundled_scenario(name):
     scenario, _ = load_scenario(
-        next(s for s in ("one_dof", "insertion", "cutting") if s == name), ["duration_s=0.05"]
+        next(s for s in ("one_dof", "insertion", "cutting", "peg_in_hole") if s == name),
+        ["duration_s=0.05"],
     )
     experiment = EXPERIMENTS[name]
     build = diagram_factory(scenario)

@@ -1,13 +1,17 @@
 """The worlds measured alone: the tool on a stiff carriage, no controller under test
 (`hlcmp probe`), against the paper's premise of a foam that resists and then gives way,
-and without the sideways force that Drake's discrete hydroelastic contact gave the old rod
-and blade (hlcmp_drake.run.probe)."""
+without the sideways force that Drake's discrete hydroelastic contact gave the old rod
+and blade, and against the peg world's premise: a peg free to turn aligns with the tilted
+hole, one held stiffly jams (hlcmp_drake.run.probe)."""
 
 import json
+import math
 
+import numpy as np
 import pytest
 
 from hlcmp_drake.cli import main
+from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.run.probe import run_probe
 
 
@@ -60,3 +64,39 @@ def test_probe_command_writes_its_files(tmp_path):
 def test_a_scenario_without_a_probe_is_one_clear_line(capsys):
     assert main(["probe", "one_dof"]) == 2
     assert "has no probe" in capsys.readouterr().err
+
+
+# The peg world's premise, written before it was first probed (docs/worlds.md, "The peg in
+# a tilted hole"): its tip driven along the 3-degree hole's axis, 20 mm into the bore.
+HOLE_TILT_RAD = math.radians(3.0)
+FULL_TRAVEL_M = 0.025  # 5 mm above the entrance to 20 mm into the bore
+JAM_FORCE_N = 50.0
+
+
+def _travel_where_axial_force_first_exceeds(out_dir, threshold):
+    """The travel along the push [m] where the force against it first exceeds `threshold`
+    [N], from probe.npz; inf when it never does."""
+    scenario, _ = load_scenario("peg_in_hole")
+    direction = np.asarray(scenario.probe.push_m) / np.linalg.norm(scenario.probe.push_m)
+    series = np.load(out_dir / "probe.npz")
+    travel = (series["tool_position"] - series["tool_position"][0]) @ direction
+    above = np.flatnonzero(-(series["force"] @ direction) > threshold)
+    return travel[above[0]] if above.size else math.inf
+
+
+def test_a_peg_free_to_turn_about_its_tip_aligns_with_the_tilted_hole(tmp_path):
+    readings = run_probe("peg_in_hole", tmp_path).readings
+    assert readings["status"] == "ok"
+    assert readings["start_tilt_rad"] == pytest.approx(HOLE_TILT_RAD, abs=1e-3)
+    assert readings["max_travel_m"] > FULL_TRAVEL_M - 1e-4  # the full depth
+    assert readings["final_tilt_rad"] < math.radians(0.5)  # turned to the hole's axis
+    assert _travel_where_axial_force_first_exceeds(tmp_path, JAM_FORCE_N) == math.inf
+
+
+def test_a_peg_held_stiffly_in_rotation_jams_in_the_tilted_hole(tmp_path):
+    overrides = ["probe.wrist_stiffness_Nm_per_rad=[100,100,100]"]  # the arm's hold today
+    readings = run_probe("peg_in_hole", tmp_path, overrides=overrides).readings
+    assert readings["status"] == "ok"
+    assert readings["peak_force_N"] > JAM_FORCE_N
+    assert _travel_where_axial_force_first_exceeds(tmp_path, JAM_FORCE_N) < FULL_TRAVEL_M
+    assert readings["final_tilt_rad"] > math.radians(0.5)  # still off the hole's axis

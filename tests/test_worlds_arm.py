@@ -78,3 +78,22 @@ def test_a_skill_of_the_wrong_size_is_refused_on_the_fast_path(insertion):
     wrong = tuple(np.zeros((3, 5)) for _ in range(3))  # N = 5, the scenario has 30
     with pytest.raises(ValueError, match="theta0 must hold 3\\*M\\*N = 270 values, got 45"):
         arm.build(scenario, "hlcmp", setup, theta0=wrong)
+
+
+def test_a_pose_demonstration_must_keep_the_tool_axis_the_arm_holds():
+    """A translational skill follows positions only: a pose demonstration is accepted when
+    its tool axis is task.tool_direction's, and refused at the first line that strays."""
+    from hlcmp_drake.core.quaternion import from_rotation_vector, multiply
+    from hlcmp_drake.io.demos import read_demonstration
+    from hlcmp_drake.io.errors import InputError
+    from hlcmp_drake.worlds.common import check_held_orientation
+
+    scenario, _ = load_scenario("peg_in_hole")
+    _, _, _, quaternions, lines = read_demonstration(
+        scenario.reference.file, with_lines=True, with_orientation=True
+    )
+    check_held_orientation("demo.csv", quaternions, scenario.task.tool_direction, lines)
+    tilted = quaternions.copy()
+    tilted[40:] = multiply(from_rotation_vector(np.array([0.0, np.radians(2.0), 0.0])), tilted[40:])
+    with pytest.raises(InputError, match=rf"demo.csv:{lines[40]}: the tool's \+z is 2.0 deg"):
+        check_held_orientation("demo.csv", tilted, scenario.task.tool_direction, lines)

@@ -836,7 +836,12 @@ class ProbeConfig:
     force across the push counts as lateral; with `lateral_axis` only its component along
     that axis does (cutting: the blade's normal, not the block's upward reaction).
     `tilt_rad` tilts the tool about the world y axis, to show whether the contact depends
-    on a tilt a controller could cause.
+    on a tilt a controller could cause. With `wrist_stiffness_Nm_per_rad` the tool is not
+    welded to the carriage but hangs on a wrist of three revolute joints about the tool
+    point, along the tool frame's x, y and z axes as it starts, each held at its start
+    angle by a PD actuator (stiffness per joint, 0: free to turn; `wrist_damping_Nms_per_rad`
+    on every joint): a remote centre of compliance at the tool point, so that the contact
+    can turn the tool without moving the point off the path.
 
     Attributes
     ----------
@@ -859,6 +864,12 @@ class ProbeConfig:
         The carriage's speed along every leg of its path [m/s], > 0. Default 0.03.
     tilt_rad : float
         The tool's tilt about the world y axis [rad]. Default 0.
+    wrist_stiffness_Nm_per_rad : list of float
+        Empty (the default: the tool welded to the carriage) or three values, finite and
+        >= 0: the wrist joints' stiffness about the tool's x, y, z axes [N m/rad].
+    wrist_damping_Nms_per_rad : float
+        The wrist joints' damping [N m s/rad], finite and >= 0 (used with a wrist only).
+        Default 0.1.
     """
 
     arm_model: str = "iiwa"
@@ -868,6 +879,8 @@ class ProbeConfig:
     lateral_axis: list[float] = dc.field(default_factory=list)
     speed_m_per_s: float = 0.03
     tilt_rad: float = 0.0
+    wrist_stiffness_Nm_per_rad: list[float] = dc.field(default_factory=list)
+    wrist_damping_Nms_per_rad: float = 0.1
 
     @property
     def given(self) -> bool:
@@ -876,8 +889,9 @@ class ProbeConfig:
 
     def check(self, fail: Fail) -> None:
         """Each vector empty or 3 finite values (the push and the lateral axis not all
-        zeros), start_m and push_m both given or neither, a positive speed and a finite
-        tilt; checked whether or not the scenario has a probe.
+        zeros), start_m and push_m both given or neither, a positive speed, a finite tilt,
+        the wrist's stiffness and damping >= 0; checked whether or not the scenario has a
+        probe.
 
         Parameters
         ----------
@@ -895,6 +909,12 @@ class ProbeConfig:
             fail("probe", "a probe needs both start_m and push_m (or neither: no probe)")
         check_number(self.speed_m_per_s, "probe.speed_m_per_s", fail, "> 0")
         check_number(self.tilt_rad, "probe.tilt_rad", fail, "any")
+        key = "probe.wrist_stiffness_Nm_per_rad"
+        check_vector(self.wrist_stiffness_Nm_per_rad, key, fail, (0, 3), " (x, y, z) [N m/rad]")
+        for value in self.wrist_stiffness_Nm_per_rad:
+            check_number(value, key, fail, ">= 0")
+        damping = "probe.wrist_damping_Nms_per_rad"
+        check_number(self.wrist_damping_Nms_per_rad, damping, fail, ">= 0")
 
 
 # Where `hlcmp serve` reads the wrist force from (IiwaDriverConfig.force_source).

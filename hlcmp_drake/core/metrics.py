@@ -167,3 +167,57 @@ def probe_readings(
         "max_lateral_force_N": float(np.max(np.abs(lateral))),
         "min_resisting_force_N": float(np.min(resisting[push])),
     }
+
+
+def wrist_readings(
+    start_rotation: np.ndarray,
+    angles: np.ndarray,
+    rates: np.ndarray,
+    stiffness: np.ndarray,
+    damping: float,
+    direction: np.ndarray,
+    in_push: np.ndarray,
+) -> dict:
+    """What `hlcmp probe` reports of a tool on a compliant wrist: how far it turned towards
+    the push's direction, and the torque the wrist held it with.
+
+    The wrist's joints turn about the tool frame's x, y and z axes in that order, so the
+    tool's orientation is R = R0 Rx(q_x) Ry(q_y) Rz(q_z) and its axis R e_z (Rz leaves
+    it). The wrist's torque on joint k is -(K_k q_k + D v_k); quasi-statically the contact
+    applies the opposite, K_k q_k + D v_k, about that joint's axis.
+
+    Parameters
+    ----------
+    start_rotation : (3, 3) array
+        R0, the tool frame in the world at wrist angles 0.
+    angles, rates : (T, 3) arrays
+        The wrist's joint angles [rad] and rates [rad/s].
+    stiffness : (3,) array
+        K per joint [N m/rad].
+    damping : float
+        D of every joint [N m s/rad].
+    direction : (3,) array
+        The push's direction, world (any length).
+    in_push : (T,) bool array
+        The samples of the push itself.
+
+    Returns
+    -------
+    dict
+        start_tilt_rad and final_tilt_rad (the angle between the tool's +z and the push's
+        direction at the push's first and last sample), max_abs_wrist_torque_Nm (3: about
+        the tool's x, y, z axes, over the whole path).
+    """
+    cx, sx = np.cos(angles[:, 0]), np.sin(angles[:, 0])
+    cy, sy = np.cos(angles[:, 1]), np.sin(angles[:, 1])
+    axis_in_start = np.stack([sy, -sx * cy, cx * cy], axis=1)  # Rx Ry e_z
+    axis = axis_in_start @ np.asarray(start_rotation).T
+    unit = np.asarray(direction, float) / np.linalg.norm(direction)
+    tilt = np.arccos(np.clip(axis @ unit, -1.0, 1.0))
+    push = np.flatnonzero(in_push)
+    torque = angles * np.asarray(stiffness, float) + damping * rates
+    return {
+        "start_tilt_rad": float(tilt[push[0]]),
+        "final_tilt_rad": float(tilt[push[-1]]),
+        "max_abs_wrist_torque_Nm": [float(v) for v in np.max(np.abs(torque), axis=0)],
+    }

@@ -14,7 +14,7 @@ from pydrake.systems.framework import EventStatus
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.scenario import Scenario
-from hlcmp_drake.core.metrics import probe_readings
+from hlcmp_drake.core.metrics import probe_readings, wrist_readings
 from hlcmp_drake.experiments.plots import new_figure
 from hlcmp_drake.io import outputs
 from hlcmp_drake.io.errors import InputError
@@ -32,9 +32,10 @@ class ProbeResult:
 
 def simulate_probe(
     world: ProbeWorld, scenario: Scenario
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, str, np.ndarray | None]:
     """Drive the carriage along its path; returns (t, tool point (T, 3) [m], force on the
-    tool (T, 3) [N], status), the status "ok" or why the simulation stopped.
+    tool (T, 3) [N], status, the wrist's state (T, 6) [rad, rad/s] or None without a
+    wrist), the status "ok" or why the simulation stopped.
 
     Parameters
     ----------
@@ -63,7 +64,8 @@ def simulate_probe(
         status = "failed: " + " ".join(str(error).split())[:200]
     state = world.state_log.FindLog(context)
     force = world.force_log.FindLog(context)
-    return state.sample_times(), state.data()[:3].T, force.data().T, status
+    wrist = None if world.wrist_log is None else world.wrist_log.FindLog(context).data().T
+    return state.sample_times(), state.data()[:3].T, force.data().T, status, wrist
 
 
 def readings_of(
@@ -157,7 +159,8 @@ def run_probe(
     Parameters
     ----------
     name_or_path : str or Path
-        A bundled arm scenario (insertion, cutting) or a YAML file with a `probe` section.
+        A bundled arm scenario (insertion, cutting, peg_in_hole) or a YAML file with a
+        `probe` section.
     out_dir : str or Path, optional
         Default out/probe_<scenario>.
     speed : float, optional
@@ -173,9 +176,22 @@ def run_probe(
             "probe.push_m"
         )
     world = build_probe(scenario, speed)
-    t, position, force, status = simulate_probe(world, scenario)
+    t, position, force, status, wrist = simulate_probe(world, scenario)
     readings, distance, resisting, lateral = readings_of(world, scenario, t, position, force)
     in_push = (t >= world.push[0]) & (t <= world.push[1])
+    if wrist is not None:
+        readings |= {
+            "max_travel_m": float(np.max(distance)),
+            **wrist_readings(
+                world.tool_rotation.matrix(),
+                wrist[:, :3],
+                wrist[:, 3:],
+                np.asarray(scenario.probe.wrist_stiffness_Nm_per_rad, float),
+                scenario.probe.wrist_damping_Nms_per_rad,
+                np.asarray(scenario.probe.push_m, float),
+                in_push,
+            ),
+        }
     out_dir = Path(out_dir or Path("out") / f"probe_{scenario.name}")
     result = {
         "scenario": scenario.name,
@@ -186,10 +202,12 @@ def run_probe(
         "tilt_rad": scenario.probe.tilt_rad,
         "status": status,
     }
+    series = {"t": t, "tool_position": position, "force": force}
+    if wrist is not None:
+        result["wrist_stiffness_Nm_per_rad"] = list(scenario.probe.wrist_stiffness_Nm_per_rad)
+        series["wrist_state"] = wrist
     with outputs.replacing_outputs(out_dir):
-        outputs.write_npz(
-            out_dir / "probe.npz", {"t": t, "tool_position": position, "force": force}
-        )
+        outputs.write_npz(out_dir / "probe.npz", series)
         outputs.save_figure(
             out_dir / "probe.png",
             probe_figure(scenario.name, distance, resisting, lateral, in_push, readings),

@@ -11,6 +11,7 @@ different controllers never share state. Loggers are Drake VectorLogSinks.
 from __future__ import annotations
 
 import dataclasses as dc
+import math
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
@@ -19,9 +20,10 @@ from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import Integrator, LogVectorOutput, MatrixGain
 
 from hlcmp_drake.config.scenario import DemonstrationConfig, Scenario, StepReferenceConfig
+from hlcmp_drake.core import quaternion
 from hlcmp_drake.core.dmp import Dmp
 from hlcmp_drake.io.demos import read_demonstration
-from hlcmp_drake.io.errors import InputError
+from hlcmp_drake.io.errors import InputError, located
 from hlcmp_drake.systems.control_loop import ControlLoop, ControlTick
 from hlcmp_drake.systems.monitor import SafetyMonitor, plant_state_check
 from hlcmp_drake.systems.ports import REFERENCE_PORTS
@@ -97,13 +99,59 @@ def read_scenario_demonstration(
         When the file cannot be read, or its columns are not x,y,z for the scenario's M axes.
     """
     reference: DemonstrationConfig = scenario.reference
-    t, positions, axes, lines = read_demonstration(reference.file, with_lines=True)
+    t, positions, axes, quaternions, lines = read_demonstration(
+        reference.file, with_lines=True, with_orientation=True
+    )
     if axes != ("x", "y", "z")[: len(axes)] or len(axes) != scenario.n_axes:
         raise InputError(
             f"{reference.file}: has columns {','.join(axes)}, the scenario "
             f"'{scenario.name}' needs x,y,z"
         )
+    if quaternions is not None:
+        check_held_orientation(reference.file, quaternions, scenario.task.tool_direction, lines)
     return t, positions, axes, lines
+
+
+# How far a pose demonstration's tool axis may stray from the one the arm holds.
+HELD_AXIS_TOLERANCE_RAD = math.radians(1.0)
+
+
+def check_held_orientation(
+    path: str, quaternions: np.ndarray, tool_direction: list[float], lines: list[int]
+) -> None:
+    """A translational skill follows a pose demonstration's positions only, its tool held
+    with +z along `tool_direction`: every demonstrated tool axis must be that one within
+    HELD_AXIS_TOLERANCE_RAD, or the demonstration's orientation would be silently ignored.
+
+    Parameters
+    ----------
+    path : str
+        The demonstration, for the message.
+    quaternions : (T, 4) array
+        The demonstrated tool orientations (w, x, y, z), unit.
+    tool_direction : list of float
+        The held tool +z, world (any length).
+    lines : list of T int
+        Each sample's line in the file.
+
+    Raises
+    ------
+    InputError
+        Naming the first line whose tool axis strays further.
+    """
+    held = np.asarray(tool_direction, float) / np.linalg.norm(tool_direction)
+    axes = quaternion.rotate(quaternions, np.array([0.0, 0.0, 1.0]))
+    angles = np.arccos(np.clip(axes @ held, -1.0, 1.0))
+    stray = np.flatnonzero(angles > HELD_AXIS_TOLERANCE_RAD)
+    if stray.size:
+        k = int(stray[0])
+        raise located(
+            path,
+            lines[k],
+            f"the tool's +z is {math.degrees(angles[k]):.1f} deg from task.tool_direction "
+            f"{list(tool_direction)}: a translational skill holds that orientation and "
+            f"follows positions only (at most {math.degrees(HELD_AXIS_TOLERANCE_RAD):.0f} deg)",
+        )
 
 
 def add_reference(

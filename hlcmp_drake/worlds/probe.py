@@ -1,6 +1,7 @@
 """The probe world: a scenario's tool and objects without the arm, the tool on a stiff
-prescribed-motion carriage (three prismatic joints held by Drake's PD actuators), so that
-the world itself can be measured with no controller under test (`hlcmp probe`)."""
+prescribed-motion carriage (three prismatic joints held by Drake's PD actuators) -- welded
+to it, or on a wrist about the tool point (three revolute joints, PD-held, stiff or free)
+-- so that the world itself can be measured with no controller under test (`hlcmp probe`)."""
 
 from __future__ import annotations
 
@@ -10,13 +11,15 @@ from typing import Callable
 import numpy as np
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.multibody.tree import (
+    FixedOffsetFrame,
     PdControllerGains,
     PrismaticJoint,
+    RevoluteJoint,
     RotationalInertia,
     SpatialInertia,
 )
 from pydrake.systems.framework import Context, DiagramBuilder
-from pydrake.systems.primitives import LogVectorOutput, TrajectorySource
+from pydrake.systems.primitives import ConstantVectorSource, LogVectorOutput, TrajectorySource
 from pydrake.trajectories import PiecewisePolynomial
 
 from hlcmp_drake.config.models import tool_mount
@@ -32,7 +35,9 @@ CARRIAGE_MASS_KG = 0.05
 @dc.dataclass
 class ProbeWorld:
     """A built probe: the diagram, its plant, the carriage's path and the loggers of the
-    tool point's state [q (3), v (3)] and of the force on the tool (3, world)."""
+    tool point's state [q (3), v (3)] and of the force on the tool (3, world); with a wrist,
+    the logger of its joint angles and rates [q (3), v (3)] and the tool's start
+    orientation."""
 
     diagram: object
     plant: object
@@ -42,6 +47,8 @@ class ProbeWorld:
     state_log: object
     force_log: object
     after_step: Callable[[Context], None] | None  # the physics extras' (e.g. the tear)
+    wrist_log: object = None
+    tool_rotation: RotationMatrix | None = None  # the tool frame in the world at wrist angles 0
 
 
 def _without_arm(scenario: Scenario, arm: str) -> tuple[list, str]:
@@ -172,7 +179,13 @@ def build_probe(
     X_mount_point = (
         mount_frame.GetFixedPoseInBodyFrame().inverse() @ tool_point.GetFixedPoseInBodyFrame()
     )
-    X_carriage_mount = RigidTransform(tool_orientation(task, tilt_rad)) @ X_mount_point.inverse()
+    rotation = tool_orientation(task, tilt_rad)
+    wrist = bool(probe.wrist_stiffness_Nm_per_rad)
+    if wrist:
+        parent = _add_wrist(plant, parent, rotation, probe)
+    X_carriage_mount = (
+        X_mount_point.inverse() if wrist else RigidTransform(rotation) @ X_mount_point.inverse()
+    )
     plant.WeldFrames(parent.body_frame(), mount_frame, X_carriage_mount)
     plant.Finalize()
 
@@ -185,8 +198,53 @@ def build_probe(
     period = plant.time_step()
     state_log = LogVectorOutput(plant.get_state_output_port(instance), builder, period)
     force_log = LogVectorOutput(sensor.GetOutputPort("force"), builder, period)
+    wrist_log = None
+    if wrist:
+        wrist_instance = plant.GetModelInstanceByName(WRIST_INSTANCE)
+        hold = builder.AddSystem(ConstantVectorSource(np.zeros(6)))  # every angle 0, at rest
+        builder.Connect(hold.get_output_port(), plant.get_desired_state_input_port(wrist_instance))
+        wrist_log = LogVectorOutput(plant.get_state_output_port(wrist_instance), builder, period)
     diagram = builder.Build()
     diagram.set_name(f"{scenario.name}_probe")
     return ProbeWorld(
-        diagram, plant, points, times, push, state_log, force_log, sensing.after_step()
+        diagram,
+        plant,
+        points,
+        times,
+        push,
+        state_log,
+        force_log,
+        sensing.after_step(),
+        wrist_log,
+        rotation if wrist else None,
     )
+
+
+WRIST_INSTANCE = "probe_wrist"
+
+
+def _add_wrist(plant, carriage, rotation: RotationMatrix, probe: ProbeConfig):
+    """Three revolute joints about the tool point, along the tool frame's x, y, z at the
+    start (`rotation`), each held at 0 by a PD actuator of probe.wrist_stiffness_Nm_per_rad
+    and probe.wrist_damping_Nms_per_rad; returns the last joint's body, whose frame is the
+    tool frame at the tool point."""
+    instance = plant.AddModelInstance(WRIST_INSTANCE)
+    inertia = SpatialInertia.MakeFromCentralInertia(
+        CARRIAGE_MASS_KG, np.zeros(3), RotationalInertia(1e-6, 1e-6, 1e-6)
+    )
+    parent_frame = plant.AddFrame(
+        FixedOffsetFrame("wrist_base", carriage.body_frame(), RigidTransform(rotation))
+    )
+    body = carriage
+    for axis, stiffness in enumerate(probe.wrist_stiffness_Nm_per_rad):
+        name = f"wrist_{'xyz'[axis]}"
+        body = plant.AddRigidBody(name, instance, inertia)
+        joint = plant.AddJoint(
+            RevoluteJoint(name, parent_frame, body.body_frame(), np.eye(3)[axis])
+        )
+        actuator = plant.AddJointActuator(name, joint)
+        actuator.set_controller_gains(
+            PdControllerGains(p=stiffness, d=probe.wrist_damping_Nms_per_rad)
+        )
+        parent_frame = body.body_frame()
+    return body
