@@ -20,10 +20,10 @@ a physiological tremor (0.2 mm, 8-12 Hz, seeded), sampled at 100 Hz as a recordi
 The insertion's and the cutting's demonstrations (FORCE_RECORDED) also carry the force
 their wrist sensor read (`fx,fy,fz`, the force the environment exerts on the tool, world
 frame, as a run's `f_ext`), recorded in the task's own world (diagrams/{task}.yaml): the
-iiwa, its dynamics compensated as a gravity-compensated backdrivable arm's are, is moved along the demonstrated path (the DMP the
-scenario fits to it, the tremor smoothed away) by a stiff impedance -- the teacher's hand,
-TEACHER_STIFFNESS_N_PER_M, critically damped -- and the
-tool's contact force (with the torn foam's friction) is read every 10 ms at the samples'
+iiwa, its dynamics compensated as a gravity-compensated backdrivable arm's are, is moved
+along the demonstrated path (the DMP the scenario fits to it, the tremor smoothed away) by
+a stiff impedance -- the teacher's hand, TEACHER_STIFFNESS_N_PER_M, critically damped --
+and the tool's contact force (with the torn foam's friction) is read every 10 ms at the samples'
 times. The hand is stiffer than any controller the scenarios compare, so the tool stays
 within a few millimetres of the path it is written with (the script prints how far).
 `--no-force` writes the positions only; they are the same either way.
