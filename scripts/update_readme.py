@@ -1,6 +1,6 @@
 """Regenerate the README's results sections and figures from fresh runs' outputs.
 
-    hlcmp report --out out/report
+    hlcmp report --out out/report --variants real_arm
     hlcmp learn diagrams/demos/insertion_demo.csv --scenario insertion --trials 3 --out out/learn
     hlcmp reproduce out/learn/skill.npz --scenario insertion --freeze --out out/reproduce
     hlcmp bench --out out/bench
@@ -17,7 +17,7 @@ import shutil
 from pathlib import Path
 
 from hlcmp_drake.experiments import EXPERIMENTS
-from hlcmp_drake.present.report import update_readme, write_block
+from hlcmp_drake.present.report import robot_comparison, update_readme, write_block
 from hlcmp_drake.present.sweep import sweep_table
 from hlcmp_drake.present.tables import to_markdown
 from hlcmp_drake.run.benchmark import table as bench_table
@@ -26,6 +26,8 @@ from hlcmp_drake.run.learning import trials_table
 ROOT = Path(__file__).resolve().parent.parent
 # The README's blocks made from bundled sweeps: sweep file name (diagrams/sweeps/NAME.yaml,
 # run into SWEEPS/NAME) -> block name.
+# The variant whose runs `hlcmp report --variants real_arm` puts beside the perfect robot's.
+ROBOT_VARIANT = "real_arm"
 SWEEP_BLOCKS = {
     "one_dof_sensitivity": "one_dof sensitivity",
     "insertion_learning_rate": "insertion learning rate",
@@ -95,6 +97,22 @@ def main():
         if (args.runs / name / "metrics.json").exists()
     }
     update_readme(ROOT / "README.md", run_dirs)
+    comparisons = []
+    for name, run_dir in run_dirs.items():
+        variant_metrics = args.runs / f"{name}_{ROBOT_VARIANT}" / "metrics.json"
+        if variant_metrics.exists():
+            metrics, claims = robot_comparison(
+                json.loads((run_dir / "metrics.json").read_text()),
+                json.loads(variant_metrics.read_text()),
+                ROBOT_VARIANT,
+                EXPERIMENTS[name],
+            )
+            comparisons.append(
+                f"**{name}**\n\n{to_markdown(metrics)}\n"
+                f"{to_markdown(claims, code_first_column=False)}"
+            )
+    if comparisons:
+        write_block(ROOT / "README.md", f"{ROBOT_VARIANT} comparison", "\n".join(comparisons))
     for name, run_dir in run_dirs.items():
         target = ROOT / "docs" / "figures" / name
         target.mkdir(parents=True, exist_ok=True)
