@@ -7,7 +7,7 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.multibody.math import SpatialForce
 from pydrake.multibody.plant import ExternallyAppliedSpatialForce
-from pydrake.systems.framework import BasicVector, Context, LeafSystem
+from pydrake.systems.framework import BasicVector, Context, EventStatus, LeafSystem
 
 from hlcmp_drake.core.puncture import depth_below, hole_friction, tears
 
@@ -135,14 +135,20 @@ class HoleFriction(LeafSystem):
                 self._sliding_speed,
             )
         if stage >= 1:
-            stage = 2.0
+            next_stage = 2.0
         else:
-            stage = (
+            next_stage = (
                 1.0
                 if tears(depth, -float(np.dot(velocity, self._top_normal)), self._tear_depth)
                 else 0.0
             )
-        state.get_mutable_discrete_state(self._stage_index).set_value([stage])
-        if force.any() or context.get_discrete_state(self._force_index).get_value().any():
+        held_force = context.get_discrete_state(self._force_index).get_value()
+        if next_stage == stage and not force.any() and not held_force.any():
+            # The state stays as it is: telling the Simulator so spares it writing the
+            # whole diagram's state back (and recomputing everything that depends on it).
+            return EventStatus.DidNothing()
+        state.get_mutable_discrete_state(self._stage_index).set_value([next_stage])
+        if force.any() or held_force.any():
             state.get_mutable_discrete_state(self._force_index).set_value(force)
             state.get_mutable_abstract_state(self._spatial_index).set_value([self._applied(force)])
+        return EventStatus.Succeeded()
