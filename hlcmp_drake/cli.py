@@ -3,7 +3,7 @@
     hlcmp run SCENARIO [--out DIR] [--set KEY=VALUE ...] [--iiwa ours|drake_models]
               [--variant real_arm]
     hlcmp report [--out DIR] [--scenarios NAME|YAML ...] [--jobs N] [--variants V ...]
-                                               scenarios, one offline page
+                 [--engine local|ray]          scenarios, one offline page
     hlcmp learn DEMO.csv --scenario S --out DIR [--trials K] [--skill SKILL.npz [--any-scenario]]
                 [--demo-force]
     hlcmp reproduce SKILL.npz --scenario S --out DIR [--freeze] [--any-scenario]
@@ -186,7 +186,12 @@ def cmd_report(args):
 
     _quiet_drake(args)
     result = run_report(
-        args.out, args.scenarios, Progress(args.quiet), jobs=args.jobs, variants=args.variants
+        args.out,
+        args.scenarios,
+        Progress(args.quiet),
+        jobs=args.jobs,
+        variants=args.variants,
+        engine=args.engine,
     )
     print(
         f"report: {result.page} ({result.wall_s:.0f} s for "
@@ -733,6 +738,13 @@ def build_parser():
         help="also run every arm scenario under these variants and show them beside its "
         f"perfect robot: bundled ({', '.join(bundled_variants())}) or .yaml files of your "
         "own (default none: each runs the arm scenarios again)",
+    )
+    report.add_argument(
+        "--engine",
+        choices=("local", "ray"),
+        default="local",
+        help="local: processes on this machine (default); ray: Ray tasks, needs "
+        "pip install -e '.[ray]'",
     )
     report.set_defaults(func=cmd_report)
 

@@ -1,5 +1,7 @@
 """hlcmp_drake.run.report (hlcmp report): the command runs the scenarios and writes the page."""
 
+import sys
+
 import pytest
 
 
@@ -55,10 +57,11 @@ def test_report_scenarios_are_all_checked_before_the_first_runs(tmp_path):
     assert "nowhere.yaml" in result.stderr and not out.exists()
 
 
-def test_a_report_in_processes_writes_what_the_serial_one_writes(tmp_path):
-    """Two scenarios of one's own, one after the other in this process and in two
-    processes: the same files (the folder's manifest lists them all), metrics.json and the
-    time series byte for byte, the page the same but for each section's wall time."""
+def _reports_agree(tmp_path, other: dict):
+    """Two scenarios of one's own, one after the other in this process and as `other`
+    says (run_report's keywords): the same files (the folder's manifest lists them all),
+    metrics.json and the time series byte for byte, the page the same but for each
+    section's wall time."""
     import re
 
     from hlcmp_drake.io.outputs import MANIFEST
@@ -66,17 +69,16 @@ def test_a_report_in_processes_writes_what_the_serial_one_writes(tmp_path):
 
     own = [str(_own_scenario(tmp_path, name, duration=0.5)) for name in ("first", "second")]
     pages = {}
-    for jobs in (1, 2):
-        out = tmp_path / f"jobs{jobs}"
-        result = run_report(out, own, jobs=jobs)
+    for label, options in (("serial", {"jobs": 1}), ("other", other)):
+        result = run_report(tmp_path / label, own, **options)
         assert result.all_ok and [s.name for s in result.sections] == ["first", "second"]
-        pages[jobs] = re.sub(r"ran in \d+ s", "ran in N s", result.page.read_text())
-    one, two = tmp_path / "jobs1", tmp_path / "jobs2"
+        pages[label] = re.sub(r"ran in \d+ s", "ran in N s", result.page.read_text())
+    one, two = tmp_path / "serial", tmp_path / "other"
     assert (one / MANIFEST).read_text() == (two / MANIFEST).read_text()
     for name in ("first", "second"):
         for file in ("metrics.json", "timeseries.npz"):
             assert (one / name / file).read_bytes() == (two / name / file).read_bytes()
-    assert pages[1] == pages[2]
+    assert pages["serial"] == pages["other"]
 
 
 @pytest.mark.slow  # an insertion of 0.3 s, on the perfect robot and on the real arm
@@ -110,3 +112,24 @@ def test_a_report_shows_an_arm_on_the_real_arm_beside_the_perfect_one(tmp_path):
         None,
         None,
     ]
+
+
+def test_a_report_in_processes_writes_what_the_serial_one_writes(tmp_path):
+    _reports_agree(tmp_path, {"jobs": 2})
+
+
+@pytest.mark.slow
+def test_a_report_on_ray_writes_what_the_serial_one_writes(tmp_path):
+    pytest.importorskip("ray")
+    _reports_agree(tmp_path, {"jobs": 2, "engine": "ray"})
+
+
+def test_a_report_on_ray_without_ray_says_how_to_install_it(tmp_path, monkeypatch):
+    from conftest import one_line_error, run_cli
+
+    monkeypatch.setitem(sys.modules, "ray", None)  # `import ray` fails as if not installed
+    out = tmp_path / "out"
+    result = run_cli("report", "--out", out, "--scenarios", "one_dof", "--engine", "ray")
+    one_line_error(result)
+    assert "--engine ray needs Ray, which is not installed" in result.stderr
+    assert not out.exists()

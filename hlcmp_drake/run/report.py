@@ -18,8 +18,8 @@ from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.present.report import ReportSection, report_page
 from hlcmp_drake.run.probe import run_probe
 from hlcmp_drake.run.runner import run_scenario
-from hlcmp_drake.run.sweep.engines import run_in_processes
-from hlcmp_drake.run.sweep.tasks import quiet_drake
+from hlcmp_drake.run.sweep.engines import ENGINES, run_in_processes, run_on_ray
+from hlcmp_drake.run.sweep.tasks import quiet_drake, run_in_temporary_folder, store_files
 
 
 @dc.dataclass
@@ -90,7 +90,7 @@ class _ReportTask:
     named), or its world's probe."""
 
     entry: str
-    folder: str
+    run_dir: str
     probe: bool
     variant: str | None = None
 
@@ -115,16 +115,22 @@ def _do(task: _ReportTask, reporter: Progress = SILENT) -> dict:
     quiet_drake()
     start, first = time.perf_counter(), len(WRITTEN)
     if task.probe:
-        run_probe(task.entry, task.folder)
+        run_probe(task.entry, task.run_dir)
         status = None
     else:
-        result = run_scenario(task.entry, task.folder, reporter=reporter, variant=task.variant)
+        result = run_scenario(task.entry, task.run_dir, reporter=reporter, variant=task.variant)
         status = result.metrics["status"]
     return {
         "status": status,
         "wall_s": time.perf_counter() - start,
         "written": [str(path) for path in WRITTEN[first:]],
     }
+
+
+def _do_returning_files(task: _ReportTask) -> tuple[dict, dict]:
+    """Run one piece of a report in a temporary folder (a Ray worker's) and return what
+    `_do` returns and the folder's files, by path relative to it."""
+    return run_in_temporary_folder(_do, task)
 
 
 def run_report(
@@ -134,15 +140,17 @@ def run_report(
     *,
     jobs: int | None = None,
     variants: Sequence[str] = (),
+    engine: str = "local",
 ) -> ReportResult:
     """Run each scenario into out_dir/<its name> (its probe, if it has one, into
     out_dir/<its name>/probe; an arm scenario under each variant into
     out_dir/<its name>_<variant>) and write out_dir/index.html, a page that works offline.
 
-    The runs and the probes are tasks of the sweep's local engine (`run_in_processes`),
-    `jobs` at a time; with one job they run one after the other in this process. The
-    simulations do not depend on which process runs them: the runs' files are the same
-    either way, and so is the page but for each section's wall time.
+    The runs and the probes are tasks of a sweep engine, `jobs` at a time: the local one
+    (`run_in_processes`; with one job they run one after the other in this process) or
+    Ray (`run_on_ray`: each task in a temporary folder of its worker, its files written
+    here). The simulations do not depend on which process runs them: the runs' files are
+    the same either way, and so is the page but for each section's wall time.
 
     Parameters
     ----------
@@ -153,11 +161,13 @@ def run_report(
         checked before the first runs (`report_folders`).
     reporter : Progress, optional
     jobs : int, optional
-        Processes at a time, >= 1; default one per CPU (at most one per task).
+        Processes (Ray: tasks) at a time, >= 1; default one per CPU (at most one per task).
     variants : sequence of str
         The variants each arm scenario also runs under, shown beside its perfect robot
         (bundled names, e.g. "real_arm", or .yaml paths); default none (each runs the
         arm scenarios again).
+    engine : str
+        "local" or "ray" (needs Ray: pip install -e '.[ray]').
     """
     out_dir = Path(out_dir)
     folders = report_folders(out_dir, scenarios)
@@ -166,14 +176,16 @@ def run_report(
     ]
     if jobs is not None and jobs < 1:
         raise InputError(f"--jobs: must be at least 1, got {jobs}")
+    if engine not in ENGINES:
+        raise InputError(f"--engine: one of {', '.join(ENGINES)}, got {engine!r}")
     jobs = max(1, min(jobs or os.cpu_count() or 1, len(work)))
     start = time.perf_counter()
     with replacing_outputs(out_dir):  # a scenario left out this time leaves no old folder
-        done = _run_work(work, jobs, reporter)
+        done = _run_work(work, jobs, reporter, engine)
         sections, statuses = [], []
         for entry, folder in folders.items():
             pieces = [(task, done[task]) for task in work if task.entry == entry]
-            probe = next((Path(task.folder) for task, _ in pieces if task.probe), None)
+            probe = next((Path(task.run_dir) for task, _ in pieces if task.probe), None)
             runs = [(task, result) for task, result in pieces if not task.probe]
             sections.append(
                 ReportSection(
@@ -182,7 +194,7 @@ def run_report(
                     sum(result["wall_s"] for _, result in pieces),
                     experiment_of(load_scenario(entry)[0]),
                     probe,
-                    {task.variant: Path(task.folder) for task, _ in runs if task.variant},
+                    {task.variant: Path(task.run_dir) for task, _ in runs if task.variant},
                 )
             )
             statuses += [result["status"] for _, result in runs]
@@ -190,32 +202,41 @@ def run_report(
     return ReportResult(page, sections, statuses, time.perf_counter() - start)
 
 
-def _run_work(work: list[_ReportTask], jobs: int, reporter: Progress) -> dict:
-    """Each task's result, run here one after the other (one job) or in `jobs` processes."""
+def _run_work(work: list[_ReportTask], jobs: int, reporter: Progress, engine: str) -> dict:
+    """Each task's result: run here one after the other (local, one job), in `jobs`
+    processes (local) or as Ray tasks."""
 
     def what(task):
         if task.variant:
             return f"{task.entry} ({task.variant})"
         return f"{task.entry}'s probe" if task.probe else task.entry
 
-    if jobs == 1:
+    if engine == "local" and jobs == 1:
         done = {}
         for task in work:
             reporter.say(f"running {what(task)} ...")
             done[task] = _do(task, reporter)
         return done
-    reporter.say(f"running {', '.join(map(what, work))} in {jobs} processes ...")
+    where = f"{jobs} processes" if engine == "local" else f"Ray tasks, {jobs} at a time"
+    reporter.say(f"running {', '.join(map(what, work))} in {where} ...")
     done, failures = {}, []
 
     def on_done(task, result, error):
         if error is not None:
             failures.append(f"{what(task)}: {error}")
             return
-        WRITTEN.extend(Path(path) for path in result["written"])
+        if engine == "local":
+            WRITTEN.extend(Path(path) for path in result["written"])
+        else:
+            result, files = result
+            store_files(task.run_dir, files)
         done[task] = result
         reporter.say(f"{what(task)}: done in {result['wall_s']:.0f} s")
 
-    run_in_processes(_do, work, jobs, on_done)
+    if engine == "local":
+        run_in_processes(_do, work, jobs, on_done)
+    else:
+        run_on_ray(_do_returning_files, work, jobs, on_done)
     if failures:
         raise RuntimeError("the report could not run " + "; ".join(failures))
     return done

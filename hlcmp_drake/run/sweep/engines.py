@@ -148,15 +148,37 @@ def _import_ray():
     return ray
 
 
-def _run_ray(
-    tasks: list,
+def run_on_ray(
+    function: Callable,
+    items: list,
     workers: int | None,
-    address: str | None,
-    on_done: Done,
-    returning_files: Callable = run_task_returning_files,
+    on_done: Callable[[object, object, str | None], None],
+    address: str | None = None,
 ) -> None:
-    """One Ray task per sweep task (one CPU each), at most `workers` in flight; each runs
-    `returning_files(task)` -> (info, files), whose files are stored in the task's run_dir."""
+    """`function(item)` for each item as a Ray task (one CPU each), at most `workers` in
+    flight, each result handed to `on_done(item, result, error)` as it finishes, with
+    error None or the task's failure in one line (the Ray engine). Joins the Ray instance
+    already initialized in this process, else the cluster at `address`, else starts a
+    local one (`workers` CPUs, default one per CPU) and shuts it down at the end; an
+    interrupt cancels the tasks in flight.
+
+    Parameters
+    ----------
+    function : callable
+        A module-level function (the workers import it).
+    items : list
+        Its arguments, one per task, picklable.
+    workers : int, optional
+        Tasks in flight at once (default: all of them; Ray schedules them on its CPUs).
+    on_done : callable(item, result, error)
+    address : str, optional
+        The Ray cluster to join (e.g. "ray://head:10001" or "auto").
+
+    Raises
+    ------
+    InputError
+        Ray is not installed, or there is no cluster at `address`.
+    """
     ray = _import_ray()
     started = not ray.is_initialized()
     if started:
@@ -171,23 +193,22 @@ def _run_ray(
             raise InputError(
                 f"--address {address}: cannot join a Ray cluster there ({error})"
             ) from None
-    remote = ray.remote(num_cpus=1)(returning_files)
-    queue, in_flight = list(tasks), {}
-    limit = workers or len(tasks)
+    remote = ray.remote(num_cpus=1)(function)
+    queue, in_flight = list(items), {}
+    limit = workers or len(items)
     try:
         while queue or in_flight:
             while queue and len(in_flight) < limit:
-                task = queue.pop(0)
-                in_flight[remote.remote(task)] = task
+                item = queue.pop(0)
+                in_flight[remote.remote(item)] = item
             (ref,), _ = ray.wait(list(in_flight), num_returns=1)
-            task = in_flight.pop(ref)
+            item = in_flight.pop(ref)
             try:
-                info, files = ray.get(ref)
+                result = ray.get(ref)
             except Exception as failure:  # RayTaskError wraps the task's own error
-                on_done(task, None, " ".join(str(failure).split())[-400:])
+                on_done(item, None, " ".join(str(failure).split())[-400:])
                 continue
-            store_files(task.run_dir, files)
-            on_done(task, info, None)
+            on_done(item, result, None)
     except BaseException:
         for ref in in_flight:
             ray.cancel(ref, force=True)
@@ -195,6 +216,27 @@ def _run_ray(
     finally:
         if started:
             ray.shutdown()
+
+
+def _run_ray(
+    tasks: list,
+    workers: int | None,
+    address: str | None,
+    on_done: Done,
+    returning_files: Callable = run_task_returning_files,
+) -> None:
+    """One Ray task per sweep task (`run_on_ray`); each runs `returning_files(task)` ->
+    (info, files), whose files are stored in the task's run_dir."""
+
+    def store_then_report(task, returned, error):
+        if error is not None:
+            on_done(task, None, error)
+            return
+        info, files = returned
+        store_files(task.run_dir, files)
+        on_done(task, info, None)
+
+    run_on_ray(returning_files, tasks, workers, store_then_report, address)
 
 
 @contextlib.contextmanager
