@@ -45,6 +45,9 @@ def test_quick_benchmark_writes_every_measurement(tmp_path, capsys):
         assert set(results["cartesian_dmp_rms_deg"]) == {"150", "270"}
     assert set(results["orientation_dmp_rms_deg"]) == {"150", "270"}
     assert set(results["scenario_wall_s"]) == {"one_dof", "insertion", "cutting"}
+    assert set(results["world_alone_rtf"]) == {"insertion", "cutting"}
+    assert all(rtf > 0 for rtf in results["world_alone_rtf"].values())
+    assert "report" not in results  # a smoke run does not time the whole report
     out = capsys.readouterr().out
     assert "controller_overhead_ratio" in out and "quick smoke run" in out
     assert "pose_dmp_vs_cartesian_dmp" in out
@@ -52,7 +55,7 @@ def test_quick_benchmark_writes_every_measurement(tmp_path, capsys):
 
 
 def _results(mode):
-    """bench.json content with made-up values (a full run misses all six targets)."""
+    """bench.json content with made-up values (a full run misses all eight targets)."""
     quick = mode == "quick"
     results = {
         "machine": {"python": "3", "processor": "", "mode": mode},
@@ -72,9 +75,13 @@ def _results(mode):
         "one_dof_rtf_by_controller": {"hlcmp": 5.0, "vic": 6.0},
         "one_dof_modular_over_fast": 3.0,
         "one_dof_simulated_s": 0.5 if quick else 20.0,
+        "world_alone_rtf": {"insertion": 3.0, "cutting": 5.0},
+        "world_alone_simulated_s": {"insertion": 1.0 if quick else 9.5, "cutting": 1.0},
     }
     if quick:
         results["scenario_simulated_s"] = 0.5
+    else:
+        results["report"] = {"wall_s": 120.0, "jobs": 2}
     return results
 
 
@@ -87,8 +94,10 @@ def test_a_quick_run_is_labelled_a_smoke_run_and_judges_no_target():
     assert "met" not in text.split() and "missed" not in text and "≥" not in text
     assert "(1 s, harnessed" in text and "9.5 s" not in text
     assert "`hlcmp run one_dof` cut to 0.5 s" in text
+    assert "world_alone_rtf[cutting]" in text and "hlcmp report" not in text
     full = to_text(table(_results("full")))
-    assert "smoke" not in full and full.count("**missed**") == 6 and "(9.5 s, harnessed" in full
+    assert "smoke" not in full and full.count("**missed**") == 8 and "(9.5 s, harnessed" in full
+    assert "world_alone_rtf[insertion]" in full and "`hlcmp report`" in full
 
 
 def test_the_pose_dmp_rows_show_both_sides_or_say_n_a():
@@ -114,3 +123,15 @@ def test_the_pose_dmp_rows_show_both_sides_or_say_n_a():
     )
     text = to_text(table(results))
     assert "(40 ms / n/a)" in text and text.count("n/a") >= 3
+
+
+def test_the_report_is_timed_in_a_folder_of_its_own(tmp_path):
+    from hlcmp_drake.io.paths import DIAGRAMS_DIR
+    from hlcmp_drake.run.benchmark import report_wall_s
+
+    own = tmp_path / "short.yaml"  # the bundled 1-DOF scenario, renamed and cut short
+    text = (DIAGRAMS_DIR / "one_dof.yaml").read_text().replace("name: one_dof", "name: short", 1)
+    own.write_text(text.replace("duration_s: 20.0", "duration_s: 0.3", 1))
+    timed = report_wall_s([str(own)])
+    assert timed["wall_s"] > 0 and timed["jobs"] >= 1
+    assert list(tmp_path.iterdir()) == [own]  # the report's files went elsewhere and are gone

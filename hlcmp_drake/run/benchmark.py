@@ -5,6 +5,7 @@ reported as the median of the pair ratios, since a shared 2-core machine is nois
 """
 
 import inspect
+import os
 import platform
 import statistics
 import sys
@@ -27,6 +28,7 @@ from hlcmp_drake.core.orientation_dmp import OrientationDmp
 from hlcmp_drake.experiments import EXPERIMENTS
 from hlcmp_drake.experiments.table import Table, number
 from hlcmp_drake.present.progress import SILENT, Progress
+from hlcmp_drake.run.report import run_report
 from hlcmp_drake.run.runner import run_scenario
 from hlcmp_drake.run.simulate import prepared_simulator, simulate
 from hlcmp_drake.worlds import arm
@@ -143,11 +145,11 @@ def insertion_runs(duration: float, repetitions: int) -> dict:
         built = arm.build(scenario, "hlcmp", setup)
         ticks.append(built.controller.system.record_tick_times())  # filled as the run goes
         walls["fast"].append(_wall(partial(advance, built, scenario))[0])
-        replay = _joint_space_replay(scenario, setup, run, harness=True)
+        replay = joint_space_replay(scenario, setup, run, harness=True)
         walls["cpp"].append(_wall(partial(advance, replay, scenario))[0])
         bare = arm.build(scenario, "hlcmp", setup, harness=False)
         walls["fast_bare"].append(_wall(partial(advance, bare, scenario))[0])
-        replay = _joint_space_replay(scenario, setup, run, harness=False)
+        replay = joint_space_replay(scenario, setup, run, harness=False)
         walls["cpp_bare"].append(_wall(partial(advance, replay, scenario))[0])
         built = arm.build(modular, "hlcmp", setup)
         walls["modular"].append(_wall(partial(advance, built, modular))[0])
@@ -216,10 +218,75 @@ def one_dof_runs(duration: float, repetitions: int) -> dict:
     }
 
 
-def _joint_space_replay(scenario, setup, run, harness):
+def world_alone_runs(name: str, duration: float, repetitions: int) -> dict:
+    """The arm world `name` alone: its plant, physics extras and the run's harness (safety
+    monitor, wrist sensor, loggers), driven by Drake's C++ InverseDynamicsController along
+    the Hl-CMP run's own joint motion (`joint_space_replay`), the build outside the timing.
+
+    Parameters
+    ----------
+    name : str
+        A bundled arm scenario.
+    duration : float
+        Simulated seconds of each run.
+    repetitions : int
+        Runs; the RTF is from their median wall time.
+
+    Returns
+    -------
+    dict
+        rtf (simulated s per wall s) and wall_s, the wall time of each run [s].
+    """
+    scenario, _ = load_scenario(name, [f"duration_s={duration}", "task.control_path=fast"])
+    setup = arm.prepare(scenario)
+    run = simulate(arm.build(scenario, "hlcmp", setup), scenario, "hlcmp")
+    walls = [
+        _wall(partial(advance, joint_space_replay(scenario, setup, run, harness=True), scenario))[0]
+        for _ in range(repetitions)
+    ]
+    return {"rtf": duration / statistics.median(walls), "wall_s": walls}
+
+
+def report_wall_s(scenarios: list[str] | None = None) -> dict:
+    """The wall time [s] of a whole `hlcmp report` (every bundled scenario's runs and probe,
+    the page), its default one process per CPU, outputs in a temporary folder.
+
+    Parameters
+    ----------
+    scenarios : list of str, optional
+        What the report runs (default: every bundled scenario, as `hlcmp report`).
+
+    Returns
+    -------
+    dict
+        wall_s and jobs (the processes it ran in).
+    """
+    jobs = os.cpu_count() or 1
+    with tempfile.TemporaryDirectory() as folder:
+        wall = _wall(partial(run_report, folder, scenarios, jobs=jobs))[0]
+    return {"wall_s": wall, "jobs": jobs}
+
+
+def joint_space_replay(scenario, setup, run, harness):
     """The same world (and, with `harness`, the same monitor, sensor and loggers), driven
     by InverseDynamicsController along the run's logged joint positions and velocities
-    (piecewise-linear between the 100 Hz log samples)."""
+    (piecewise-linear between the 100 Hz log samples).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        An arm scenario: its world.
+    setup : ArmSetup
+        Its start posture (for the world's models).
+    run : RunResult
+        A run of that world: its logged ``plant_state`` is the motion to follow.
+    harness : bool
+        With the run's safety monitor and loggers (and their wrist-force reads).
+
+    Returns
+    -------
+    BuiltDiagram
+    """
     builder = DiagramBuilder()
     world = arm.add_world(builder, scenario)
     plant = world.plant
@@ -435,6 +502,7 @@ def scenario_walls(names: list[str], duration: float | None = None) -> dict:
 # path is exercised once; its numbers are too short to be measurements).
 FULL = {
     "insertion_s": 9.5,
+    "cutting_s": 9.0,
     "one_dof_s": 20.0,
     "repetitions": 3,
     "dmp_repetitions": 15,
@@ -442,6 +510,7 @@ FULL = {
 }
 QUICK = {
     "insertion_s": 1.0,
+    "cutting_s": 1.0,
     "one_dof_s": 0.5,
     "repetitions": 1,
     "dmp_repetitions": 2,
@@ -472,6 +541,17 @@ def run_benchmark(quick: bool = False, reporter: Progress = SILENT) -> dict:
         "insertion: fast path, modular path and C++ inverse dynamics along the same motion ..."
     )
     results.update(insertion_runs(duration=plan["insertion_s"], repetitions=plan["repetitions"]))
+    reporter.say("cutting: the world alone, C++ inverse dynamics along the Hl-CMP's motion ...")
+    cutting = world_alone_runs("cutting", plan["cutting_s"], plan["repetitions"])
+    results["world_alone_rtf"] = {
+        "insertion": plan["insertion_s"] / statistics.median(results["insertion_wall_s"]["cpp"]),
+        "cutting": cutting["rtf"],
+    }
+    results["world_alone_simulated_s"] = {
+        "insertion": plan["insertion_s"],
+        "cutting": plan["cutting_s"],
+    }
+    results["cutting_world_wall_s"] = cutting["wall_s"]
     reporter.say("one_dof: each controller on the fast path, the Hl-CMP on the modular path ...")
     results.update(one_dof_runs(duration=plan["one_dof_s"], repetitions=plan["repetitions"]))
     reporter.say("DMP fit and rollout ...")
@@ -482,6 +562,9 @@ def run_benchmark(quick: bool = False, reporter: Progress = SILENT) -> dict:
     results["scenario_wall_s"] = scenario_walls(list(EXPERIMENTS), duration=plan["scenario_s"])
     if quick:
         results["scenario_simulated_s"] = plan["scenario_s"]
+    else:  # the whole report: a smoke run's numbers would say nothing about it
+        reporter.say("hlcmp report ...")
+        results["report"] = report_wall_s()
     return results
 
 
@@ -556,6 +639,18 @@ def _rows(results):
             tick["p99"] <= 250,
         ),
     ]
+    for world, rtf in results.get("world_alone_rtf", {}).items():  # older bench.json: none
+        rows.append(
+            (
+                f"world_alone_rtf[{world}]: simulated s per wall s of the {world} world alone "
+                "(plant, physics extras, harness) driven by Drake's C++ "
+                "InverseDynamicsController along the Hl-CMP run's joint motion "
+                f"({results['world_alone_simulated_s'][world]:g} s)",
+                number(rtf),
+                "≥ 4" if world == "insertion" else "",
+                rtf >= 4 if world == "insertion" else None,
+            )
+        )
     if "one_dof_rtf" in results:  # bench.json files from before the slider's fast path lack it
         slowest = min(
             results["one_dof_rtf_by_controller"], key=results["one_dof_rtf_by_controller"].get
@@ -605,6 +700,17 @@ def _rows(results):
         )
         for name, wall in results["scenario_wall_s"].items()
     ]
+    if "report" in results:  # full runs only
+        report = results["report"]
+        rows.append(
+            (
+                "wall time of `hlcmp report` (every bundled scenario's runs and probe, the "
+                f"page; {report['jobs']} processes)",
+                f"{report['wall_s']:.1f} s",
+                "≤ 90 s",
+                report["wall_s"] <= 90,
+            )
+        )
     return rows
 
 
