@@ -119,6 +119,7 @@ def test_a_report_in_processes_writes_what_the_serial_one_writes(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.xdist_group("ray")  # one local Ray instance at a time
 def test_a_report_on_ray_writes_what_the_serial_one_writes(tmp_path):
     pytest.importorskip("ray")
     _reports_agree(tmp_path, {"jobs": 2, "engine": "ray"})

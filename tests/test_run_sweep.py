@@ -264,6 +264,7 @@ def test_a_sweep_killed_outright_leaves_no_worker_running(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.xdist_group("ray")  # one local Ray instance at a time
 def test_the_ray_engine_runs_the_tiny_sweep(tmp_path):
     pytest.importorskip("ray")
     out = tmp_path / "out"
