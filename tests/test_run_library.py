@@ -64,6 +64,24 @@ def test_a_tiny_library_is_learned_indexed_and_resumed(tmp_path):
     assert all(e["metrics"]["trial"] == 2 for e in more.record["skills"])
 
 
+@pytest.mark.slow
+@pytest.mark.xdist_group("ray")  # one local Ray instance at a time
+def test_the_ray_engine_learns_the_tiny_library_as_the_local_engine_does(tmp_path):
+    pytest.importorskip("ray")
+    on_ray = build_library(tiny(tmp_path), tmp_path / "ray", engine="ray", workers=2)
+    assert sorted(on_ray.ran) == ["depth_m=0.01", "depth_m=0.015"] and not on_ray.failed
+    local = build_library(tiny(tmp_path), tmp_path / "local", workers=1)
+    for ray_entry, local_entry in zip(on_ray.record["skills"], local.record["skills"]):
+        assert ray_entry["query"] == local_entry["query"]
+        assert ray_entry["metrics"] == local_entry["metrics"]
+        ray_skill = load_skill(tmp_path / "ray" / ray_entry["skill"])
+        local_skill = load_skill(tmp_path / "local" / local_entry["skill"])
+        assert (ray_skill.theta_k == local_skill.theta_k).all()
+        assert (ray_skill.theta_v == local_skill.theta_v).all()
+    # What Ray wrote is finished for the local engine too.
+    assert build_library(tiny(tmp_path), tmp_path / "ray", workers=1).ran == []
+
+
 def test_the_command_prints_the_skills_and_a_rerun_says_nothing_was_relearned(tmp_path):
     spec, out = tiny(tmp_path), tmp_path / "L"
     first = run_cli("library", spec, "--out", out, "--workers", "1", "--quiet")
