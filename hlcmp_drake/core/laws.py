@@ -3,6 +3,12 @@
 compared with, composed from the functions that
 hold those equations. Pure numpy.
 
+Each law's arithmetic at one instant is a composed `jitable` function here (`hlcmp_force`,
+`hlcmp_rates`, `impedance_command`, `variable_impedance_command`,
+`variable_impedance_rates`), run compiled or as numpy as `core.kernels.kernel_path` says
+when the law is made; only the Coriolis product C_x w, which the fast path has Drake
+evaluate, is formed between them.
+
 Every law has the shape of `ControlLaw`. Both ways of putting a law in a Drake diagram
 evaluate these objects: the modular system `systems.law_controller.LawController` (θ its
 continuous state) and the arm's one-call control loop (`systems.control_loop`). A new law is a
@@ -19,13 +25,19 @@ from typing import Callable, Protocol
 import numpy as np
 
 from hlcmp_drake.core.adaptation import adaptation_rates, compliant_profiles, forgetting_rates
-from hlcmp_drake.core.control_law import commanded_force, impedance_force, nominal_command
+from hlcmp_drake.core.control_law import (
+    commanded_force,
+    impedance_force,
+    nominal_force,
+    sliding_motion,
+)
 from hlcmp_drake.core.dmp import normalized_basis
 from hlcmp_drake.core.duan2018 import (
     duan_commanded_motion,
     duan_phi_update,
     inner_position_loop,
 )
+from hlcmp_drake.core.kernels import implementation, jitable, kernel_path
 
 
 @dataclass(frozen=True)
@@ -142,6 +154,226 @@ class ControlLaw(Protocol):
         ...
 
 
+@jitable
+def hlcmp_force(
+    e: np.ndarray,
+    edot: np.ndarray,
+    eps: np.ndarray,
+    xe_ddot: np.ndarray,
+    inertia: np.ndarray,
+    coriolis_term: np.ndarray,
+    gravity: np.ndarray,
+    gain_l: np.ndarray,
+    phase: float,
+    theta: np.ndarray,
+    centers: np.ndarray,
+    widths: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The Hl-CMP's command after `sliding_motion`: g(s) (Eq. 16), the profiles (Eq. 14), u
+    (Eq. 4), f_0 (Eq. 34) and f_c (Eq. 33).
+
+    Parameters
+    ----------
+    e, edot, eps, xe_ddot : (M,) arrays
+        From `core.control_law.sliding_motion` [m], [m/s], [m/s], [m/s^2].
+    inertia : (M, M) array
+        Λ [kg].
+    coriolis_term : (M,) array
+        C_x x_e' [N].
+    gravity : (M,) array
+        G_x [N].
+    gain_l : (M,) array
+        Diagonal of L [N s/m].
+    phase : float
+        The phase s [-].
+    theta : (3 M N,) array
+        [θ_k, θ_d, θ_v], each (M, N) row-major.
+    centers, widths : (N,) arrays
+        The phase basis.
+
+    Returns
+    -------
+    force, stiffness, damping, feedforward, impedance_force : (M,) arrays
+        f_c [N], K_s [N/m], K_d [N s/m], v [N], u [N].
+    basis : (N,) array
+        g(s), for `hlcmp_rates`.
+    """
+    g = normalized_basis(np.array([phase]), centers, widths)[0]
+    weights = theta.reshape(3, e.shape[0], centers.shape[0])
+    k_s, k_d, v = compliant_profiles(weights[0], weights[1], weights[2], g)
+    u = impedance_force(k_s, k_d, e, edot)
+    f0 = nominal_force(inertia, coriolis_term, gravity, xe_ddot, gain_l, eps)
+    return commanded_force(f0, u, v), k_s, k_d, v, u, g
+
+
+@jitable
+def hlcmp_rates(
+    eps: np.ndarray,
+    e: np.ndarray,
+    edot: np.ndarray,
+    g: np.ndarray,
+    q_k: np.ndarray,
+    q_d: np.ndarray,
+    q_v: np.ndarray,
+) -> np.ndarray:
+    """θ' of Eq. 31 (`adaptation_rates`), flattened as θ = [θ_k, θ_d, θ_v].
+
+    Parameters
+    ----------
+    eps, e, edot : (M,) arrays
+        Sliding error [m/s], position error [m], velocity error [m/s].
+    g : (N,) array
+        g(s).
+    q_k, q_d, q_v : (M,) arrays
+        The learning rates.
+
+    Returns
+    -------
+    (3 M N,) array
+    """
+    k, d, v = adaptation_rates(eps, e, edot, g, q_k, q_d, q_v)
+    return np.concatenate((k.ravel(), d.ravel(), v.ravel()))
+
+
+@jitable
+def impedance_command(
+    e: np.ndarray,
+    edot: np.ndarray,
+    eps: np.ndarray,
+    xe_ddot: np.ndarray,
+    inertia: np.ndarray,
+    coriolis_term: np.ndarray,
+    gravity: np.ndarray,
+    gain_l: np.ndarray,
+    stiffness: np.ndarray,
+    damping: np.ndarray,
+) -> np.ndarray:
+    """The constant impedance's command after `sliding_motion`: f_c = f_0 - K_s e - K_d e'
+    (Eqs. 34, 4, 33 with v = 0).
+
+    Parameters
+    ----------
+    e, edot, eps, xe_ddot, inertia, coriolis_term, gravity, gain_l
+        As for `hlcmp_force`.
+    stiffness, damping : (M,) arrays
+        Diagonals of K_s [N/m] and K_d [N s/m].
+
+    Returns
+    -------
+    (M,) array
+        f_c [N].
+    """
+    f0 = nominal_force(inertia, coriolis_term, gravity, xe_ddot, gain_l, eps)
+    return commanded_force(f0, impedance_force(stiffness, damping, e, edot), np.zeros(e.shape[0]))
+
+
+@jitable
+def variable_impedance_command(
+    theta: np.ndarray,
+    xd: np.ndarray,
+    xd_dot: np.ndarray,
+    xd_ddot: np.ndarray,
+    desired_force: np.ndarray,
+    external_force: np.ndarray,
+    x: np.ndarray,
+    xdot: np.ndarray,
+    inertia: np.ndarray,
+    coriolis_term: np.ndarray,
+    gravity: np.ndarray,
+    mass: np.ndarray,
+    damping: np.ndarray,
+    free_stiffness: np.ndarray,
+    kp: np.ndarray,
+    kv: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The variable impedance's admittance (`duan_commanded_motion`) and inner loop
+    (`inner_position_loop`) at one instant.
+
+    Parameters
+    ----------
+    theta : (3 M,) array
+        [x_c, x_c', Φ].
+    xd, xd_dot, xd_ddot : (M,) arrays
+        The reference [m], [m/s], [m/s^2].
+    desired_force, external_force : (M,) arrays
+        f_d and the measured reaction f_e [N].
+    x, xdot : (M,) arrays
+        Measured position [m] and velocity [m/s].
+    inertia : (M, M) array
+        Λ [kg].
+    coriolis_term : (M,) array
+        C_x x' [N].
+    gravity : (M,) array
+        G_x [N].
+    mass, damping, free_stiffness, kp, kv : (M,) arrays
+        As for `VariableImpedanceLaw`.
+
+    Returns
+    -------
+    force : (M,) array
+        The inner loop's force [N].
+    xc_ddot, delta_f : (M,) arrays
+        x_c'' [m/s^2] and Δf [N], for `variable_impedance_rates`.
+    tracking : (M,) bool array
+        Where a force is asked for.
+    """
+    m = xd.shape[0]
+    xc, xc_dot, phi = theta[:m], theta[m : 2 * m], theta[2 * m :]
+    xc_ddot, delta_f, tracking = duan_commanded_motion(
+        xc,
+        xc_dot,
+        phi,
+        xd,
+        xd_dot,
+        xd_ddot,
+        desired_force,
+        external_force,
+        mass,
+        damping,
+        free_stiffness,
+    )
+    force = inner_position_loop(
+        inertia, coriolis_term, gravity, xc_ddot, xc_dot, xc, x, xdot, kp, kv, external_force
+    )
+    return force, xc_ddot, delta_f, tracking
+
+
+@jitable
+def variable_impedance_rates(
+    theta: np.ndarray,
+    xc_ddot: np.ndarray,
+    delta_f: np.ndarray,
+    tracking: np.ndarray,
+    sigma: float,
+    damping: np.ndarray,
+    sample_period: float,
+) -> np.ndarray:
+    """The rates of θ = [x_c, x_c', Φ]: [x_c', x_c'', (Φ(t + λ) - Φ(t)) / λ], Φ(t + λ) by
+    `duan_phi_update`.
+
+    Parameters
+    ----------
+    theta : (3 M,) array
+        [x_c, x_c', Φ].
+    xc_ddot, delta_f, tracking
+        From `variable_impedance_command`.
+    sigma : float
+        Φ's update rate [-].
+    damping : (M,) array
+        b [N s/m].
+    sample_period : float
+        λ [s].
+
+    Returns
+    -------
+    (3 M,) array
+    """
+    m = xc_ddot.shape[0]
+    xc_dot, phi = theta[m : 2 * m], theta[2 * m :]
+    next_phi = duan_phi_update(phi, delta_f, tracking, sigma, damping)
+    return np.concatenate((xc_dot, xc_ddot, (next_phi - phi) / sample_period))
+
+
 @dataclass(frozen=True)
 class HlcmpGains:
     """Per-axis learning rates Q_k, Q_d, Q_v (M,), the sliding-surface slope pi > 0 and the
@@ -181,6 +413,10 @@ class HlcmpLaw:
         self.centers, self.widths = np.asarray(centers, float), np.asarray(widths, float)
         self.gains = gains
         self.n_axes, self.n_basis = len(gains.q_k), len(self.centers)
+        path = kernel_path()
+        self._sliding_motion = implementation(sliding_motion, path)
+        self._force = implementation(hlcmp_force, path)
+        self._rates = implementation(hlcmp_rates, path)
 
     @property
     def theta_size(self) -> int:
@@ -214,33 +450,30 @@ class HlcmpLaw:
             force f_c [N]; logs stiffness [N/m], damping [N s/m], feedforward v [N],
             impedance_force u [N], sliding_error ε [m/s]; rates θ'.
         """
-        gains = self.gains
-        g = normalized_basis(now.phase, self.centers, self.widths)
-        e, edot, eps, f0 = nominal_command(
-            now.x,
-            now.xdot,
-            now.xd,
-            now.xd_dot,
-            now.xd_ddot,
-            now.inertia,
-            now.coriolis,
-            now.gravity,
-            gains.pi,
-            gains.gain_l,
+        gains, theta = self.gains, np.asarray(theta, float)
+        e, edot, eps, xe_dot, xe_ddot = self._sliding_motion(
+            now.x, now.xdot, now.xd, now.xd_dot, now.xd_ddot, gains.pi
         )
-        k_s, k_d, v = compliant_profiles(*self.unflatten(theta), g)
-        u = impedance_force(k_s, k_d, e, edot)
+        force, k_s, k_d, v, u, g = self._force(
+            e,
+            edot,
+            eps,
+            xe_ddot,
+            now.inertia,
+            now.coriolis @ xe_dot,
+            now.gravity,
+            gains.gain_l,
+            now.phase,
+            theta,
+            self.centers,
+            self.widths,
+        )
 
         def rates():
-            return np.concatenate(
-                [
-                    r.ravel()
-                    for r in adaptation_rates(eps, e, edot, g, gains.q_k, gains.q_d, gains.q_v)
-                ]
-            )
+            return self._rates(eps, e, edot, g, gains.q_k, gains.q_d, gains.q_v)
 
         return LawOutput(
-            commanded_force(f0, u, v),
+            force,
             dict(stiffness=k_s, damping=k_d, feedforward=v, impedance_force=u, sliding_error=eps),
             rates,
         )
@@ -311,6 +544,9 @@ class ConstantImpedanceLaw:
         self.k_s, self.k_d = np.asarray(stiffness, float), np.asarray(damping, float)
         self.pi, self.gain_l = float(pi), np.asarray(gain_l, float)
         self.n_axes = len(self.k_s)
+        path = kernel_path()
+        self._sliding_motion = implementation(sliding_motion, path)
+        self._command = implementation(impedance_command, path)
 
     theta_size = 0
 
@@ -338,24 +574,22 @@ class ConstantImpedanceLaw:
         LawOutput
             force f_c [N], no logs, no rates.
         """
-        e, edot, _, f0 = nominal_command(
-            now.x,
-            now.xdot,
-            now.xd,
-            now.xd_dot,
-            now.xd_ddot,
+        e, edot, eps, xe_dot, xe_ddot = self._sliding_motion(
+            now.x, now.xdot, now.xd, now.xd_dot, now.xd_ddot, self.pi
+        )
+        force = self._command(
+            e,
+            edot,
+            eps,
+            xe_ddot,
             now.inertia,
-            now.coriolis,
+            now.coriolis @ xe_dot,
             now.gravity,
-            self.pi,
             self.gain_l,
+            self.k_s,
+            self.k_d,
         )
-        return LawOutput(
-            commanded_force(
-                f0, impedance_force(self.k_s, self.k_d, e, edot), np.zeros(self.n_axes)
-            ),
-            {},
-        )
+        return LawOutput(force, {})
 
 
 class VariableImpedanceLaw:
@@ -404,6 +638,9 @@ class VariableImpedanceLaw:
         self.kp, self.kv = np.asarray(kp, float), np.asarray(kv, float)
         self.desired_force = desired_force
         self.n_axes = len(self.mass)
+        path = kernel_path()
+        self._command = implementation(variable_impedance_command, path)
+        self._rates = implementation(variable_impedance_rates, path)
 
     @property
     def theta_size(self) -> int:
@@ -447,36 +684,29 @@ class VariableImpedanceLaw:
             force f [N], no logs, rates [x_c', x_c'', (Φ(t + λ) - Φ(t)) / λ].
         """
         assert now.external_force is not None, "the variable impedance reads the force"
-        xc, xc_dot, phi = self.unflatten(theta)
-        xc_ddot, delta_f, tracking = duan_commanded_motion(
-            xc,
-            xc_dot,
-            phi,
+        theta = np.asarray(theta, float)
+        force, xc_ddot, delta_f, tracking = self._command(
+            theta,
             now.xd,
             now.xd_dot,
             now.xd_ddot,
-            self.desired_force(now.time),
+            np.asarray(self.desired_force(now.time), float),
             now.external_force,
+            now.x,
+            now.xdot,
+            now.inertia,
+            now.coriolis @ now.xdot,
+            now.gravity,
             self.mass,
             self.damping,
             self.free_stiffness,
-        )
-        force = inner_position_loop(
-            now.inertia,
-            now.coriolis,
-            now.gravity,
-            xc_ddot,
-            xc_dot,
-            xc,
-            now.x,
-            now.xdot,
             self.kp,
             self.kv,
-            now.external_force,
         )
 
         def rates() -> np.ndarray:
-            next_phi = duan_phi_update(phi, delta_f, tracking, self.sigma, self.damping)
-            return np.concatenate([xc_dot, xc_ddot, (next_phi - phi) / self.sample_period])
+            return self._rates(
+                theta, xc_ddot, delta_f, tracking, self.sigma, self.damping, self.sample_period
+            )
 
         return LawOutput(force, {}, rates)

@@ -9,6 +9,14 @@ from pydrake.common.value import AbstractValue
 from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.framework import BasicVector, Context, LeafSystem, ValueProducer
 
+from hlcmp_drake.core.kernels import implementation, kernel_path
+from hlcmp_drake.core.operational_space import (
+    operational_space_terms,
+    polarized_coriolis,
+    prismatic_task_terms,
+    saturate,
+)
+
 
 @dataclass
 class TaskSpaceTerms:
@@ -36,7 +44,9 @@ class TaskSpaceModel:
     quadratic forms whose symmetric bilinear form is the matrix-vector product we need
     (Christoffel symbols, resp. mixed second derivatives of P's position), so their
     products with a vector u are recovered exactly by polarization:
-    C(q, v) u = [b(v + u) - b(v - u)] / 4 (see `CoriolisProduct`).
+    C(q, v) u = [b(v + u) - b(v - u)] / 4 (see `CoriolisProduct`). The algebra on what Drake
+    returns is `core.operational_space`'s, compiled or numpy as `core.kernels.kernel_path`
+    says when the model is made.
 
     Parameters
     ----------
@@ -61,7 +71,9 @@ class TaskSpaceModel:
             len(self._axes),
         )
         self._world = plant.world_frame()  # looked up once: every tick uses it several times
-        self._identity = np.eye(self.nv)
+        path = kernel_path()
+        self._operational_space_terms = implementation(operational_space_terms, path)
+        self._polarized_coriolis = implementation(polarized_coriolis, path)
 
     @property
     def context(self) -> Context:
@@ -69,25 +81,31 @@ class TaskSpaceModel:
         (its velocities are changed by a `CoriolisProduct`)."""
         return self._context
 
-    def _polarized_pair(self, v, u, jbar_t, inertia):
-        """Jbar^T C(q, v) u - Lambda Jdot u by polarization of the quadratic maps
-        v -> C(q, v) v and v -> Jdot v: each bilinear form is (f(v + u) - f(v - u)) / 4.
-        Evaluated on the context of the last `terms` call, whose positions (and so their
-        kinematics) stay; only its velocities change."""
-        plant, ctx, world = self.plant, self._context, self._world
-        sums = []
-        for sign in (1.0, -1.0):
-            plant.SetVelocities(ctx, v + sign * u)
-            sums.append(
-                (
-                    plant.CalcBiasTerm(ctx),
-                    plant.CalcBiasTranslationalAcceleration(
-                        ctx, JacobianWrtVariable.kV, self._frame, self._point, world, world
-                    )[self._axes, 0],
-                )
-            )
-        (bias_plus, accel_plus), (bias_minus, accel_minus) = sums
-        return (jbar_t @ (bias_plus - bias_minus) - inertia @ (accel_plus - accel_minus)) / 4.0
+    def _polarized_product(self, v, jbar, inertia, w):
+        """C_x w at velocity v: b(v ± u) = C(q, v ± u)(v ± u) and a(v ± u) = J'(v ± u) with
+        u = Jbar w, read on the context of the last `terms` call, whose positions (and so
+        their kinematics) stay; only its velocities change (`polarized_coriolis`)."""
+        plant, ctx, world, frame, point = (
+            self.plant,
+            self._context,
+            self._world,
+            self._frame,
+            self._point,
+        )
+        u = jbar @ w
+        plant.SetVelocities(ctx, v + u)
+        bias_plus = plant.CalcBiasTerm(ctx)
+        accel_plus = plant.CalcBiasTranslationalAcceleration(
+            ctx, JacobianWrtVariable.kV, frame, point, world, world
+        )[self._axes, 0]
+        plant.SetVelocities(ctx, v - u)
+        bias_minus = plant.CalcBiasTerm(ctx)
+        accel_minus = plant.CalcBiasTranslationalAcceleration(
+            ctx, JacobianWrtVariable.kV, frame, point, world, world
+        )[self._axes, 0]
+        return self._polarized_coriolis(
+            jbar, inertia, bias_plus, bias_minus, accel_plus, accel_minus
+        )
 
     def terms(self, state: np.ndarray, coriolis_matrix: bool = True) -> TaskSpaceTerms:
         """All task-space terms at the plant state `state`.
@@ -114,16 +132,13 @@ class TaskSpaceModel:
         jac = plant.CalcJacobianTranslationalVelocity(
             ctx, JacobianWrtVariable.kV, self._frame, self._point, world, world
         )[self._axes]
-        mass = plant.CalcMassMatrix(ctx)
-        minv_jt = np.linalg.solve(mass, jac.T)
-        inertia = np.linalg.inv(jac @ minv_jt)
-        jbar = minv_jt @ inertia
         joint_gravity = -plant.CalcGravityGeneralizedForces(ctx)
-        gravity = jbar.T @ joint_gravity
+        inertia, jbar, gravity, null_space = self._operational_space_terms(
+            plant.CalcMassMatrix(ctx), jac, joint_gravity
+        )
         coriolis = CoriolisProduct(self, v, jbar, inertia)
         if coriolis_matrix:
             coriolis = coriolis @ np.eye(self.n_axes)
-        null_space = self._identity - jac.T @ jbar.T
         return TaskSpaceTerms(
             position, jac @ v, jac, inertia, coriolis, gravity, null_space, joint_gravity
         )
@@ -151,15 +166,13 @@ class CoriolisProduct:
         self._model, self._v, self._jbar, self._inertia = model, v, jbar, inertia
 
     def __matmul__(self, w: np.ndarray) -> np.ndarray:
-        model = self._model
-        columns = np.asarray(w, dtype=float).reshape(self._jbar.shape[1], -1)
-        product = np.column_stack(
-            [
-                model._polarized_pair(self._v, self._jbar @ column, self._jbar.T, self._inertia)
-                for column in columns.T
-            ]
+        product = self._model._polarized_product
+        w = np.asarray(w, dtype=float)
+        if w.ndim == 1:
+            return product(self._v, self._jbar, self._inertia, w)
+        return np.column_stack(
+            [product(self._v, self._jbar, self._inertia, column) for column in w.T]
         )
-        return product if np.ndim(w) == 2 else product[:, 0]
 
 
 class PrismaticTaskModel:
@@ -210,6 +223,7 @@ class PrismaticTaskModel:
         assert not np.any(plant.CalcBiasTerm(self._context)), "prismatic joints: C(q, v) = 0"
         self._coriolis = np.zeros((self.n_axes, self.n_axes))
         self._null_space = np.zeros((self.nv, self.nv))
+        self._prismatic_task_terms = implementation(prismatic_task_terms, kernel_path())
 
     @property
     def context(self) -> Context:
@@ -235,15 +249,21 @@ class PrismaticTaskModel:
         position = plant.CalcPointsPositions(ctx, self._frame, self._origin, self._world)[
             self._axes, 0
         ]
-        inverse = self._inverse
         joint_gravity = -plant.CalcGravityGeneralizedForces(ctx)
+        velocity, inertia, gravity = self._prismatic_task_terms(
+            self._jacobian,
+            self._inverse,
+            plant.CalcMassMatrix(ctx),
+            joint_gravity,
+            state[self.nq :],
+        )
         return TaskSpaceTerms(
             position,
-            self._jacobian @ state[self.nq :],
+            velocity,
             self._jacobian,
-            inverse.T @ plant.CalcMassMatrix(ctx) @ inverse,
+            inertia,
             self._coriolis,
-            inverse.T @ joint_gravity,
+            gravity,
             self._null_space,
             joint_gravity,
         )
@@ -340,28 +360,6 @@ class TaskSpaceDynamics(LeafSystem):
             output.SetFromVector(np.ravel(getattr(self._terms.Eval(context), field)))
 
         return calc
-
-
-def saturate(torque: np.ndarray, limits: np.ndarray) -> tuple[np.ndarray, int]:
-    """Clip a joint torque element-wise at the actuators' effort limits.
-
-    Parameters
-    ----------
-    torque : (nv,) array
-        The unsaturated torque [N m].
-    limits : (nv,) array
-        The effort limits [N m], > 0.
-
-    Returns
-    -------
-    clipped : (nv,) array
-        The applied torque [N m].
-    saturated : int
-        The number of joints at their limit.
-    """
-    return np.minimum(np.maximum(torque, -limits), limits), int(
-        np.count_nonzero(np.abs(torque) >= limits)
-    )
 
 
 class TaskForceToJointTorque(LeafSystem):

@@ -1,0 +1,110 @@
+"""The controller tick's numeric kernels, compiled by numba where it is installed (the
+``fast`` extra), plain numpy otherwise.
+
+The equations stay where they are (`control_law`, `adaptation`, `dmp`, `duan2018`,
+`task_space`, `laws`), each one plain function over arrays, written in the subset of numpy
+that numba compiles in nopython mode. `jitable` marks such a function: called from Python
+it is the function itself, unchanged (the numpy path); called from a compiled function,
+numba compiles it inline. `implementation` gives a composed function (a law's command, the
+task-space terms) as the one or the other, so both paths run the same source and a tick
+makes a handful of compiled calls instead of about 80 numpy operations on 3- and
+7-vectors.
+
+Which path: `kernel_path` -- the one asked for, else the environment variable
+``HLCMP_KERNEL`` (``compiled`` or ``numpy``), else compiled when numba imports.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any, Callable, TypeVar
+
+numba: Any
+try:
+    import numba
+    from numba.extending import register_jitable
+except ImportError:  # numba is optional: the numpy path
+    numba = None
+
+KERNEL_VARIABLE = "HLCMP_KERNEL"
+PATHS = ("compiled", "numpy")
+
+F = TypeVar("F", bound=Callable)
+_compiled: dict[Callable, Callable] = {}
+
+
+def jitable(func: F) -> F:
+    """Mark an equation's function as compilable inside a kernel; it stays the same Python
+    function for Python callers.
+
+    Parameters
+    ----------
+    func : callable
+        A plain function over floats and float arrays, in numba's nopython subset.
+
+    Returns
+    -------
+    callable
+        `func` itself.
+    """
+    if numba is not None:
+        register_jitable(func)
+    return func
+
+
+def numba_available() -> bool:
+    """Whether numba imports (the compiled path can run)."""
+    return numba is not None
+
+
+def kernel_path(requested: str | None = None) -> str:
+    """The path a tick built now runs: ``compiled`` or ``numpy``.
+
+    Parameters
+    ----------
+    requested : str, optional
+        ``compiled``, ``numpy`` or None (then ``HLCMP_KERNEL``, then compiled when numba
+        is installed).
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    ValueError
+        For a path not in `PATHS`, or ``compiled`` without numba.
+    """
+    path = requested or os.environ.get(KERNEL_VARIABLE) or None
+    if path is None:
+        return "compiled" if numba is not None else "numpy"
+    if path not in PATHS:
+        raise ValueError(f"{KERNEL_VARIABLE}={path!r}: expected one of {', '.join(PATHS)}")
+    if path == "compiled" and numba is None:
+        raise ValueError(
+            f"{KERNEL_VARIABLE}=compiled needs numba (pip install 'hlcmp_drake[fast]')"
+        )
+    return path
+
+
+def implementation(func: F, path: str) -> F:
+    """A composed function on the given path: itself (numpy), or compiled by numba in
+    nopython mode (once per process, its machine code cached on disk).
+
+    Parameters
+    ----------
+    func : callable
+        A module-level function that calls only `jitable` functions and numba's numpy.
+    path : str
+        ``compiled`` or ``numpy`` (see `kernel_path`).
+
+    Returns
+    -------
+    callable
+    """
+    if path == "numpy":
+        return func
+    if func not in _compiled:
+        assert numba is not None, "kernel_path refuses 'compiled' without numba"
+        _compiled[func] = numba.njit(cache=True)(func)
+    return _compiled[func]  # type: ignore[return-value]
