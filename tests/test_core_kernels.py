@@ -8,8 +8,9 @@ import sys
 
 import numpy as np
 import pytest
+from conftest import one_line_error, run_cli
 
-from hlcmp_drake.core.kernels import KERNEL_VARIABLE, kernel_path, numba_available
+from hlcmp_drake.core.kernels import KERNEL_VARIABLE, kernel_chosen, kernel_path, numba_available
 from hlcmp_drake.core.laws import (
     ConstantImpedanceLaw,
     HlcmpForgettingLaw,
@@ -74,6 +75,16 @@ LAWS = {
 }
 
 
+class CoriolisOperator:
+    """C_x as the fast path passes it: only its product with a vector."""
+
+    def __init__(self, matrix):
+        self._matrix = matrix
+
+    def __matmul__(self, w):
+        return self._matrix @ w
+
+
 def laws_on_both_paths(monkeypatch, name, m):
     made = {}
     for path in ("compiled", "numpy"):
@@ -83,13 +94,18 @@ def laws_on_both_paths(monkeypatch, name, m):
 
 
 @needs_numba
+@pytest.mark.parametrize("coriolis", ["matrix", "operator"])
 @pytest.mark.parametrize("m", [1, 3])
 @pytest.mark.parametrize("name", sorted(LAWS))
-def test_compiled_laws_agree_with_numpy(monkeypatch, name, m):
+def test_compiled_laws_agree_with_numpy(monkeypatch, name, m, coriolis):
+    """Every law, on both forms of C_x (a matrix: the modular systems and the slider; Drake's
+    product: the arm's fast path), 25 random instants."""
     compiled, numpy_path = laws_on_both_paths(monkeypatch, name, m)
-    rng = np.random.default_rng(hash((name, m)) % 2**32)
+    rng = np.random.default_rng(sorted(LAWS).index(name) * 10 + m)
     for _ in range(25):
         now = random_instant(rng, m)
+        if coriolis == "operator":
+            now = now._replace(coriolis=CoriolisOperator(now.coriolis))
         theta = (
             rng.uniform(0, 400, numpy_path.theta_size)
             if numpy_path.learns
@@ -163,3 +179,20 @@ except ValueError as error:
     lines = done.stdout.splitlines()
     assert lines[0].startswith("numpy True (")
     assert lines[1] == "HLCMP_KERNEL=compiled needs numba (pip install 'hlcmp_drake[fast]')"
+
+
+def test_an_unknown_path_is_refused_in_one_line():
+    result = run_cli("run", "one_dof", env={**os.environ, KERNEL_VARIABLE: "fortran"})
+    assert one_line_error(result) == (
+        "hlcmp: error: environment: HLCMP_KERNEL='fortran': expected one of compiled, numpy"
+    )
+
+
+def test_kernel_chosen_sets_the_path_for_the_block_only(monkeypatch):
+    monkeypatch.setenv(KERNEL_VARIABLE, "numpy")
+    expected = "compiled" if numba_available() else "numpy"
+    with kernel_chosen(expected):
+        assert kernel_path() == expected
+    assert kernel_path() == "numpy"
+    with pytest.raises(ValueError, match="fortran"), kernel_chosen("fortran"):
+        pass

@@ -16,7 +16,9 @@ Which path: `kernel_path` -- the one asked for, else the environment variable
 
 from __future__ import annotations
 
+import contextlib
 import os
+from collections.abc import Iterator
 from typing import Any, Callable, TypeVar
 
 numba: Any
@@ -85,6 +87,28 @@ def kernel_path(requested: str | None = None) -> str:
             f"{KERNEL_VARIABLE}=compiled needs numba (pip install 'hlcmp_drake[fast]')"
         )
     return path
+
+
+@contextlib.contextmanager
+def kernel_chosen(path: str) -> Iterator[None]:
+    """Within the block, what is made runs `path` (``HLCMP_KERNEL`` set, then restored): to
+    build both paths in one process.
+
+    Parameters
+    ----------
+    path : str
+        ``compiled`` or ``numpy``.
+    """
+    kernel_path(path)  # refuses an unknown path, or compiled without numba
+    before = os.environ.get(KERNEL_VARIABLE)
+    os.environ[KERNEL_VARIABLE] = path
+    try:
+        yield
+    finally:
+        if before is None:
+            del os.environ[KERNEL_VARIABLE]
+        else:
+            os.environ[KERNEL_VARIABLE] = before
 
 
 def implementation(func: F, path: str) -> F:

@@ -77,38 +77,29 @@ def polarized_coriolis(
     return (jbar.T @ (bias_plus - bias_minus) - inertia @ (accel_plus - accel_minus)) / 4.0
 
 
-@jitable
-def prismatic_task_terms(
-    jacobian: np.ndarray,
-    inverse: np.ndarray,
-    mass: np.ndarray,
-    joint_gravity: np.ndarray,
-    velocities: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The task-space terms of a robot of prismatic joints whose task axes are its joints,
-    J constant and square: x' = J v, Λ = J^-T M J^-1, G_x = J^-T G(q) (C_x = 0).
+def prismatic_task_dynamics(
+    inverse: np.ndarray, mass: np.ndarray, joint_gravity: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The task-space dynamics of a robot of prismatic joints whose task axes are its joints,
+    J constant and square: Λ = J^-T M J^-1, G_x = J^-T G (C_x = 0).
 
     Parameters
     ----------
-    jacobian, inverse : (M, M) arrays
-        J and J^-1.
+    inverse : (M, M) array
+        J^-1.
     mass : (M, M) array
-        M(q) [kg].
+        The joint-space mass matrix [kg].
     joint_gravity : (M,) array
-        G(q) [N].
-    velocities : (M,) array
-        v [m/s].
+        G, the joint force that holds the robot against gravity [N].
 
     Returns
     -------
-    velocity : (M,) array
-        x' [m/s].
     inertia : (M, M) array
         Λ [kg].
     gravity : (M,) array
         G_x [N].
     """
-    return jacobian @ velocities, inverse.T @ mass @ inverse, inverse.T @ joint_gravity
+    return inverse.T @ mass @ inverse, inverse.T @ joint_gravity
 
 
 @jitable

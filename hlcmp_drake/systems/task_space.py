@@ -13,7 +13,7 @@ from hlcmp_drake.core.kernels import implementation, kernel_path
 from hlcmp_drake.core.operational_space import (
     operational_space_terms,
     polarized_coriolis,
-    prismatic_task_terms,
+    prismatic_task_dynamics,
     saturate,
 )
 
@@ -179,9 +179,10 @@ class PrismaticTaskModel:
     """`TaskSpaceModel`'s terms for a plant made only of prismatic joints whose task axes
     are its joints, at a fraction of its cost (the slider world's one-call loop). With no
     rotation the mass matrix is constant, so C(q, v) = 0, and J is constant and square
-    (Jdot = 0): Lambda = J^-T M(q) J^-1, G_x = J^-T G(q), C_x = 0, no null space. M(q) and
-    G(q) come from the plant at every state; J once, and C(q, v) v = 0 is checked once
-    against Drake's bias term.
+    (Jdot = 0); so is gravity's generalized force: Lambda = J^-T M J^-1, G_x = J^-T G,
+    C_x = 0, no null space. J, M and G are read from the plant once, and checked: M and G
+    equal at a second configuration, C(q, v) v = 0 against Drake's bias term. Each tick
+    reads only the task position from the plant.
 
     Parameters
     ----------
@@ -218,12 +219,24 @@ class PrismaticTaskModel:
         self._jacobian = plant.CalcJacobianTranslationalVelocity(
             self._context, JacobianWrtVariable.kV, frame, self._origin, self._world, self._world
         )[self._axes]
-        self._inverse = np.linalg.inv(self._jacobian)
+        mass, gravity = self._mass_and_gravity()
+        plant.SetPositions(self._context, plant.GetPositions(self._context) + 1.0)
+        assert all(map(np.array_equal, (mass, gravity), self._mass_and_gravity())), (
+            "prismatic joints: M and G do not depend on q"
+        )
         plant.SetVelocities(self._context, np.ones(self.nv))
         assert not np.any(plant.CalcBiasTerm(self._context)), "prismatic joints: C(q, v) = 0"
+        self._joint_gravity = -gravity
+        self._inertia, self._gravity = prismatic_task_dynamics(
+            np.linalg.inv(self._jacobian), mass, self._joint_gravity
+        )
         self._coriolis = np.zeros((self.n_axes, self.n_axes))
         self._null_space = np.zeros((self.nv, self.nv))
-        self._prismatic_task_terms = implementation(prismatic_task_terms, kernel_path())
+
+    def _mass_and_gravity(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.plant.CalcMassMatrix(self._context), self.plant.CalcGravityGeneralizedForces(
+            self._context
+        )
 
     @property
     def context(self) -> Context:
@@ -249,23 +262,15 @@ class PrismaticTaskModel:
         position = plant.CalcPointsPositions(ctx, self._frame, self._origin, self._world)[
             self._axes, 0
         ]
-        joint_gravity = -plant.CalcGravityGeneralizedForces(ctx)
-        velocity, inertia, gravity = self._prismatic_task_terms(
-            self._jacobian,
-            self._inverse,
-            plant.CalcMassMatrix(ctx),
-            joint_gravity,
-            state[self.nq :],
-        )
         return TaskSpaceTerms(
             position,
-            velocity,
+            self._jacobian @ state[self.nq :],
             self._jacobian,
-            inertia,
+            self._inertia,
             self._coriolis,
-            gravity,
+            self._gravity,
             self._null_space,
-            joint_gravity,
+            self._joint_gravity,
         )
 
 
