@@ -22,6 +22,7 @@ This module is argparse and printing only: every command calls one library funct
 import argparse
 import gc
 import logging
+import os
 import sys
 
 import numpy as np
@@ -739,8 +740,10 @@ def _default_out(args):
 
 def _check_kernel():
     """Refuse an HLCMP_KERNEL the tick cannot run (exit 2), before any work is done."""
-    from hlcmp_drake.core.kernels import kernel_path
+    from hlcmp_drake.core.kernels import KERNEL_VARIABLE, kernel_path
 
+    if not os.environ.get(KERNEL_VARIABLE):
+        return  # the default path: compiled where numba imports, numpy elsewhere
     try:
         kernel_path()
     except ValueError as error:

@@ -11,7 +11,9 @@ makes a handful of compiled calls instead of about 80 numpy operations on 3- and
 7-vectors.
 
 Which path: `kernel_path` -- the one asked for, else the environment variable
-``HLCMP_KERNEL`` (``compiled`` or ``numpy``), else compiled when numba imports.
+``HLCMP_KERNEL`` (``compiled`` or ``numpy``), else compiled when numba imports. numba is
+imported only when a path is chosen (its import takes about a second): a command that
+makes no tick does not pay for it.
 """
 
 from __future__ import annotations
@@ -21,18 +23,13 @@ import os
 from collections.abc import Iterator
 from typing import Any, Callable, TypeVar
 
-numba: Any
-try:
-    import numba
-    from numba.extending import register_jitable
-except ImportError:  # numba is optional: the numpy path
-    numba = None
-
 KERNEL_VARIABLE = "HLCMP_KERNEL"
 PATHS = ("compiled", "numpy")
 
 F = TypeVar("F", bound=Callable)
 _compiled: dict[Callable, Callable] = {}
+_jitable: list[Callable] = []  # marked, not yet registered with numba
+_numba: list[Any] = []  # the numba module once imported, or None where it cannot be
 
 
 def jitable(func: F) -> F:
@@ -49,14 +46,30 @@ def jitable(func: F) -> F:
     callable
         `func` itself.
     """
-    if numba is not None:
-        register_jitable(func)
+    _jitable.append(func)
+    if _numba and _numba[0] is not None:
+        _register_marked()
     return func
 
 
+def _register_marked() -> None:
+    from numba.extending import register_jitable
+
+    while _jitable:
+        register_jitable(_jitable.pop())
+
+
 def numba_available() -> bool:
-    """Whether numba imports (the compiled path can run)."""
-    return numba is not None
+    """Whether numba imports (the compiled path can run); imports it the first time."""
+    if not _numba:
+        try:
+            import numba
+        except ImportError:  # numba is optional: the numpy path
+            _numba.append(None)
+        else:
+            _numba.append(numba)
+            _register_marked()
+    return _numba[0] is not None
 
 
 def kernel_path(requested: str | None = None) -> str:
@@ -79,10 +92,10 @@ def kernel_path(requested: str | None = None) -> str:
     """
     path = requested or os.environ.get(KERNEL_VARIABLE) or None
     if path is None:
-        return "compiled" if numba is not None else "numpy"
+        return "compiled" if numba_available() else "numpy"
     if path not in PATHS:
         raise ValueError(f"{KERNEL_VARIABLE}={path!r}: expected one of {', '.join(PATHS)}")
-    if path == "compiled" and numba is None:
+    if path == "compiled" and not numba_available():
         raise ValueError(
             f"{KERNEL_VARIABLE}=compiled needs numba (pip install 'hlcmp_drake[fast]')"
         )
@@ -129,6 +142,6 @@ def implementation(func: F, path: str) -> F:
     if path == "numpy":
         return func
     if func not in _compiled:
-        assert numba is not None, "kernel_path refuses 'compiled' without numba"
-        _compiled[func] = numba.njit(cache=True)(func)
+        assert numba_available(), "kernel_path refuses 'compiled' without numba"
+        _compiled[func] = _numba[0].njit(cache=True)(func)
     return _compiled[func]  # type: ignore[return-value]
