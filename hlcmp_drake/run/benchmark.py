@@ -25,6 +25,7 @@ from hlcmp_drake.core.dmp import Dmp, DmpSettings, phase_at
 from hlcmp_drake.core.kernels import kernel_chosen, kernel_path, numba_available
 from hlcmp_drake.experiments import EXPERIMENTS
 from hlcmp_drake.experiments.table import Table, number
+from hlcmp_drake.io.runs import RunResult
 from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.run.runner import run_scenario
 from hlcmp_drake.run.simulate import prepared_simulator, simulate
@@ -173,7 +174,7 @@ def insertion_runs(duration: float, repetitions: int) -> dict:
     }
 
 
-def tick_paths(scenario: Scenario, setup: arm.ArmSetup, run, repetitions: int) -> dict:
+def tick_paths(scenario: Scenario, setup: arm.ArmSetup, run: RunResult, repetitions: int) -> dict:
     """One Hl-CMP tick of the insertion (`ControlTick.evaluate`, θ' included) at every logged
     state of `run`, on the numpy path and on the compiled one (`core.kernels`), the two
     alternating; empty without numba.
