@@ -196,3 +196,33 @@ def test_kernel_chosen_sets_the_path_for_the_block_only(monkeypatch):
     assert kernel_path() == "numpy"
     with pytest.raises(ValueError, match="fortran"), kernel_chosen("fortran"):
         pass
+
+
+@needs_numba
+def test_a_served_client_compiles_its_tick_before_the_first_status():
+    """`hlcmp serve`'s client evaluates its tick once when it is made, so that the first
+    status is not answered seconds late while numba compiles or loads the kernels."""
+    script = """
+from pydrake.lcm import DrakeLcm
+from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.core import kernels
+from hlcmp_drake.run.serve import TorqueClient
+scenario, _ = load_scenario("insertion")
+TorqueClient(scenario, "hlcmp", DrakeLcm("memq://"))
+print(" ".join(sorted(f.__name__ for f, compiled in kernels._compiled.items()
+                      if compiled.signatures)))
+"""
+    env = {k: v for k, v in os.environ.items() if k != KERNEL_VARIABLE}
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, env=env, timeout=600
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == [
+        "below_task_torque",
+        "hlcmp_force",
+        "hlcmp_rates",
+        "impedance_motion",
+        "operational_space_terms",
+        "polarized_coriolis",
+        "task_joint_torque",
+    ]
