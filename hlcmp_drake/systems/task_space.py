@@ -180,9 +180,9 @@ class PrismaticTaskModel:
     are its joints, at a fraction of its cost (the slider world's one-call loop). With no
     rotation the mass matrix is constant, so C(q, v) = 0, and J is constant and square
     (Jdot = 0); so is gravity's generalized force: Lambda = J^-T M J^-1, G_x = J^-T G,
-    C_x = 0, no null space. J, M and G are read from the plant once, and checked: M and G
-    equal at a second configuration, C(q, v) v = 0 against Drake's bias term. Each tick
-    reads only the task position from the plant.
+    C_x = 0, no null space. The position is affine in q: x = x(0) + J q. J, x(0), M and G
+    are read from the plant once, and checked at a second configuration: M and G equal, x
+    equal to rounding; C(q, v) v = 0 against Drake's bias term. A tick makes no plant query.
 
     Parameters
     ----------
@@ -215,15 +215,21 @@ class PrismaticTaskModel:
                 f"the plant has {sorted(kinds)} joints, {self.nv} velocities, "
                 f"{self.n_axes} axes"
             )
-        self._origin = np.zeros((3, 1))  # the frame's origin, the task point (made once)
+        self._origin = np.zeros((3, 1))  # the frame's origin, the task point
         self._jacobian = plant.CalcJacobianTranslationalVelocity(
             self._context, JacobianWrtVariable.kV, frame, self._origin, self._world, self._world
         )[self._axes]
+        plant.SetPositions(self._context, np.zeros(self.nq))
+        self._position_at_zero = self._position()
         mass, gravity = self._mass_and_gravity()
-        plant.SetPositions(self._context, plant.GetPositions(self._context) + 1.0)
+        q = np.ones(self.nq)
+        plant.SetPositions(self._context, q)
         assert all(map(np.array_equal, (mass, gravity), self._mass_and_gravity())), (
             "prismatic joints: M and G do not depend on q"
         )
+        assert np.allclose(
+            self._position(), self._position_at_zero + self._jacobian @ q, rtol=1e-12, atol=1e-12
+        ), "prismatic joints: x = x(0) + J q"
         plant.SetVelocities(self._context, np.ones(self.nv))
         assert not np.any(plant.CalcBiasTerm(self._context)), "prismatic joints: C(q, v) = 0"
         self._joint_gravity = -gravity
@@ -233,6 +239,11 @@ class PrismaticTaskModel:
         self._coriolis = np.zeros((self.n_axes, self.n_axes))
         self._null_space = np.zeros((self.nv, self.nv))
 
+    def _position(self) -> np.ndarray:
+        return self.plant.CalcPointsPositions(
+            self._context, self._frame, self._origin, self._world
+        )[self._axes, 0]
+
     def _mass_and_gravity(self) -> tuple[np.ndarray, np.ndarray]:
         return self.plant.CalcMassMatrix(self._context), self.plant.CalcGravityGeneralizedForces(
             self._context
@@ -240,7 +251,8 @@ class PrismaticTaskModel:
 
     @property
     def context(self) -> Context:
-        """The control-side plant context, at the state of the last `terms` call."""
+        """The control-side plant context the constant terms were read from (`terms` does
+        not set it)."""
         return self._context
 
     def terms(self, state: np.ndarray, coriolis_matrix: bool = True) -> TaskSpaceTerms:
@@ -257,13 +269,8 @@ class PrismaticTaskModel:
         -------
         TaskSpaceTerms
         """
-        plant, ctx = self.plant, self._context
-        plant.SetPositionsAndVelocities(ctx, state)
-        position = plant.CalcPointsPositions(ctx, self._frame, self._origin, self._world)[
-            self._axes, 0
-        ]
         return TaskSpaceTerms(
-            position,
+            self._position_at_zero + self._jacobian @ state[: self.nq],
             self._jacobian @ state[self.nq :],
             self._jacobian,
             self._inertia,
