@@ -33,6 +33,7 @@ This module is argparse and printing only: every command calls one library funct
 import argparse
 import gc
 import logging
+import os
 import shlex
 import sys
 
@@ -1061,6 +1062,18 @@ def _default_out(args):
     return None
 
 
+def _check_kernel():
+    """Refuse an HLCMP_KERNEL the tick cannot run (exit 2), before any work is done."""
+    from hlcmp_drake.core.kernels import KERNEL_VARIABLE, kernel_path
+
+    if not os.environ.get(KERNEL_VARIABLE):
+        return  # the default path: compiled where numba imports, numpy elsewhere
+    try:
+        kernel_path()
+    except ValueError as error:
+        raise InputError(f"environment: {error}") from None
+
+
 def _check_output(args):
     """Refuse an output path that cannot be written before any work is done (exit 2)."""
 
@@ -1093,6 +1106,7 @@ def main(argv=None):
     args.debug = getattr(args, "debug", False)
     WRITTEN.clear()  # this command's files only (main may run more than once in a process)
     try:
+        _check_kernel()
         _check_output(args)
         return args.func(args)
     except InputError as error:

@@ -20,7 +20,12 @@ def test_commanded_force_hand_computed():
     xe_dot, xe_ddot = reference_motion(np.array([0.1]), np.array([0.0]), e, edot, 4.0)
     np.testing.assert_allclose([xe_dot[0], xe_ddot[0]], [0.1 - 0.2, 0.08])
     f0 = nominal_force(
-        np.array([[5.0]]), np.array([[0.5]]), np.array([2.0]), xe_dot, xe_ddot, np.array([3.0]), eps
+        np.array([[5.0]]),
+        np.array([[0.5]]) @ xe_dot,
+        np.array([2.0]),
+        xe_ddot,
+        np.array([3.0]),
+        eps,
     )
     np.testing.assert_allclose(f0, [5 * 0.08 + 0.5 * -0.1 + 2.0 - 3 * 0.18])
     u = impedance_force(np.array([100.0]), np.array([10.0]), e, edot)

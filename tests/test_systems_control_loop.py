@@ -7,6 +7,9 @@ import pytest
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
+from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.core.dmp import phase_at
+from hlcmp_drake.core.kernels import KERNEL_VARIABLE, numba_available
 from hlcmp_drake.core.laws import TaskSpaceInstant
 from hlcmp_drake.systems.arm import BelowTaskImpedance, NullSpaceImpedance
 from hlcmp_drake.systems.control_loop import ControlLoop, ControlTick
@@ -15,6 +18,7 @@ from hlcmp_drake.systems.task_space import TaskSpaceDynamics, TaskSpaceModel
 from hlcmp_drake.worlds.arm import arm_tick
 from hlcmp_drake.worlds.controllers import hlcmp_law, modular_system
 from hlcmp_drake.worlds.models import add_plant, scoped_frame
+from hlcmp_drake.worlds.slider import slider_tick
 
 
 def test_one_tick_gives_the_modular_systems_torque(insertion):
@@ -227,3 +231,125 @@ def test_the_torque_is_saturated_at_the_effort_limits(arm_ticks, insertion):
     assert np.sum(np.isclose(np.abs(torque), limits)) == result.saturated
     logs = loop.GetOutputPort("logs").Eval(context)
     assert logs[loop.log_columns["saturated"]][0] == result.saturated
+
+
+# --- the compiled tick against the numpy tick (core.kernels) ------------------------------
+
+
+def _ticks_on_both_paths(monkeypatch, make):
+    made = {}
+    for path in ("compiled", "numpy"):
+        monkeypatch.setenv(KERNEL_VARIABLE, path)
+        made[path] = make()
+        assert made[path].kernel == path
+    return made["compiled"], made["numpy"]
+
+
+def _assert_ticks_agree(compiled, numpy_path, inputs):
+    """The torque, the saturation count, f_c, the law's series, θ' and the task-space terms
+    of the two paths, each equal to 1e-12 of its own scale, at every input."""
+    for state, reference, theta, extra in inputs:
+        a = compiled.evaluate(state, reference, theta, **extra)
+        b = numpy_path.evaluate(state, reference, theta, **extra)
+        assert a.saturated == b.saturated
+        pairs = [("torque", a.torque, b.torque), ("f_c", a.law.force, b.law.force)]
+        pairs += [(key, a.law.logs[key], b.law.logs[key]) for key in b.law.logs]
+        if b.law.rates is not None:
+            pairs.append(("θ'", a.law.rates, b.law.rates))
+        for field in ("position", "velocity", "inertia", "gravity", "null_space"):
+            pairs.append((field, getattr(a.terms, field), getattr(b.terms, field)))
+        for what, got, expected in pairs:
+            scale = max(1.0, float(np.max(np.abs(expected), initial=0.0)))
+            np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12 * scale, err_msg=what)
+
+
+needs_numba = pytest.mark.skipif(not numba_available(), reason="numba is not installed")
+
+
+@needs_numba
+@pytest.mark.parametrize("name", ["hlcmp", "const_500"])
+def test_compiled_arm_tick_agrees_with_numpy_at_random_states(monkeypatch, insertion, name):
+    scenario, setup = insertion
+    plant, _ = add_plant(DiagramBuilder(), scenario)
+    compiled, numpy_path = _ticks_on_both_paths(
+        monkeypatch, lambda: arm_tick(scenario, name, plant=plant, setup=setup)
+    )
+    inputs = [(*_inputs(setup, numpy_path.law, seed), {}) for seed in range(20)]
+    _assert_ticks_agree(compiled, numpy_path, inputs)
+
+
+@needs_numba
+@pytest.mark.parametrize("name", ["hlcmp", "vic_fd_0.5"])
+def test_compiled_slider_tick_agrees_with_numpy_at_random_states(monkeypatch, name):
+    scenario, _ = load_scenario("one_dof")
+    plant, _ = add_plant(DiagramBuilder(), scenario)
+    compiled, numpy_path = _ticks_on_both_paths(
+        monkeypatch, lambda: slider_tick(scenario, name, plant=plant)
+    )
+    rng = np.random.default_rng(5)
+    law = numpy_path.law
+    inputs = [
+        (
+            rng.normal(0, 0.1, 2),
+            tuple(rng.normal(0, scale, 1) for scale in (0.1, 0.1, 1.0)) + (rng.uniform(size=1),),
+            rng.uniform(0, 300, law.theta_size) if law.learns else rng.normal(0, 0.1, 3),
+            dict(time=float(rng.uniform(0, 20)), external_force=rng.normal(0, 5, 1)),
+        )
+        for _ in range(20)
+    ]
+    _assert_ticks_agree(compiled, numpy_path, inputs)
+
+
+def _real_inputs(run_folder, name, phase_of, law, every=25):
+    """The run's logged plant states and set-points (every `every`-th 10 ms sample), the
+    set-point's rates by differences, the phase at that time, and θ drawn at random."""
+    series = np.load(run_folder / "timeseries.npz")
+    t, xd = series["t"], series[f"{name}/xd"]
+    xd_dot = np.gradient(xd, t, axis=0)
+    xd_ddot = np.gradient(xd_dot, t, axis=0)
+    rng = np.random.default_rng(11)
+    return [
+        (
+            series[f"{name}/plant_state"][k],
+            (xd[k], xd_dot[k], xd_ddot[k], np.array([phase_of(t[k])])),
+            rng.uniform(0, 300, law.theta_size) if law.learns else None,
+            dict(time=float(t[k]), external_force=series[f"{name}/f_ext"][k]),
+        )
+        for k in range(0, len(t), every)
+    ]
+
+
+@needs_numba
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["hlcmp", "const_500"])
+def test_compiled_arm_tick_agrees_with_numpy_along_the_run(
+    monkeypatch, insertion, insertion_run, name
+):
+    """At the bundled insertion's own plant states: free motion, contact, the tear."""
+    scenario, setup = insertion
+    plant, _ = add_plant(DiagramBuilder(), scenario)
+    compiled, numpy_path = _ticks_on_both_paths(
+        monkeypatch, lambda: arm_tick(scenario, name, plant=plant, setup=setup)
+    )
+    dmp = setup.dmp
+    inputs = _real_inputs(
+        insertion_run, name, lambda t: phase_at(t, dmp.tau, dmp.settings.alpha_s), numpy_path.law
+    )
+    _assert_ticks_agree(compiled, numpy_path, inputs)
+
+
+@needs_numba
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["hlcmp", "vic_fd_0.5"])
+def test_compiled_slider_tick_agrees_with_numpy_along_the_run(monkeypatch, one_dof_run, name):
+    """At the bundled 1-DOF run's own states (free, pressing, retreating); the variable
+    impedance's state θ from its commanded motion: x_c = x, x_c' = x', Φ = 0."""
+    scenario, _ = load_scenario("one_dof")
+    plant, _ = add_plant(DiagramBuilder(), scenario)
+    compiled, numpy_path = _ticks_on_both_paths(
+        monkeypatch, lambda: slider_tick(scenario, name, plant=plant)
+    )
+    inputs = _real_inputs(one_dof_run, name, lambda t: np.exp(-t), numpy_path.law, every=50)
+    if not numpy_path.law.learns:
+        inputs = [(s, r, np.concatenate([s, [0.0]]), e) for s, r, _, e in inputs]
+    _assert_ticks_agree(compiled, numpy_path, inputs)

@@ -1,12 +1,16 @@
 """The Hl-CMP compliant profiles and the biomimetic adaptation law (paper Eqs. 14, 31).
 
-Pure numpy. theta_k, theta_d, theta_v are (M, N) arrays: one row of N basis weights per
-Cartesian axis; g is the (N,) normalized basis g(s) of Eq. 16 at the current phase.
+Pure numpy, `jitable` (`core.kernels`). theta_k, theta_d, theta_v are (M, N) arrays: one row
+of N basis weights per Cartesian axis; g is the (N,) normalized basis g(s) of Eq. 16 at the
+current phase.
 """
 
 import numpy as np
 
+from hlcmp_drake.core.kernels import jitable
 
+
+@jitable
 def compliant_profiles(
     theta_k: np.ndarray, theta_d: np.ndarray, theta_v: np.ndarray, g: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -28,6 +32,7 @@ def compliant_profiles(
     return theta_k @ g, theta_d @ g, theta_v @ g
 
 
+@jitable
 def adaptation_rates(
     eps: np.ndarray,
     e: np.ndarray,
@@ -61,10 +66,11 @@ def adaptation_rates(
     theta_k_dot, theta_d_dot, theta_v_dot : (M, N) arrays
         Time derivatives of theta_k [N/(m s)], theta_d [N/m] and theta_v [N/s].
     """
-    eps = np.asarray(eps, dtype=float)
+    eps = np.asarray(eps, dtype=np.float64)
     return (np.outer(q_k * eps * e, g), np.outer(q_d * eps * edot, g), np.outer(q_v * eps, g))
 
 
+@jitable
 def forgetting_rates(rates: np.ndarray, theta: np.ndarray, gamma: float) -> np.ndarray:
     """The adaptation law with a forgetting factor (Yang et al. 2011, the -γK term of their
     stiffness adaptation): θ' = (Eq. 31) - γ θ.
@@ -87,4 +93,4 @@ def forgetting_rates(rates: np.ndarray, theta: np.ndarray, gamma: float) -> np.n
     (P,) array
         θ' [per second].
     """
-    return rates - gamma * np.asarray(theta, dtype=float)
+    return rates - gamma * np.asarray(theta, dtype=np.float64)

@@ -1,12 +1,16 @@
 """Task-space control laws (paper Eqs. 3-5, 29, 33-34), pure numpy.
 
 Vectors are (M,) task-space quantities; matrices (M, M). The dynamics terms M, C, G
-come from Drake (see `systems.task_space.TaskSpaceDynamics`), never from here.
+come from Drake (see `systems.task_space.TaskSpaceDynamics`), never from here. Every
+function is `jitable`: numba compiles it into the tick's kernels (`core.kernels`).
 """
 
 import numpy as np
 
+from hlcmp_drake.core.kernels import jitable
 
+
+@jitable
 def tracking_errors(
     x: np.ndarray, xdot: np.ndarray, xd: np.ndarray, xd_dot: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -27,6 +31,7 @@ def tracking_errors(
     return np.asarray(x) - xd, np.asarray(xdot) - xd_dot
 
 
+@jitable
 def impedance_force(
     k_s: np.ndarray, k_d: np.ndarray, e: np.ndarray, edot: np.ndarray
 ) -> np.ndarray:
@@ -47,6 +52,7 @@ def impedance_force(
     return k_s * e + k_d * edot
 
 
+@jitable
 def sliding_error(e: np.ndarray, edot: np.ndarray, pi: float) -> np.ndarray:
     """Eq. 29: eps = e' + pi e, pi > 0.
 
@@ -65,6 +71,7 @@ def sliding_error(e: np.ndarray, edot: np.ndarray, pi: float) -> np.ndarray:
     return edot + pi * e
 
 
+@jitable
 def reference_motion(
     xd_dot: np.ndarray, xd_ddot: np.ndarray, e: np.ndarray, edot: np.ndarray, pi: float
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -86,23 +93,28 @@ def reference_motion(
     return xd_dot - pi * e, xd_ddot - pi * edot
 
 
+@jitable
 def nominal_force(
     inertia: np.ndarray,
-    coriolis: np.ndarray,
+    coriolis_term: np.ndarray,
     gravity: np.ndarray,
-    xe_dot: np.ndarray,
     xe_ddot: np.ndarray,
     gain_l: np.ndarray,
     eps: np.ndarray,
 ) -> np.ndarray:
     """Eq. 34: f_0 = M x_e'' + C x_e' + G - L eps, with L given by its diagonal (M,).
 
+    C enters only as its product with x_e', which the fast path has Drake compute without
+    forming C (`systems.task_space.CoriolisProduct`).
+
     Parameters
     ----------
-    inertia, coriolis, gravity : (M, M), (M, M), (M,) arrays
-        Task-space M [kg], C [kg/s] and G [N] of Eq. 2, from Drake.
-    xe_dot, xe_ddot : (M,) arrays
-        Reference velocity [m/s] and acceleration [m/s^2] (see `reference_motion`).
+    inertia, gravity : (M, M), (M,) arrays
+        Task-space M [kg] and G [N] of Eq. 2, from Drake.
+    coriolis_term : (M,) array
+        C x_e' [N], C [kg/s] of Eq. 2 times the reference velocity of `reference_motion`.
+    xe_ddot : (M,) array
+        Reference acceleration [m/s^2] (see `reference_motion`).
     gain_l : (M,) array
         Diagonal of the feedback gain L [N s/m].
     eps : (M,) array
@@ -113,9 +125,10 @@ def nominal_force(
     f0 : (M,) array
         Nominal force [N].
     """
-    return inertia @ xe_ddot + coriolis @ xe_dot + gravity - gain_l * eps
+    return inertia @ xe_ddot + coriolis_term + gravity - gain_l * eps
 
 
+@jitable
 def commanded_force(f0: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Eq. 33: f_c = f_0 - u - v (Eq. 3 is the special case f_0 = 0).
 
@@ -136,20 +149,17 @@ def commanded_force(f0: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
     return f0 - u - v
 
 
-def nominal_command(
+@jitable
+def sliding_motion(
     x: np.ndarray,
     xdot: np.ndarray,
     xd: np.ndarray,
     xd_dot: np.ndarray,
     xd_ddot: np.ndarray,
-    inertia: np.ndarray,
-    coriolis: np.ndarray,
-    gravity: np.ndarray,
     pi: float,
-    gain_l: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The part of the command every task-space impedance law here shares: the tracking
-    errors (Eq. 5), the sliding error (Eq. 29) and the nominal force f_0 (Eq. 34).
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """What every task-space impedance law here computes before its Coriolis term: the
+    tracking errors (Eq. 5), the sliding error (Eq. 29) and the reference motion of Eq. 34.
 
     Parameters
     ----------
@@ -157,21 +167,16 @@ def nominal_command(
         Measured task-space position [m] and velocity [m/s].
     xd, xd_dot, xd_ddot : (M,) arrays
         Desired position [m], velocity [m/s] and acceleration [m/s^2].
-    inertia, coriolis : (M, M) arrays
-        Task-space inertia [kg] and Coriolis matrix [kg/s] (Eq. 2), from Drake.
-    gravity : (M,) array
-        Task-space gravity force [N].
     pi : float
         Slope of the sliding surface [1/s], > 0 (Eq. 29).
-    gain_l : (M,) array
-        Diagonal of the feedback gain L [N s/m] (Eq. 34).
 
     Returns
     -------
-    e, edot, eps, f0 : (M,) arrays
-        Position error [m], velocity error [m/s], sliding error [m/s], nominal force [N].
+    e, edot, eps, xe_dot, xe_ddot : (M,) arrays
+        Position error [m], velocity error [m/s], sliding error [m/s], and the reference
+        velocity [m/s] (the vector C multiplies in Eq. 34) and acceleration [m/s^2].
     """
     e, edot = tracking_errors(x, xdot, xd, xd_dot)
     eps = sliding_error(e, edot, pi)
     xe_dot, xe_ddot = reference_motion(xd_dot, xd_ddot, e, edot, pi)
-    return e, edot, eps, nominal_force(inertia, coriolis, gravity, xe_dot, xe_ddot, gain_l, eps)
+    return e, edot, eps, xe_dot, xe_ddot

@@ -19,6 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from hlcmp_drake.core.kernels import jitable
+
 # Axes with |g - p0| below this fraction of the demonstration's range are "g ~ p0" axes
 # (reach down, cut, come back up): their Eq. 13 amplitude would vanish; the range is used.
 DEGENERATE_GOAL_FRACTION = 0.1
@@ -142,6 +144,7 @@ def basis_centers_and_widths(n_basis: int, alpha_s: float) -> tuple[np.ndarray, 
     return centers, widths
 
 
+@jitable
 def rbf_activations(s: float | np.ndarray, centers: np.ndarray, widths: np.ndarray) -> np.ndarray:
     """Eq. 10: omega_n(s) = exp(-0.5 h_n (s - c_n)^2). s scalar -> (N,), s (T,) -> (T, N).
 
@@ -157,10 +160,11 @@ def rbf_activations(s: float | np.ndarray, centers: np.ndarray, widths: np.ndarr
     (N,) or (T, N) array
         Activations omega_n(s) [-], in (0, 1].
     """
-    s = np.asarray(s, dtype=float)
+    s = np.asarray(s, dtype=np.float64)
     return np.exp(-0.5 * widths * (s[..., None] - centers) ** 2)
 
 
+@jitable
 def normalized_basis(s: float | np.ndarray, centers: np.ndarray, widths: np.ndarray) -> np.ndarray:
     """Eq. 16: [g(s)]_n = omega_n(s) / sum_k omega_k(s), the compliant-profile basis.
 
@@ -175,7 +179,7 @@ def normalized_basis(s: float | np.ndarray, centers: np.ndarray, widths: np.ndar
         g(s) [-], each row summing to 1.
     """
     omega = rbf_activations(s, centers, widths)
-    return omega / np.sum(omega, axis=-1, keepdims=True)
+    return omega / np.expand_dims(np.sum(omega, axis=-1), -1)
 
 
 def forcing_basis(

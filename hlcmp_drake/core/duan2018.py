@@ -31,8 +31,10 @@
 import numpy as np
 
 from hlcmp_drake.core.control_law import tracking_errors
+from hlcmp_drake.core.kernels import jitable
 
 
+@jitable
 def duan_adaptation_step(
     phi: np.ndarray, delta_f: np.ndarray, sigma: float, b: np.ndarray
 ) -> np.ndarray:
@@ -57,6 +59,7 @@ def duan_adaptation_step(
     return phi + sigma * delta_f / b
 
 
+@jitable
 def duan_force_error(f_desired: np.ndarray, f_measured: np.ndarray) -> np.ndarray:
     """Delta_f = f_d - f_e (desired minus measured reaction force), per axis.
 
@@ -75,6 +78,7 @@ def duan_force_error(f_desired: np.ndarray, f_measured: np.ndarray) -> np.ndarra
     return np.asarray(f_desired) - f_measured
 
 
+@jitable
 def duan_admittance_acceleration(
     e_c: np.ndarray,
     e_c_dot: np.ndarray,
@@ -114,9 +118,10 @@ def duan_admittance_acceleration(
     return (-delta_f - damping * (e_c_dot + phi) - stiffness * e_c) / mass
 
 
+@jitable
 def inner_position_loop(
     inertia: np.ndarray,
-    coriolis: np.ndarray,
+    coriolis_term: np.ndarray,
     gravity: np.ndarray,
     xc_ddot: np.ndarray,
     xc_dot: np.ndarray,
@@ -133,8 +138,10 @@ def inner_position_loop(
 
     Parameters
     ----------
-    inertia, coriolis : (M, M) arrays
-        Task-space inertia [kg] and Coriolis matrix [kg/s], from Drake.
+    inertia : (M, M) array
+        Task-space inertia [kg], from Drake.
+    coriolis_term : (M,) array
+        C x' [N]: the task-space Coriolis matrix [kg/s] times the measured velocity.
     gravity : (M,) array
         Task-space gravity force [N].
     xc_ddot, xc_dot, xc : (M,) arrays
@@ -154,13 +161,11 @@ def inner_position_loop(
         Commanded task-space force f [N].
     """
     return (
-        inertia @ (xc_ddot + kv * (xc_dot - xdot) + kp * (xc - x))
-        + coriolis @ xdot
-        + gravity
-        - f_ext
+        inertia @ (xc_ddot + kv * (xc_dot - xdot) + kp * (xc - x)) + coriolis_term + gravity - f_ext
     )
 
 
+@jitable
 def duan_commanded_motion(
     xc: np.ndarray,
     xc_dot: np.ndarray,
@@ -215,6 +220,7 @@ def duan_commanded_motion(
     return xr_ddot + ec_ddot, delta_f, tracking
 
 
+@jitable
 def duan_phi_update(
     phi: np.ndarray, delta_f: np.ndarray, tracking: np.ndarray, sigma: float, b: np.ndarray
 ) -> np.ndarray:

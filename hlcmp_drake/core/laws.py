@@ -3,6 +3,14 @@
 compared with, composed from the functions that
 hold those equations. Pure numpy.
 
+Each law's arithmetic at one instant is a composed `jitable` function here
+(`impedance_motion`, `hlcmp_force`, `hlcmp_rates`, `hlcmp_command`, `impedance_command`,
+`variable_impedance_command`), run compiled or as numpy as `core.kernels.kernel_path` says
+when the law is made; only the Coriolis product C_x w, which the fast path has Drake
+evaluate, is formed between them. Each returns one array (its parts one after the other):
+a compiled function hands every array it returns back to Python at a cost, so one per
+call.
+
 Every law has the shape of `ControlLaw`. Both ways of putting a law in a Drake diagram
 evaluate these objects: the modular system `systems.law_controller.LawController` (θ its
 continuous state) and the arm's one-call control loop (`systems.control_loop`). A new law is a
@@ -14,24 +22,30 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Callable, Protocol
+from typing import Callable, NamedTuple, Protocol
 
 import numpy as np
 
 from hlcmp_drake.core.adaptation import adaptation_rates, compliant_profiles, forgetting_rates
-from hlcmp_drake.core.control_law import commanded_force, impedance_force, nominal_command
+from hlcmp_drake.core.control_law import (
+    commanded_force,
+    impedance_force,
+    nominal_force,
+    sliding_motion,
+)
 from hlcmp_drake.core.dmp import normalized_basis
 from hlcmp_drake.core.duan2018 import (
     duan_commanded_motion,
     duan_phi_update,
     inner_position_loop,
 )
+from hlcmp_drake.core.kernels import implementation, jitable, kernel_path
 
 
-@dataclass(frozen=True)
-class TaskSpaceInstant:
+class TaskSpaceInstant(NamedTuple):
     """What a law reads at one instant: the measured and desired motion, the phase, and
-    the task-space dynamics terms of Eq. 2 (from Drake).
+    the task-space dynamics terms of Eq. 2 (from Drake). Immutable; a named tuple rather
+    than a frozen dataclass because a tick makes one every millisecond (a third of the cost).
 
     Attributes
     ----------
@@ -142,6 +156,279 @@ class ControlLaw(Protocol):
         ...
 
 
+@jitable
+def impedance_motion(
+    x: np.ndarray,
+    xdot: np.ndarray,
+    xd: np.ndarray,
+    xd_dot: np.ndarray,
+    xd_ddot: np.ndarray,
+    pi: float,
+) -> np.ndarray:
+    """`core.control_law.sliding_motion` in one array: [e, e', ε, x_e', x_e''] (5 M,),
+    what the impedance laws compute before C_x x_e'.
+
+    Parameters
+    ----------
+    x, xdot, xd, xd_dot, xd_ddot : (M,) arrays
+        Measured and desired motion [m], [m/s], [m/s^2].
+    pi : float
+        Slope of the sliding surface [1/s].
+
+    Returns
+    -------
+    (5 M,) array
+        e [m], e' [m/s], ε [m/s], x_e' [m/s], x_e'' [m/s^2].
+    """
+    e, edot, eps, xe_dot, xe_ddot = sliding_motion(x, xdot, xd, xd_dot, xd_ddot, pi)
+    return np.concatenate((e, edot, eps, xe_dot, xe_ddot))
+
+
+@jitable
+def hlcmp_force(
+    motion: np.ndarray,
+    inertia: np.ndarray,
+    coriolis_term: np.ndarray,
+    gravity: np.ndarray,
+    gain_l: np.ndarray,
+    phase: float,
+    theta: np.ndarray,
+    centers: np.ndarray,
+    widths: np.ndarray,
+) -> np.ndarray:
+    """The Hl-CMP's command after `impedance_motion`: g(s) (Eq. 16), the profiles (Eq. 14),
+    u (Eq. 4), f_0 (Eq. 34) and f_c (Eq. 33).
+
+    Parameters
+    ----------
+    motion : (5 M,) array
+        From `impedance_motion`.
+    inertia : (M, M) array
+        Λ [kg].
+    coriolis_term : (M,) array
+        C_x x_e' [N].
+    gravity : (M,) array
+        G_x [N].
+    gain_l : (M,) array
+        Diagonal of L [N s/m].
+    phase : float
+        The phase s [-].
+    theta : (3 M N,) array
+        [θ_k, θ_d, θ_v], each (M, N) row-major.
+    centers, widths : (N,) arrays
+        The phase basis.
+
+    Returns
+    -------
+    (6 M + N,) array
+        f_c [N], K_s [N/m], K_d [N s/m], v [N], u [N], ε [m/s] (M each), then g(s) (N).
+    """
+    m = motion.shape[0] // 5
+    e, edot, eps, xe_ddot = motion[:m], motion[m : 2 * m], motion[2 * m : 3 * m], motion[4 * m :]
+    g = normalized_basis(np.array([phase]), centers, widths)[0]
+    weights = theta.reshape(3, m, centers.shape[0])
+    k_s, k_d, v = compliant_profiles(weights[0], weights[1], weights[2], g)
+    u = impedance_force(k_s, k_d, e, edot)
+    f0 = nominal_force(inertia, coriolis_term, gravity, xe_ddot, gain_l, eps)
+    return np.concatenate((commanded_force(f0, u, v), k_s, k_d, v, u, eps, g))
+
+
+@jitable
+def hlcmp_rates(
+    motion: np.ndarray, g: np.ndarray, q_k: np.ndarray, q_d: np.ndarray, q_v: np.ndarray
+) -> np.ndarray:
+    """θ' of Eq. 31 (`adaptation_rates`), flattened as θ = [θ_k, θ_d, θ_v].
+
+    Parameters
+    ----------
+    motion : (5 M,) array
+        From `impedance_motion`.
+    g : (N,) array
+        g(s).
+    q_k, q_d, q_v : (M,) arrays
+        The learning rates.
+
+    Returns
+    -------
+    (3 M N,) array
+    """
+    m = motion.shape[0] // 5
+    e, edot, eps = motion[:m], motion[m : 2 * m], motion[2 * m : 3 * m]
+    k, d, v = adaptation_rates(eps, e, edot, g, q_k, q_d, q_v)
+    return np.concatenate((k.ravel(), d.ravel(), v.ravel()))
+
+
+@jitable
+def hlcmp_command(
+    x: np.ndarray,
+    xdot: np.ndarray,
+    xd: np.ndarray,
+    xd_dot: np.ndarray,
+    xd_ddot: np.ndarray,
+    phase: float,
+    inertia: np.ndarray,
+    coriolis: np.ndarray,
+    gravity: np.ndarray,
+    pi: float,
+    gain_l: np.ndarray,
+    theta: np.ndarray,
+    centers: np.ndarray,
+    widths: np.ndarray,
+    q_k: np.ndarray,
+    q_d: np.ndarray,
+    q_v: np.ndarray,
+) -> np.ndarray:
+    """The Hl-CMP at one instant where C_x is a matrix: `impedance_motion`, `hlcmp_force`
+    and `hlcmp_rates` in one call.
+
+    Parameters
+    ----------
+    x, xdot, xd, xd_dot, xd_ddot : (M,) arrays
+        Measured and desired motion [m], [m/s], [m/s^2].
+    phase : float
+        The phase s [-].
+    inertia, coriolis : (M, M) arrays
+        Λ [kg] and C_x [kg/s].
+    gravity : (M,) array
+        G_x [N].
+    pi : float
+        Slope of the sliding surface [1/s].
+    gain_l : (M,) array
+        Diagonal of L [N s/m].
+    theta : (3 M N,) array
+        [θ_k, θ_d, θ_v].
+    centers, widths : (N,) arrays
+        The phase basis.
+    q_k, q_d, q_v : (M,) arrays
+        The learning rates.
+
+    Returns
+    -------
+    (6 M + 3 M N,) array
+        `hlcmp_force`'s first 6 M values, then θ' (`hlcmp_rates`).
+    """
+    m = x.shape[0]
+    motion = impedance_motion(x, xdot, xd, xd_dot, xd_ddot, pi)
+    out = hlcmp_force(
+        motion,
+        inertia,
+        coriolis @ motion[3 * m : 4 * m],
+        gravity,
+        gain_l,
+        phase,
+        theta,
+        centers,
+        widths,
+    )
+    return np.concatenate((out[: 6 * m], hlcmp_rates(motion, out[6 * m :], q_k, q_d, q_v)))
+
+
+@jitable
+def impedance_command(
+    motion: np.ndarray,
+    inertia: np.ndarray,
+    coriolis_term: np.ndarray,
+    gravity: np.ndarray,
+    gain_l: np.ndarray,
+    stiffness: np.ndarray,
+    damping: np.ndarray,
+) -> np.ndarray:
+    """The constant impedance's command after `impedance_motion`: f_c = f_0 - K_s e - K_d e'
+    (Eqs. 34, 4, 33 with v = 0).
+
+    Parameters
+    ----------
+    motion, inertia, coriolis_term, gravity, gain_l
+        As for `hlcmp_force`.
+    stiffness, damping : (M,) arrays
+        Diagonals of K_s [N/m] and K_d [N s/m].
+
+    Returns
+    -------
+    (M,) array
+        f_c [N].
+    """
+    m = motion.shape[0] // 5
+    e, edot, eps, xe_ddot = motion[:m], motion[m : 2 * m], motion[2 * m : 3 * m], motion[4 * m :]
+    f0 = nominal_force(inertia, coriolis_term, gravity, xe_ddot, gain_l, eps)
+    return commanded_force(f0, impedance_force(stiffness, damping, e, edot), np.zeros(m))
+
+
+@jitable
+def variable_impedance_command(
+    theta: np.ndarray,
+    xd: np.ndarray,
+    xd_dot: np.ndarray,
+    xd_ddot: np.ndarray,
+    desired_force: np.ndarray,
+    external_force: np.ndarray,
+    x: np.ndarray,
+    xdot: np.ndarray,
+    inertia: np.ndarray,
+    coriolis_term: np.ndarray,
+    gravity: np.ndarray,
+    mass: np.ndarray,
+    damping: np.ndarray,
+    free_stiffness: np.ndarray,
+    kp: np.ndarray,
+    kv: np.ndarray,
+    sigma: float,
+    sample_period: float,
+) -> np.ndarray:
+    """The variable impedance at one instant: the admittance (`duan_commanded_motion`), the
+    inner loop (`inner_position_loop`), and the rates of θ = [x_c, x_c', Φ]: [x_c', x_c'',
+    (Φ(t + λ) - Φ(t)) / λ], Φ(t + λ) by `duan_phi_update`.
+
+    Parameters
+    ----------
+    theta : (3 M,) array
+        [x_c, x_c', Φ].
+    xd, xd_dot, xd_ddot : (M,) arrays
+        The reference [m], [m/s], [m/s^2].
+    desired_force, external_force : (M,) arrays
+        f_d and the measured reaction f_e [N].
+    x, xdot : (M,) arrays
+        Measured position [m] and velocity [m/s].
+    inertia : (M, M) array
+        Λ [kg].
+    coriolis_term : (M,) array
+        C_x x' [N].
+    gravity : (M,) array
+        G_x [N].
+    mass, damping, free_stiffness, kp, kv : (M,) arrays
+        As for `VariableImpedanceLaw`.
+    sigma : float
+        Φ's update rate [-].
+    sample_period : float
+        λ [s].
+
+    Returns
+    -------
+    (4 M,) array
+        The inner loop's force [N], then θ's rates.
+    """
+    m = xd.shape[0]
+    xc, xc_dot, phi = theta[:m], theta[m : 2 * m], theta[2 * m :]
+    xc_ddot, delta_f, tracking = duan_commanded_motion(
+        xc,
+        xc_dot,
+        phi,
+        xd,
+        xd_dot,
+        xd_ddot,
+        desired_force,
+        external_force,
+        mass,
+        damping,
+        free_stiffness,
+    )
+    force = inner_position_loop(
+        inertia, coriolis_term, gravity, xc_ddot, xc_dot, xc, x, xdot, kp, kv, external_force
+    )
+    next_phi = duan_phi_update(phi, delta_f, tracking, sigma, damping)
+    return np.concatenate((force, xc_dot, xc_ddot, (next_phi - phi) / sample_period))
+
+
 @dataclass(frozen=True)
 class HlcmpGains:
     """Per-axis learning rates Q_k, Q_d, Q_v (M,), the sliding-surface slope pi > 0 and the
@@ -181,6 +468,11 @@ class HlcmpLaw:
         self.centers, self.widths = np.asarray(centers, float), np.asarray(widths, float)
         self.gains = gains
         self.n_axes, self.n_basis = len(gains.q_k), len(self.centers)
+        path = kernel_path()
+        self._motion = implementation(impedance_motion, path)
+        self._force = implementation(hlcmp_force, path)
+        self._rates = implementation(hlcmp_rates, path)
+        self._command = implementation(hlcmp_command, path)
 
     @property
     def theta_size(self) -> int:
@@ -212,37 +504,59 @@ class HlcmpLaw:
         -------
         LawOutput
             force f_c [N]; logs stiffness [N/m], damping [N s/m], feedforward v [N],
-            impedance_force u [N], sliding_error ε [m/s]; rates θ'.
+            impedance_force u [N], sliding_error ε [m/s]; rates θ'. With C_x a matrix,
+            all in one call (`hlcmp_command`); with C_x an operator (Drake's product), θ'
+            when first read.
         """
-        gains = self.gains
-        g = normalized_basis(now.phase, self.centers, self.widths)
-        e, edot, eps, f0 = nominal_command(
-            now.x,
-            now.xdot,
-            now.xd,
-            now.xd_dot,
-            now.xd_ddot,
+        gains, theta, m = self.gains, np.asarray(theta, float), self.n_axes
+        if isinstance(now.coriolis, np.ndarray):
+            out = self._command(
+                now.x,
+                now.xdot,
+                now.xd,
+                now.xd_dot,
+                now.xd_ddot,
+                now.phase,
+                now.inertia,
+                now.coriolis,
+                now.gravity,
+                gains.pi,
+                gains.gain_l,
+                theta,
+                self.centers,
+                self.widths,
+                gains.q_k,
+                gains.q_d,
+                gains.q_v,
+            )
+            return LawOutput(out[:m], self._logs(out), lambda: out[6 * m :])
+        motion = self._motion(now.x, now.xdot, now.xd, now.xd_dot, now.xd_ddot, gains.pi)
+        out = self._force(
+            motion,
             now.inertia,
-            now.coriolis,
+            now.coriolis @ motion[3 * m : 4 * m],
             now.gravity,
-            gains.pi,
             gains.gain_l,
+            now.phase,
+            theta,
+            self.centers,
+            self.widths,
         )
-        k_s, k_d, v = compliant_profiles(*self.unflatten(theta), g)
-        u = impedance_force(k_s, k_d, e, edot)
 
         def rates():
-            return np.concatenate(
-                [
-                    r.ravel()
-                    for r in adaptation_rates(eps, e, edot, g, gains.q_k, gains.q_d, gains.q_v)
-                ]
-            )
+            return self._rates(motion, out[6 * m :], gains.q_k, gains.q_d, gains.q_v)
 
-        return LawOutput(
-            commanded_force(f0, u, v),
-            dict(stiffness=k_s, damping=k_d, feedforward=v, impedance_force=u, sliding_error=eps),
-            rates,
+        return LawOutput(out[:m], self._logs(out), rates)
+
+    def _logs(self, out: np.ndarray) -> dict[str, np.ndarray]:
+        """The series in `hlcmp_force`'s layout: f_c, K_s, K_d, v, u, ε."""
+        m = self.n_axes
+        return dict(
+            stiffness=out[m : 2 * m],
+            damping=out[2 * m : 3 * m],
+            feedforward=out[3 * m : 4 * m],
+            impedance_force=out[4 * m : 5 * m],
+            sliding_error=out[5 * m : 6 * m],
         )
 
 
@@ -311,6 +625,9 @@ class ConstantImpedanceLaw:
         self.k_s, self.k_d = np.asarray(stiffness, float), np.asarray(damping, float)
         self.pi, self.gain_l = float(pi), np.asarray(gain_l, float)
         self.n_axes = len(self.k_s)
+        path = kernel_path()
+        self._motion = implementation(impedance_motion, path)
+        self._command = implementation(impedance_command, path)
 
     theta_size = 0
 
@@ -338,24 +655,18 @@ class ConstantImpedanceLaw:
         LawOutput
             force f_c [N], no logs, no rates.
         """
-        e, edot, _, f0 = nominal_command(
-            now.x,
-            now.xdot,
-            now.xd,
-            now.xd_dot,
-            now.xd_ddot,
+        motion = self._motion(now.x, now.xdot, now.xd, now.xd_dot, now.xd_ddot, self.pi)
+        m = self.n_axes
+        force = self._command(
+            motion,
             now.inertia,
-            now.coriolis,
+            now.coriolis @ motion[3 * m : 4 * m],
             now.gravity,
-            self.pi,
             self.gain_l,
+            self.k_s,
+            self.k_d,
         )
-        return LawOutput(
-            commanded_force(
-                f0, impedance_force(self.k_s, self.k_d, e, edot), np.zeros(self.n_axes)
-            ),
-            {},
-        )
+        return LawOutput(force, {})
 
 
 class VariableImpedanceLaw:
@@ -404,6 +715,7 @@ class VariableImpedanceLaw:
         self.kp, self.kv = np.asarray(kp, float), np.asarray(kv, float)
         self.desired_force = desired_force
         self.n_axes = len(self.mass)
+        self._command = implementation(variable_impedance_command, kernel_path())
 
     @property
     def theta_size(self) -> int:
@@ -447,36 +759,25 @@ class VariableImpedanceLaw:
             force f [N], no logs, rates [x_c', x_c'', (Φ(t + λ) - Φ(t)) / λ].
         """
         assert now.external_force is not None, "the variable impedance reads the force"
-        xc, xc_dot, phi = self.unflatten(theta)
-        xc_ddot, delta_f, tracking = duan_commanded_motion(
-            xc,
-            xc_dot,
-            phi,
+        out = self._command(
+            np.asarray(theta, float),
             now.xd,
             now.xd_dot,
             now.xd_ddot,
-            self.desired_force(now.time),
+            np.asarray(self.desired_force(now.time), float),
             now.external_force,
+            now.x,
+            now.xdot,
+            now.inertia,
+            now.coriolis @ now.xdot,
+            now.gravity,
             self.mass,
             self.damping,
             self.free_stiffness,
-        )
-        force = inner_position_loop(
-            now.inertia,
-            now.coriolis,
-            now.gravity,
-            xc_ddot,
-            xc_dot,
-            xc,
-            now.x,
-            now.xdot,
             self.kp,
             self.kv,
-            now.external_force,
+            self.sigma,
+            self.sample_period,
         )
-
-        def rates() -> np.ndarray:
-            next_phi = duan_phi_update(phi, delta_f, tracking, self.sigma, self.damping)
-            return np.concatenate([xc_dot, xc_ddot, (next_phi - phi) / self.sample_period])
-
-        return LawOutput(force, {}, rates)
+        m = self.n_axes
+        return LawOutput(out[:m], {}, lambda: out[m:])

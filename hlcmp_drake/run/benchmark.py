@@ -23,10 +23,12 @@ from pydrake.trajectories import PiecewisePolynomial
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.scenario import Scenario
 from hlcmp_drake.core import quaternion as quat
-from hlcmp_drake.core.dmp import Dmp, DmpSettings
+from hlcmp_drake.core.dmp import Dmp, DmpSettings, phase_at
+from hlcmp_drake.core.kernels import kernel_chosen, kernel_path, numba_available
 from hlcmp_drake.core.orientation_dmp import OrientationDmp
 from hlcmp_drake.experiments import EXPERIMENTS
 from hlcmp_drake.experiments.table import Table, number
+from hlcmp_drake.io.runs import RunResult
 from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.run.report import run_report
 from hlcmp_drake.run.runner import run_scenario
@@ -158,7 +160,7 @@ def insertion_runs(duration: float, repetitions: int) -> dict:
         return statistics.median([x / y for x, y in zip(walls[a], walls[b])])
 
     tick_us = 1e6 * np.concatenate(ticks)
-    return {
+    return tick_paths(scenario, setup, run, repetitions) | {
         "insertion_rtf": duration / statistics.median(walls["fast"]),
         "controller_overhead_ratio": ratio("fast", "cpp"),
         "controller_overhead_ratio_bare": ratio("fast_bare", "cpp_bare"),
@@ -173,6 +175,62 @@ def insertion_runs(duration: float, repetitions: int) -> dict:
         ),
         "insertion_wall_s": walls,
         "insertion_simulated_s": duration,
+    }
+
+
+def tick_paths(scenario: Scenario, setup: arm.ArmSetup, run: RunResult, repetitions: int) -> dict:
+    """One Hl-CMP tick of the insertion (`ControlTick.evaluate`, θ' included) at every logged
+    state of `run`, on the numpy path and on the compiled one (`core.kernels`), the two
+    alternating; empty without numba.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The insertion.
+    setup : ArmSetup
+    run : RunResult
+        A run of the insertion's Hl-CMP: its plant states and set-points are the inputs.
+    repetitions : int
+        Rounds; the ratio is the median of the per-round ratios of the median ticks.
+
+    Returns
+    -------
+    dict
+        controller_tick_numpy_over_compiled, and each path's median tick per round [µs].
+    """
+    if not numba_available():
+        return {}
+    ticks = {}
+    for path in ("numpy", "compiled"):
+        with kernel_chosen(path):
+            ticks[path] = arm.arm_tick(
+                scenario, "hlcmp", plant=_control_plant(scenario), setup=setup
+            )
+    xd = run.series["xd"]
+    xd_dot = np.gradient(xd, run.t, axis=0)
+    reference = zip(
+        xd,
+        xd_dot,
+        np.gradient(xd_dot, run.t, axis=0),
+        phase_at(run.t, setup.dmp.tau, setup.dmp.settings.alpha_s)[:, None],
+    )
+    theta = np.random.default_rng(0).uniform(0, 300, ticks["numpy"].law.theta_size)
+    inputs = list(zip(run.series["plant_state"], reference))
+    medians: dict[str, list[float]] = {path: [] for path in ticks}
+    for _ in range(repetitions + 1):  # the first round compiles (or loads the cache): not kept
+        for path, tick in ticks.items():
+            times = []
+            for state, now in inputs:
+                start = time.perf_counter()
+                _ = tick.evaluate(state, now, theta).law.rates
+                times.append(time.perf_counter() - start)
+            medians[path].append(1e6 * float(np.median(times)))
+    kept = {path: values[1:] for path, values in medians.items()}
+    return {
+        "controller_tick_numpy_over_compiled": statistics.median(
+            [n / c for n, c in zip(kept["numpy"], kept["compiled"])]
+        ),
+        "controller_tick_median_us_by_path": kept,
     }
 
 
@@ -535,6 +593,7 @@ def run_benchmark(quick: bool = False, reporter: Progress = SILENT) -> dict:
             "python": platform.python_version(),
             "processor": platform.processor(),
             "mode": "quick" if quick else "full",
+            "tick_kernel": kernel_path(),
         }
     }
     reporter.say(
@@ -588,7 +647,19 @@ def _rows(results):
     tick = results["controller_tick_us"]
     insertion_s = results.get("insertion_simulated_s", FULL["insertion_s"])
     ratio = results.get("dmp_vs_movement_primitives")
-    rows = [
+    kernel = results["machine"].get("tick_kernel")  # bench.json files from before lack it
+    rows = []
+    if kernel:
+        rows.append(
+            (
+                "tick_kernel: the path of the controller's arithmetic in every fast-path run "
+                "below (compiled: numba, the fast extra; numpy: without it)",
+                kernel,
+                "",
+                None,
+            )
+        )
+    rows += [
         (
             "insertion_rtf: simulated s per wall s, Hl-CMP insertion on the fast path "
             f"({insertion_s:g} s, harnessed, no recording)",
@@ -649,6 +720,16 @@ def _rows(results):
                 number(rtf),
                 "≥ 4" if world == "insertion" else "",
                 rtf >= 4 if world == "insertion" else None,
+            )
+        )
+    if "controller_tick_numpy_over_compiled" in results:
+        rows.append(
+            (
+                "controller_tick_numpy_over_compiled: one tick at the insertion run's logged "
+                "states on the numpy path / on the compiled path (alternating rounds)",
+                number(results["controller_tick_numpy_over_compiled"]),
+                "",
+                None,
             )
         )
     if "one_dof_rtf" in results:  # bench.json files from before the slider's fast path lack it

@@ -181,6 +181,13 @@ class TorqueClient:
         self._axes = list(scenario.task.axes)
         self.nq, self.nv = plant.num_positions(), plant.num_velocities()
         self._reference = sample_reference(scenario, setup.dmp, self.config.period_s, self.duration)
+        # One tick at the start posture before any status: a compiled tick compiles (or loads
+        # from numba's cache) its kernels on its first call, which takes seconds.
+        _ = self.tick.evaluate(
+            np.concatenate([self.q0, np.zeros(plant.num_velocities())]),
+            tuple(values[0] for values in self._reference),
+            self.theta,
+        ).law.rates
         self._log_every = max(1, int(round(scenario.log_period_s / self.config.period_s)))
         self._state_check = plant_state_check(self.nq, scenario.max_abs_position_m)
         self._safety = arm_check(plant, scenario.task)

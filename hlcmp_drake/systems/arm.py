@@ -8,9 +8,14 @@ from pydrake.multibody.plant import ContactResults
 from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.framework import BasicVector, Context, LeafSystem
 
+from hlcmp_drake.core.kernels import implementation, kernel_path
+from hlcmp_drake.core.operational_space import below_task_torque
+
 
 class BelowTaskImpedance:
-    """tau_0 = N^T (G(q) + J_w^T (-K_o e_R - D_o w) - K_p (q - q_0) - D_p q').
+    """tau_0 = N^T (G(q) + J_w^T (-K_o e_R - D_o w) - K_p (q - q_0) - D_p q')
+    (`core.operational_space.below_task_torque`, compiled or numpy as
+    `core.kernels.kernel_path` says when it is made).
 
     Holds the tool's orientation with a fixed rotational impedance (e_R: the rotation
     vector from the desired to the current tool orientation, w: the tool's angular
@@ -54,6 +59,7 @@ class BelowTaskImpedance:
         self._k_p, self._d_p = float(posture_stiffness), float(posture_damping)
         self.nq, self.nv = plant.num_positions(), plant.num_velocities()
         self._world = plant.world_frame()
+        self._below_task_torque = implementation(below_task_torque, kernel_path())
 
     def torque(
         self,
@@ -86,17 +92,23 @@ class BelowTaskImpedance:
         if context is None:
             context = self._context
             plant.SetPositionsAndVelocities(context, state)
-        q, v = state[: self.nq], state[self.nq :]
         error = (
             self._frame.CalcRotationMatrixInWorld(context) @ self._R_desired_inverse
         ).ToAngleAxis()
-        e_R = error.axis() * error.angle()
-        j_w = plant.CalcJacobianAngularVelocity(
-            context, JacobianWrtVariable.kV, self._frame, world, world
-        )
-        moment = -self._k_o * e_R - self._d_o * (j_w @ v)
-        return projector @ (
-            joint_gravity + j_w.T @ moment - self._k_p * (q - self._q0) - self._d_p * v
+        return self._below_task_torque(
+            projector,
+            joint_gravity,
+            plant.CalcJacobianAngularVelocity(
+                context, JacobianWrtVariable.kV, self._frame, world, world
+            ),
+            error.axis() * error.angle(),
+            state[: self.nq],
+            state[self.nq :],
+            self._q0,
+            self._k_o,
+            self._d_o,
+            self._k_p,
+            self._d_p,
         )
 
 

@@ -136,7 +136,7 @@ class VariableImpedanceController(LeafSystem):
         output.SetFromVector(
             inner_position_loop(
                 inertia,
-                coriolis,
+                coriolis @ xdot,
                 gravity,
                 xc_ddot,
                 xc_dot,

@@ -36,10 +36,12 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, Context, LeafSystem, State, ValueProducer
 
+from hlcmp_drake.core.kernels import implementation, kernel_path
 from hlcmp_drake.core.laws import ControlLaw, LawOutput, TaskSpaceInstant
+from hlcmp_drake.core.operational_space import task_joint_torque
 from hlcmp_drake.systems.arm import BelowTaskImpedance
 from hlcmp_drake.systems.ports import REFERENCE_PORTS
-from hlcmp_drake.systems.task_space import PrismaticTaskModel, TaskSpaceModel, saturate
+from hlcmp_drake.systems.task_space import PrismaticTaskModel, TaskSpaceModel
 
 
 @dc.dataclass
@@ -73,6 +75,11 @@ class ControlTick:
         + reference (x_d, x_d', x_d'', s) + θ  --law.command--> f_c, θ'
         τ = sat(J^T f_c + BelowTaskImpedance)
 
+    Between the plant queries, the arithmetic is `core`'s functions, compiled by numba or
+    plain numpy (`kernel`, from `core.kernels.kernel_path` when the tick is made; the
+    model, the law and the torque below the task choose theirs the same way when they are
+    made).
+
     Parameters
     ----------
     model : TaskSpaceModel or PrismaticTaskModel
@@ -84,6 +91,11 @@ class ControlTick:
         The task-space law (`core.laws`).
     effort_limits : (nv,) array
         The actuators' effort limits [N m].
+
+    Attributes
+    ----------
+    kernel : str
+        ``compiled`` or ``numpy``: the path of the tick's arithmetic.
     """
 
     def __init__(
@@ -95,6 +107,9 @@ class ControlTick:
     ):
         self.model, self.below_task, self.law = model, below_task, law
         self.effort_limits = np.asarray(effort_limits, dtype=float)
+        self.kernel = kernel_path()
+        self._task_joint_torque = implementation(task_joint_torque, self.kernel)
+        self._nothing_below = np.zeros(model.nv)
         m = model.n_axes
         self.log_columns = {
             "position": slice(0, m),
@@ -150,12 +165,16 @@ class ControlTick:
             external_force,
         )
         out = self.law.command(now, theta)
-        torque = terms.jacobian.T @ out.force
-        if self.below_task is not None:
-            torque = torque + self.below_task.torque(
+        below = (
+            self._nothing_below
+            if self.below_task is None
+            else self.below_task.torque(
                 state, terms.null_space, terms.joint_gravity, self.model.context
             )
-        torque, saturated = saturate(torque, self.effort_limits)
+        )
+        torque, saturated = self._task_joint_torque(
+            terms.jacobian, out.force, below, self.effort_limits
+        )
         return TickResult(terms, out, torque, saturated)
 
     def log_row(self, result: TickResult) -> np.ndarray:

@@ -9,6 +9,14 @@ from pydrake.common.value import AbstractValue
 from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.framework import BasicVector, Context, LeafSystem, ValueProducer
 
+from hlcmp_drake.core.kernels import implementation, kernel_path
+from hlcmp_drake.core.operational_space import (
+    operational_space_terms,
+    polarized_coriolis,
+    prismatic_task_dynamics,
+    saturate,
+)
+
 
 @dataclass
 class TaskSpaceTerms:
@@ -36,7 +44,9 @@ class TaskSpaceModel:
     quadratic forms whose symmetric bilinear form is the matrix-vector product we need
     (Christoffel symbols, resp. mixed second derivatives of P's position), so their
     products with a vector u are recovered exactly by polarization:
-    C(q, v) u = [b(v + u) - b(v - u)] / 4 (see `CoriolisProduct`).
+    C(q, v) u = [b(v + u) - b(v - u)] / 4 (see `CoriolisProduct`). The algebra on what Drake
+    returns is `core.operational_space`'s, compiled or numpy as `core.kernels.kernel_path`
+    says when the model is made.
 
     Parameters
     ----------
@@ -61,7 +71,9 @@ class TaskSpaceModel:
             len(self._axes),
         )
         self._world = plant.world_frame()  # looked up once: every tick uses it several times
-        self._identity = np.eye(self.nv)
+        path = kernel_path()
+        self._operational_space_terms = implementation(operational_space_terms, path)
+        self._polarized_coriolis = implementation(polarized_coriolis, path)
 
     @property
     def context(self) -> Context:
@@ -69,25 +81,31 @@ class TaskSpaceModel:
         (its velocities are changed by a `CoriolisProduct`)."""
         return self._context
 
-    def _polarized_pair(self, v, u, jbar_t, inertia):
-        """Jbar^T C(q, v) u - Lambda Jdot u by polarization of the quadratic maps
-        v -> C(q, v) v and v -> Jdot v: each bilinear form is (f(v + u) - f(v - u)) / 4.
-        Evaluated on the context of the last `terms` call, whose positions (and so their
-        kinematics) stay; only its velocities change."""
-        plant, ctx, world = self.plant, self._context, self._world
-        sums = []
-        for sign in (1.0, -1.0):
-            plant.SetVelocities(ctx, v + sign * u)
-            sums.append(
-                (
-                    plant.CalcBiasTerm(ctx),
-                    plant.CalcBiasTranslationalAcceleration(
-                        ctx, JacobianWrtVariable.kV, self._frame, self._point, world, world
-                    )[self._axes, 0],
-                )
-            )
-        (bias_plus, accel_plus), (bias_minus, accel_minus) = sums
-        return (jbar_t @ (bias_plus - bias_minus) - inertia @ (accel_plus - accel_minus)) / 4.0
+    def _polarized_product(self, v, jbar, inertia, w):
+        """C_x w at velocity v: b(v ± u) = C(q, v ± u)(v ± u) and a(v ± u) = J'(v ± u) with
+        u = Jbar w, read on the context of the last `terms` call, whose positions (and so
+        their kinematics) stay; only its velocities change (`polarized_coriolis`)."""
+        plant, ctx, world, frame, point = (
+            self.plant,
+            self._context,
+            self._world,
+            self._frame,
+            self._point,
+        )
+        u = jbar @ w
+        plant.SetVelocities(ctx, v + u)
+        bias_plus = plant.CalcBiasTerm(ctx)
+        accel_plus = plant.CalcBiasTranslationalAcceleration(
+            ctx, JacobianWrtVariable.kV, frame, point, world, world
+        )[self._axes, 0]
+        plant.SetVelocities(ctx, v - u)
+        bias_minus = plant.CalcBiasTerm(ctx)
+        accel_minus = plant.CalcBiasTranslationalAcceleration(
+            ctx, JacobianWrtVariable.kV, frame, point, world, world
+        )[self._axes, 0]
+        return self._polarized_coriolis(
+            jbar, inertia, bias_plus, bias_minus, accel_plus, accel_minus
+        )
 
     def terms(self, state: np.ndarray, coriolis_matrix: bool = True) -> TaskSpaceTerms:
         """All task-space terms at the plant state `state`.
@@ -114,16 +132,13 @@ class TaskSpaceModel:
         jac = plant.CalcJacobianTranslationalVelocity(
             ctx, JacobianWrtVariable.kV, self._frame, self._point, world, world
         )[self._axes]
-        mass = plant.CalcMassMatrix(ctx)
-        minv_jt = np.linalg.solve(mass, jac.T)
-        inertia = np.linalg.inv(jac @ minv_jt)
-        jbar = minv_jt @ inertia
         joint_gravity = -plant.CalcGravityGeneralizedForces(ctx)
-        gravity = jbar.T @ joint_gravity
+        inertia, jbar, gravity, null_space = self._operational_space_terms(
+            plant.CalcMassMatrix(ctx), jac, joint_gravity
+        )
         coriolis = CoriolisProduct(self, v, jbar, inertia)
         if coriolis_matrix:
             coriolis = coriolis @ np.eye(self.n_axes)
-        null_space = self._identity - jac.T @ jbar.T
         return TaskSpaceTerms(
             position, jac @ v, jac, inertia, coriolis, gravity, null_space, joint_gravity
         )
@@ -151,24 +166,23 @@ class CoriolisProduct:
         self._model, self._v, self._jbar, self._inertia = model, v, jbar, inertia
 
     def __matmul__(self, w: np.ndarray) -> np.ndarray:
-        model = self._model
-        columns = np.asarray(w, dtype=float).reshape(self._jbar.shape[1], -1)
-        product = np.column_stack(
-            [
-                model._polarized_pair(self._v, self._jbar @ column, self._jbar.T, self._inertia)
-                for column in columns.T
-            ]
+        product = self._model._polarized_product
+        w = np.asarray(w, dtype=float)
+        if w.ndim == 1:
+            return product(self._v, self._jbar, self._inertia, w)
+        return np.column_stack(
+            [product(self._v, self._jbar, self._inertia, column) for column in w.T]
         )
-        return product if np.ndim(w) == 2 else product[:, 0]
 
 
 class PrismaticTaskModel:
     """`TaskSpaceModel`'s terms for a plant made only of prismatic joints whose task axes
     are its joints, at a fraction of its cost (the slider world's one-call loop). With no
     rotation the mass matrix is constant, so C(q, v) = 0, and J is constant and square
-    (Jdot = 0): Lambda = J^-T M(q) J^-1, G_x = J^-T G(q), C_x = 0, no null space. M(q) and
-    G(q) come from the plant at every state; J once, and C(q, v) v = 0 is checked once
-    against Drake's bias term.
+    (Jdot = 0); so is gravity's generalized force: Lambda = J^-T M J^-1, G_x = J^-T G,
+    C_x = 0, no null space. The position is affine in q: x = x(0) + J q. J, x(0), M and G
+    are read from the plant once, and checked at a second configuration: M and G equal, x
+    equal to rounding; C(q, v) v = 0 against Drake's bias term. A tick makes no plant query.
 
     Parameters
     ----------
@@ -201,19 +215,44 @@ class PrismaticTaskModel:
                 f"the plant has {sorted(kinds)} joints, {self.nv} velocities, "
                 f"{self.n_axes} axes"
             )
-        self._origin = np.zeros((3, 1))  # the frame's origin, the task point (made once)
+        self._origin = np.zeros((3, 1))  # the frame's origin, the task point
         self._jacobian = plant.CalcJacobianTranslationalVelocity(
             self._context, JacobianWrtVariable.kV, frame, self._origin, self._world, self._world
         )[self._axes]
-        self._inverse = np.linalg.inv(self._jacobian)
+        plant.SetPositions(self._context, np.zeros(self.nq))
+        self._position_at_zero = self._position()
+        mass, gravity = self._mass_and_gravity()
+        q = np.ones(self.nq)
+        plant.SetPositions(self._context, q)
+        assert all(map(np.array_equal, (mass, gravity), self._mass_and_gravity())), (
+            "prismatic joints: M and G do not depend on q"
+        )
+        assert np.allclose(
+            self._position(), self._position_at_zero + self._jacobian @ q, rtol=1e-12, atol=1e-12
+        ), "prismatic joints: x = x(0) + J q"
         plant.SetVelocities(self._context, np.ones(self.nv))
         assert not np.any(plant.CalcBiasTerm(self._context)), "prismatic joints: C(q, v) = 0"
+        self._joint_gravity = -gravity
+        self._inertia, self._gravity = prismatic_task_dynamics(
+            np.linalg.inv(self._jacobian), mass, self._joint_gravity
+        )
         self._coriolis = np.zeros((self.n_axes, self.n_axes))
         self._null_space = np.zeros((self.nv, self.nv))
 
+    def _position(self) -> np.ndarray:
+        return self.plant.CalcPointsPositions(
+            self._context, self._frame, self._origin, self._world
+        )[self._axes, 0]
+
+    def _mass_and_gravity(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.plant.CalcMassMatrix(self._context), self.plant.CalcGravityGeneralizedForces(
+            self._context
+        )
+
     @property
     def context(self) -> Context:
-        """The control-side plant context, at the state of the last `terms` call."""
+        """The control-side plant context the constant terms were read from (`terms` does
+        not set it)."""
         return self._context
 
     def terms(self, state: np.ndarray, coriolis_matrix: bool = True) -> TaskSpaceTerms:
@@ -230,22 +269,15 @@ class PrismaticTaskModel:
         -------
         TaskSpaceTerms
         """
-        plant, ctx = self.plant, self._context
-        plant.SetPositionsAndVelocities(ctx, state)
-        position = plant.CalcPointsPositions(ctx, self._frame, self._origin, self._world)[
-            self._axes, 0
-        ]
-        inverse = self._inverse
-        joint_gravity = -plant.CalcGravityGeneralizedForces(ctx)
         return TaskSpaceTerms(
-            position,
+            self._position_at_zero + self._jacobian @ state[: self.nq],
             self._jacobian @ state[self.nq :],
             self._jacobian,
-            inverse.T @ plant.CalcMassMatrix(ctx) @ inverse,
+            self._inertia,
             self._coriolis,
-            inverse.T @ joint_gravity,
+            self._gravity,
             self._null_space,
-            joint_gravity,
+            self._joint_gravity,
         )
 
 
@@ -340,28 +372,6 @@ class TaskSpaceDynamics(LeafSystem):
             output.SetFromVector(np.ravel(getattr(self._terms.Eval(context), field)))
 
         return calc
-
-
-def saturate(torque: np.ndarray, limits: np.ndarray) -> tuple[np.ndarray, int]:
-    """Clip a joint torque element-wise at the actuators' effort limits.
-
-    Parameters
-    ----------
-    torque : (nv,) array
-        The unsaturated torque [N m].
-    limits : (nv,) array
-        The effort limits [N m], > 0.
-
-    Returns
-    -------
-    clipped : (nv,) array
-        The applied torque [N m].
-    saturated : int
-        The number of joints at their limit.
-    """
-    return np.minimum(np.maximum(torque, -limits), limits), int(
-        np.count_nonzero(np.abs(torque) >= limits)
-    )
 
 
 class TaskForceToJointTorque(LeafSystem):

@@ -6,6 +6,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
+from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder
 
 from hlcmp_drake.config.scenario import Scenario, SliderTask
@@ -85,18 +86,11 @@ def build(
     reaction = spring.GetOutputPort("reaction_force")
     start = np.zeros(scenario.n_axes)
     if task.control_path == "fast":
-        effort = [
-            plant.get_joint_actuator(i).effort_limit() for i in plant.GetJointActuatorIndices()
-        ]
-        law = controller_kind(scenario, controller_name).law(
-            scenario.controllers[controller_name], scenario
-        )
-        tick = ControlTick(PrismaticTaskModel(plant, frame, axes=[task.axis]), None, law, effort)
         controller, log_ports, _ = add_control_loop(
             builder,
             scenario,
             controller_name,
-            tick=tick,
+            tick=slider_tick(scenario, controller_name, plant=plant),
             plant=plant,
             reference=add_reference(builder, scenario, compiled=True),
             contact_force=reaction,
@@ -112,6 +106,33 @@ def build(
     diagram = builder.Build()
     diagram.set_name(f"{scenario.name}_{controller_name}")
     return BuiltDiagram(diagram, plant, controller, loggers)
+
+
+def slider_tick(scenario: Scenario, controller_name: str, *, plant: MultibodyPlant) -> ControlTick:
+    """The slider's whole controller at one instant (`ControlTick`): the controller's law
+    on the body's task-space terms (`PrismaticTaskModel`), nothing below the task, the
+    actuator's effort limit.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        With a SliderTask; its controller `controller_name` must have a `core.laws` law.
+    controller_name : str
+        The controller's label.
+    plant : MultibodyPlant
+        Finalized, with the scenario's slider.
+
+    Returns
+    -------
+    ControlTick
+    """
+    task: SliderTask = scenario.task
+    frame = plant.GetBodyByName(task.body).body_frame()
+    effort = [plant.get_joint_actuator(i).effort_limit() for i in plant.GetJointActuatorIndices()]
+    law = controller_kind(scenario, controller_name).law(
+        scenario.controllers[controller_name], scenario
+    )
+    return ControlTick(PrismaticTaskModel(plant, frame, axes=[task.axis]), None, law, effort)
 
 
 def _add_modular_controller(builder, scenario, name, plant, frame, reaction, start, theta0):

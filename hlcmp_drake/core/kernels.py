@@ -1,0 +1,147 @@
+"""The controller tick's numeric kernels, compiled by numba where it is installed (the
+``fast`` extra), plain numpy otherwise.
+
+The equations stay where they are (`control_law`, `adaptation`, `dmp`, `duan2018`,
+`task_space`, `laws`), each one plain function over arrays, written in the subset of numpy
+that numba compiles in nopython mode. `jitable` marks such a function: called from Python
+it is the function itself, unchanged (the numpy path); called from a compiled function,
+numba compiles it inline. `implementation` gives a composed function (a law's command, the
+task-space terms) as the one or the other, so both paths run the same source and a tick
+makes a handful of compiled calls instead of about 80 numpy operations on 3- and
+7-vectors.
+
+Which path: `kernel_path` -- the one asked for, else the environment variable
+``HLCMP_KERNEL`` (``compiled`` or ``numpy``), else compiled when numba imports. numba is
+imported only when a path is chosen (its import takes about a second): a command that
+makes no tick does not pay for it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from collections.abc import Iterator
+from typing import Any, Callable, TypeVar
+
+KERNEL_VARIABLE = "HLCMP_KERNEL"
+PATHS = ("compiled", "numpy")
+
+F = TypeVar("F", bound=Callable)
+_compiled: dict[Callable, Callable] = {}
+_jitable: list[Callable] = []  # marked, not yet registered with numba
+_numba: list[Any] = []  # the numba module once imported, or None where it cannot be
+
+
+def jitable(func: F) -> F:
+    """Mark an equation's function as compilable inside a kernel; it stays the same Python
+    function for Python callers.
+
+    Parameters
+    ----------
+    func : callable
+        A plain function over floats and float arrays, in numba's nopython subset.
+
+    Returns
+    -------
+    callable
+        `func` itself.
+    """
+    _jitable.append(func)
+    if _numba and _numba[0] is not None:
+        _register_marked()
+    return func
+
+
+def _register_marked() -> None:
+    from numba.extending import register_jitable
+
+    while _jitable:
+        register_jitable(_jitable.pop())
+
+
+def numba_available() -> bool:
+    """Whether numba imports (the compiled path can run); imports it the first time."""
+    if not _numba:
+        try:
+            import numba
+        except ImportError:  # numba is optional: the numpy path
+            _numba.append(None)
+        else:
+            _numba.append(numba)
+            _register_marked()
+    return _numba[0] is not None
+
+
+def kernel_path(requested: str | None = None) -> str:
+    """The path a tick built now runs: ``compiled`` or ``numpy``.
+
+    Parameters
+    ----------
+    requested : str, optional
+        ``compiled``, ``numpy`` or None (then ``HLCMP_KERNEL``, then compiled when numba
+        is installed).
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    ValueError
+        For a path not in `PATHS`, or ``compiled`` without numba.
+    """
+    path = requested or os.environ.get(KERNEL_VARIABLE) or None
+    if path is None:
+        return "compiled" if numba_available() else "numpy"
+    if path not in PATHS:
+        raise ValueError(f"{KERNEL_VARIABLE}={path!r}: expected one of {', '.join(PATHS)}")
+    if path == "compiled" and not numba_available():
+        raise ValueError(
+            f"{KERNEL_VARIABLE}=compiled needs numba (pip install 'hlcmp_drake[fast]')"
+        )
+    return path
+
+
+@contextlib.contextmanager
+def kernel_chosen(path: str) -> Iterator[None]:
+    """Within the block, what is made runs `path` (``HLCMP_KERNEL`` set, then restored): to
+    build both paths in one process.
+
+    Parameters
+    ----------
+    path : str
+        ``compiled`` or ``numpy``.
+    """
+    kernel_path(path)  # refuses an unknown path, or compiled without numba
+    before = os.environ.get(KERNEL_VARIABLE)
+    os.environ[KERNEL_VARIABLE] = path
+    try:
+        yield
+    finally:
+        if before is None:
+            del os.environ[KERNEL_VARIABLE]
+        else:
+            os.environ[KERNEL_VARIABLE] = before
+
+
+def implementation(func: F, path: str) -> F:
+    """A composed function on the given path: itself (numpy), or compiled by numba in
+    nopython mode (once per process, its machine code cached on disk).
+
+    Parameters
+    ----------
+    func : callable
+        A module-level function that calls only `jitable` functions and numba's numpy.
+    path : str
+        ``compiled`` or ``numpy`` (see `kernel_path`).
+
+    Returns
+    -------
+    callable
+    """
+    if path == "numpy":
+        return func
+    if func not in _compiled:
+        assert numba_available(), "kernel_path refuses 'compiled' without numba"
+        _compiled[func] = _numba[0].njit(cache=True)(func)
+    return _compiled[func]  # type: ignore[return-value]

@@ -1,0 +1,205 @@
+"""The operational-space algebra of a torque-controlled robot (Khatib): the task-space
+terms of Eq. 2 from the joint-space ones Drake gives, the torque below the task, and the
+map of a task-space force to saturated joint torques. Pure numpy, `jitable`
+(`core.kernels`); `systems.task_space` and `systems.arm` read the plant and call these.
+
+Sizes: M task-space axes, nv joint velocities; J is (M, nv).
+"""
+
+import numpy as np
+
+from hlcmp_drake.core.kernels import jitable
+
+
+@jitable
+def operational_space_terms(
+    mass: np.ndarray, jacobian: np.ndarray, joint_gravity: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Λ = (J M^-1 J^T)^-1, the dynamically consistent inverse J̄ = M^-1 J^T Λ, the task-space
+    gravity G_x = J̄^T G(q), and the null-space projector N^T = I - J^T J̄^T.
+
+    Parameters
+    ----------
+    mass : (nv, nv) array
+        The joint-space mass matrix M(q).
+    jacobian : (M, nv) array
+        J, the task point's translational Jacobian rows.
+    joint_gravity : (nv,) array
+        G(q), the joint torque that holds the robot against gravity.
+
+    Returns
+    -------
+    inertia : (M, M) array
+        Λ [kg].
+    jbar : (nv, M) array
+        J̄.
+    gravity : (M,) array
+        G_x [N].
+    null_space : (nv, nv) array
+        N^T [-].
+    """
+    minv_jt = np.linalg.solve(mass, jacobian.T)
+    inertia = np.linalg.inv(jacobian @ minv_jt)
+    jbar = minv_jt @ inertia
+    null_space = np.eye(mass.shape[0]) - jacobian.T @ jbar.T
+    return inertia, jbar, jbar.T @ joint_gravity, null_space
+
+
+@jitable
+def polarized_coriolis(
+    jbar: np.ndarray,
+    inertia: np.ndarray,
+    bias_plus: np.ndarray,
+    bias_minus: np.ndarray,
+    accel_plus: np.ndarray,
+    accel_minus: np.ndarray,
+) -> np.ndarray:
+    """C_x w = J̄^T C(q, v) u - Λ J' u with u = J̄ w, from the plant's quadratic maps
+    b(v) = C(q, v) v and a(v) = J'(q, v) v at v + u and v - u: each symmetric bilinear form is
+    (f(v + u) - f(v - u)) / 4 (polarization; see `systems.task_space.TaskSpaceModel`).
+
+    Parameters
+    ----------
+    jbar : (nv, M) array
+        J̄.
+    inertia : (M, M) array
+        Λ [kg].
+    bias_plus, bias_minus : (nv,) arrays
+        b(v + u) and b(v - u) [N m].
+    accel_plus, accel_minus : (M,) arrays
+        a(v + u) and a(v - u) along the task axes [m/s^2].
+
+    Returns
+    -------
+    (M,) array
+        C_x w [N].
+    """
+    return (jbar.T @ (bias_plus - bias_minus) - inertia @ (accel_plus - accel_minus)) / 4.0
+
+
+def prismatic_task_dynamics(
+    inverse: np.ndarray, mass: np.ndarray, joint_gravity: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The task-space dynamics of a robot of prismatic joints whose task axes are its joints,
+    J constant and square: Λ = J^-T M J^-1, G_x = J^-T G (C_x = 0).
+
+    Parameters
+    ----------
+    inverse : (M, M) array
+        J^-1.
+    mass : (M, M) array
+        The joint-space mass matrix [kg].
+    joint_gravity : (M,) array
+        G, the joint force that holds the robot against gravity [N].
+
+    Returns
+    -------
+    inertia : (M, M) array
+        Λ [kg].
+    gravity : (M,) array
+        G_x [N].
+    """
+    return inverse.T @ mass @ inverse, inverse.T @ joint_gravity
+
+
+@jitable
+def below_task_torque(
+    projector: np.ndarray,
+    joint_gravity: np.ndarray,
+    angular_jacobian: np.ndarray,
+    rotation_error: np.ndarray,
+    positions: np.ndarray,
+    velocities: np.ndarray,
+    nominal_positions: np.ndarray,
+    orientation_stiffness: float,
+    orientation_damping: float,
+    posture_stiffness: float,
+    posture_damping: float,
+) -> np.ndarray:
+    """τ_0 = N^T (G(q) + J_w^T (-K_o e_R - D_o w) - K_p (q - q_0) - D_p q'), w = J_w q': the
+    tool's orientation and the arm's posture held below the translational task.
+
+    Parameters
+    ----------
+    projector : (nv, nv) array
+        N^T of the translational task.
+    joint_gravity : (nv,) array
+        G(q) [N m].
+    angular_jacobian : (3, nv) array
+        J_w, the tool's angular-velocity Jacobian, world.
+    rotation_error : (3,) array
+        e_R, the rotation vector from the desired to the current tool orientation [rad].
+    positions, velocities : (nv,) arrays
+        q [rad] and q' [rad/s].
+    nominal_positions : (nv,) array
+        q_0 [rad].
+    orientation_stiffness, orientation_damping : float
+        K_o [N m/rad] and D_o [N m s/rad].
+    posture_stiffness, posture_damping : float
+        K_p [N m/rad] and D_p [N m s/rad].
+
+    Returns
+    -------
+    (nv,) array
+        τ_0 [N m].
+    """
+    moment = -orientation_stiffness * rotation_error - orientation_damping * (
+        angular_jacobian @ velocities
+    )
+    return projector @ (
+        joint_gravity
+        + angular_jacobian.T @ moment
+        - posture_stiffness * (positions - nominal_positions)
+        - posture_damping * velocities
+    )
+
+
+@jitable
+def saturate(torque: np.ndarray, limits: np.ndarray) -> tuple[np.ndarray, int]:
+    """Clip a joint torque element-wise at the actuators' effort limits.
+
+    Parameters
+    ----------
+    torque : (nv,) array
+        The unsaturated torque [N m].
+    limits : (nv,) array
+        The effort limits [N m], > 0.
+
+    Returns
+    -------
+    clipped : (nv,) array
+        The applied torque [N m].
+    saturated : int
+        The number of joints at their limit.
+    """
+    return np.minimum(np.maximum(torque, -limits), limits), int(
+        np.count_nonzero(np.abs(torque) >= limits)
+    )
+
+
+@jitable
+def task_joint_torque(
+    jacobian: np.ndarray, force: np.ndarray, below_task: np.ndarray, limits: np.ndarray
+) -> tuple[np.ndarray, int]:
+    """τ = sat(J^T f_c + τ_0): the task force in the joints, with what is held below the task,
+    clipped at the effort limits (`saturate`).
+
+    Parameters
+    ----------
+    jacobian : (M, nv) array
+        J.
+    force : (M,) array
+        f_c [N].
+    below_task : (nv,) array
+        τ_0 [N m] (zeros where nothing is held below the task).
+    limits : (nv,) array
+        The effort limits [N m].
+
+    Returns
+    -------
+    torque : (nv,) array
+        The applied torque [N m].
+    saturated : int
+        The number of joints at their limit.
+    """
+    return saturate(jacobian.T @ force + below_task, limits)
