@@ -325,7 +325,9 @@ def report_wall_s(scenarios: list[str] | None = None) -> dict:
     return {"wall_s": wall, "jobs": jobs}
 
 
-def joint_space_replay(scenario, setup, run, harness):
+def joint_space_replay(
+    scenario: Scenario, setup: arm.ArmSetup, run: RunResult, harness: bool
+) -> BuiltDiagram:
     """The same world (and, with `harness`, the same monitor, sensor and loggers), driven
     by InverseDynamicsController along the run's logged joint positions and velocities
     (piecewise-linear between the 100 Hz log samples).
