@@ -107,10 +107,8 @@ def main():
                 ROBOT_VARIANT,
                 EXPERIMENTS[name],
             )
-            comparisons.append(
-                f"**{name}**\n\n{to_markdown(metrics)}\n"
-                f"{to_markdown(claims, code_first_column=False)}"
-            )
+            claims_text = f"\n{to_markdown(claims, code_first_column=False)}" if claims.rows else ""
+            comparisons.append(f"**{name}**\n\n{to_markdown(metrics)}{claims_text}")
     if comparisons:
         write_block(ROOT / "README.md", f"{ROBOT_VARIANT} comparison", "\n".join(comparisons))
     for name, run_dir in run_dirs.items():

@@ -9,10 +9,11 @@ import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
 
 from hlcmp_drake.config.scenario import ArmTask, ControllerConfig, Scenario
+from hlcmp_drake.experiments import insertion
 from hlcmp_drake.experiments.experiment import Experiment
 from hlcmp_drake.experiments.insertion import controller_metrics as translational_metrics
-from hlcmp_drake.experiments.insertion import table
 from hlcmp_drake.experiments.plots import new_figure
+from hlcmp_drake.experiments.table import Table
 from hlcmp_drake.io.runs import RunResult
 from hlcmp_drake.worlds.models import load_models, scoped_frame
 
@@ -75,6 +76,25 @@ def controller_metrics(run: RunResult, config: ControllerConfig, scenario: Scena
         "depth_reached_m": float(np.max(depth_in_hole(run.series["x"], entrance, axis))),
         "depth_demonstrated_m": float(np.max(depth_in_hole(run.series["xd"], entrance, axis))),
     }
+
+
+def table(metrics: dict) -> Table:
+    """Per controller: the depth its tip reached along the hole's axis (and the
+    demonstrated one), then the insertion's columns.
+
+    Parameters
+    ----------
+    metrics : dict
+        {controller label: controller metrics}.
+    """
+    translational = insertion.table(metrics)
+    result = Table(
+        [translational.headers[0], "depth reached / demonstrated [mm]", *translational.headers[1:]]
+    )
+    for row, m in zip(translational.rows, metrics.values()):
+        depth = f"{1000 * m['depth_reached_m']:.1f} / {1000 * m['depth_demonstrated_m']:.1f}"
+        result.add(row[0], depth, *row[1:])
+    return result
 
 
 def inserted(run: RunResult, scenario: Scenario) -> dict:

@@ -32,8 +32,11 @@ def results_markdown(metrics: dict, experiment: Experiment) -> str:
         The experiment the scenario names.
     """
     learners = metrics.get("learners", {})
+    text = to_markdown(experiment.table(metrics["controllers"]))
+    if not any(metrics["claims"].values()):  # an experiment with no claims (yet)
+        return text
     return (
-        to_markdown(experiment.table(metrics["controllers"]))
+        text
         + "\n"
         + to_markdown(verdicts_table(metrics["claims"], learners), code_first_column=False)
         + "\n"
@@ -294,13 +297,17 @@ def report_page(out_dir: Path, sections: list) -> str:
         verdicts = verdicts_table(claims, learners)
         parts.append(
             "<h3>Claims</h3>"
-            + to_html(
-                verdicts, code_first_column=False, verdict_columns=tuple(verdicts.headers[2:])
-            )
-            + to_html(
-                evidence_table(claims, learners),
-                code_first_column=False,
-                verdict_columns=("reproduced",),
+            + (
+                to_html(
+                    verdicts, code_first_column=False, verdict_columns=tuple(verdicts.headers[2:])
+                )
+                + to_html(
+                    evidence_table(claims, learners),
+                    code_first_column=False,
+                    verdict_columns=("reproduced",),
+                )
+                if any(claims.values())
+                else "<p>This experiment has no claims.</p>"
             )
         )
         parts.append("<h3>Metrics</h3>" + to_html(experiment.table(metrics["controllers"])))
