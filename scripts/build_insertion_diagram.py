@@ -53,7 +53,7 @@ def build(scenario, setup, meshcat):
     )
     effort = [plant.get_joint_actuator(i).effort_limit() for i in plant.GetJointActuatorIndices()]
     torque_map = builder.AddSystem(TaskForceToJointTorque(3, effort, extra_torque=True))
-    sensor = builder.AddSystem(ToolContactForce(plant, tip.body()))
+    sensor = builder.AddSystem(ToolContactForce(plant, tip))
 
     builder.Connect(plant.get_state_output_port(), task_space.plant_state)
     builder.Connect(plant.get_state_output_port(), null_space.plant_state)

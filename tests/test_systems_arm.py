@@ -18,7 +18,7 @@ from pydrake.multibody.plant import (
     MultibodyPlant,
     MultibodyPlantConfig,
 )
-from pydrake.multibody.tree import PrismaticJoint, SpatialInertia, UnitInertia
+from pydrake.multibody.tree import FixedOffsetFrame, PrismaticJoint, SpatialInertia, UnitInertia
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder, PortDataType
 from pydrake.systems.primitives import ConstantVectorSource
@@ -47,11 +47,13 @@ def test_null_space_impedance_holds_orientation_and_gravity(arm):
 RADIUS = 0.05  # [m], of the three balls
 
 
-def _ball_stack(contact_model, applied_force=None):
+def _ball_stack(contact_model, applied_force=None, side_offset=None):
     """Two balls (3 kg below, 1 kg on top) stacked on a rigid floor, each on a vertical
     slide, and a third ball on a horizontal slide off the floor that touches nothing; a
-    ToolContactForce on each ball and one on the world (the floor). Returns the diagram, the
-    plant, {name: (sensor, mass)} and {name: starting slide position}."""
+    ToolContactForce on each ball and one on the world (the floor); with `side_offset`
+    (3,) [m], one more, "lower_side", on a frame of the lower ball that far from its centre.
+    Returns the diagram, the plant, {name: (sensor, mass)} and {name: starting slide
+    position}."""
     builder = DiagramBuilder()
     plant, _ = AddMultibodyPlant(
         MultibodyPlantConfig(time_step=1e-3, contact_model=contact_model), builder
@@ -86,16 +88,23 @@ def _ball_stack(contact_model, applied_force=None):
             body, RigidTransform(), Sphere(RADIUS), name, proximity(False)
         )
         plant.AddJoint(PrismaticJoint(name, plant.world_frame(), body.body_frame(), axis))
-        balls[name] = (body, mass)
+        balls[name] = (body.body_frame(), mass)
         start[name] = q0
+    frames = [*balls.items(), ("floor", (plant.world_body().body_frame(), None))]
+    if side_offset is not None:
+        side = plant.AddFrame(
+            FixedOffsetFrame("lower_side", balls["lower"][0], RigidTransform(side_offset))
+        )
+        frames.append(("lower_side", (side, None)))
     plant.Finalize()
     sensors = {}
-    for name, (body, mass) in [*balls.items(), ("floor", (plant.world_body(), None))]:
+    for name, (frame, mass) in frames:
         with_applied = applied_force is not None and name == "upper"
         sensor = builder.AddSystem(
-            ToolContactForce(plant, body, axes=(0, 2), applied_force=with_applied)
+            ToolContactForce(plant, frame, axes=(0, 2), applied_force=with_applied)
         )
         builder.Connect(plant.get_contact_results_output_port(), sensor.contact_results)
+        builder.Connect(plant.get_body_poses_output_port(), sensor.body_poses)
         if with_applied:
             source = builder.AddSystem(ConstantVectorSource(applied_force))
             builder.Connect(source.get_output_port(), sensor.applied_force)
@@ -103,10 +112,10 @@ def _ball_stack(contact_model, applied_force=None):
     return builder.Build(), plant, sensors, start
 
 
-def _settled(contact_model, applied_force=None, seconds=1.0):
+def _settled(contact_model, applied_force=None, seconds=1.0, side_offset=None):
     """The ball stack after `seconds` (at rest): (plant, its context, {name: (sensor, its
     context, mass)})."""
-    diagram, plant, sensors, start = _ball_stack(contact_model, applied_force)
+    diagram, plant, sensors, start = _ball_stack(contact_model, applied_force, side_offset)
     simulator = Simulator(diagram)
     root = simulator.get_mutable_context()
     plant_context = plant.GetMyMutableContextFromRoot(root)
@@ -130,10 +139,11 @@ def test_tool_contact_force_ports():
     )
     plant.Finalize()
     for axes, applied in (((0, 1, 2), False), ((2,), True), ((0, 2), False)):
-        sensor = ToolContactForce(plant, body, axes=axes, applied_force=applied)
+        sensor = ToolContactForce(plant, body.body_frame(), axes=axes, applied_force=applied)
         assert sensor.contact_results.get_name() == "contact_results"
         assert sensor.contact_results.get_data_type() == PortDataType.kAbstractValued
-        assert sensor.num_input_ports() == (2 if applied else 1)
+        assert sensor.body_poses.get_data_type() == PortDataType.kAbstractValued
+        assert sensor.num_input_ports() == (3 if applied else 2)
         if applied:
             assert sensor.applied_force.get_name() == "applied_force"
             assert sensor.applied_force.size() == 3
@@ -143,7 +153,29 @@ def test_tool_contact_force_ports():
         assert [(p.get_name(), p.size()) for p in outputs] == [
             ("force", 3),
             ("task_force", len(axes)),
+            ("torque", 3),
         ]
+
+
+@pytest.mark.parametrize("contact_model", ["point", "hydroelastic_with_fallback"])
+def test_tool_contact_torque_is_about_the_tool_point(contact_model):
+    """The lower ball at rest: its two contacts (the floor below, the upper ball above) act
+    on the vertical through its centre and sum to m_l g upwards, so about the centre their
+    torque is 0, and about a point d from the centre it is (-d) x (m_l g up): the lever
+    arms are the contact points' from the tool point, not the body's origin."""
+    offset = np.array([0.02, -0.01, 0.03])
+    plant, _, sensors = _settled(contact_model, side_offset=offset)
+    g = plant.gravity_field().gravity_vector()
+    weight = sensors["lower"][2]
+    centre, centre_context, _ = sensors["lower"]
+    np.testing.assert_allclose(centre.GetOutputPort("torque").Eval(centre_context), 0.0, atol=1e-4)
+    side, side_context, _ = sensors["lower_side"]
+    np.testing.assert_allclose(
+        side.GetOutputPort("torque").Eval(side_context),
+        np.cross(-offset, -weight * g),
+        rtol=1e-3,
+        atol=1e-5,
+    )
 
 
 @pytest.mark.parametrize(

@@ -298,6 +298,80 @@ class ConstantImpedanceConfig(ControllerChecks):
     gain_l: list[float] = dc.field(default_factory=list)
 
 
+class RotationChecks:
+    """What a controller that also acts on the tool's orientation (6-D, issue 19) checks:
+    its rotational per-axis lists hold three values, one per tool axis (x, y, z of the tool
+    frame, whatever the task's M), and pi_r > 0. It runs only on an arm's fast path
+    (checked with the scenario in `config.validation`)."""
+
+    ROTATIONAL_PER_AXIS: dict = {}
+    pi_r: float
+
+    def _check_rotation(self, name: str, fail: Fail) -> None:
+        if not (math.isfinite(self.pi_r) and self.pi_r > 0):
+            fail(
+                f"controllers.{name}.pi_r",
+                f"controller '{name}': pi_r must be > 0 (Eq. 29, rotational) and finite, got "
+                f"{self.pi_r}",
+            )
+        for key, rule in self.ROTATIONAL_PER_AXIS.items():
+            check_per_axis(self, name, key, 3, fail, rule)
+
+
+@dc.dataclass
+class PoseHlcmpConfig(RotationChecks, HlcmpConfig):
+    """The Hl-CMP learning the tool point's translation (as `HlcmpConfig`, world axes) and
+    the tool's orientation: rotational stiffness K_r [N m/rad], damping D_r [N m s/rad]
+    and feed-forward torque v_r [N m] per tool axis on the same phase basis, learned by
+    Eq. 31 with e_r = Log(R_d^T R) and eps_r = omega_e + pi_r e_r (`core.rotation_law`).
+    q_kr, q_dr, q_vr are read in `q_units` like q_k, q_d, q_v; gain_l_r is L_r
+    [N m s/rad]; theta_kr0, theta_dr0, theta_vr0 the rotational weights' initial value."""
+
+    ROTATIONAL_PER_AXIS = {"gain_l_r": ">= 0", "q_kr": ">= 0", "q_dr": ">= 0", "q_vr": ">= 0"}
+
+    q_kr: list[float] = dc.field(default_factory=list)
+    q_dr: list[float] = dc.field(default_factory=list)
+    q_vr: list[float] = dc.field(default_factory=list)
+    pi_r: float = 5.0
+    gain_l_r: list[float] = dc.field(default_factory=list)
+    theta_kr0: float = 0.0
+    theta_dr0: float = 0.0
+    theta_vr0: float = 0.0
+
+    def _check_scalars(self, name: str, fail: Fail) -> None:
+        super()._check_scalars(name, fail)
+        for key in ("theta_kr0", "theta_dr0", "theta_vr0"):
+            if not math.isfinite(getattr(self, key)):
+                fail(
+                    f"controllers.{name}.{key}",
+                    f"controller '{name}': {key} must be finite, got {getattr(self, key)}",
+                )
+        self._check_rotation(name, fail)
+
+
+@dc.dataclass
+class ConstantPoseImpedanceConfig(RotationChecks, ConstantImpedanceConfig):
+    """A constant 6-D impedance: the translational `ConstantImpedanceConfig` (world axes)
+    and fixed diagonal rotational stiffness K_r [N m/rad] and damping D_r [N m s/rad] per
+    tool axis, with pi_r (Eq. 29) and L_r [N m s/rad] (`core.rotation_law.
+    constant_pose_impedance`)."""
+
+    ROTATIONAL_PER_AXIS = {
+        "gain_l_r": ">= 0",
+        "rotational_stiffness_Nm_per_rad": ">= 0",
+        "rotational_damping_Nms_per_rad": ">= 0",
+    }
+
+    rotational_stiffness_Nm_per_rad: list[float] = dc.field(default_factory=list)
+    rotational_damping_Nms_per_rad: list[float] = dc.field(default_factory=list)
+    pi_r: float = 5.0
+    gain_l_r: list[float] = dc.field(default_factory=list)
+
+    def _check_scalars(self, name: str, fail: Fail) -> None:
+        super()._check_scalars(name, fail)
+        self._check_rotation(name, fail)
+
+
 @dc.dataclass
 class VariableImpedanceConfig(ControllerChecks):
     """Duan et al. 2018 force-tracking variable impedance (the paper's ref. [21]).
@@ -371,7 +445,12 @@ class VariableImpedanceConfig(ControllerChecks):
 
 
 ControllerConfig = Union[
-    HlcmpConfig, HlcmpForgettingConfig, ConstantImpedanceConfig, VariableImpedanceConfig
+    HlcmpConfig,
+    HlcmpForgettingConfig,
+    ConstantImpedanceConfig,
+    VariableImpedanceConfig,
+    PoseHlcmpConfig,
+    ConstantPoseImpedanceConfig,
 ]
 
 

@@ -23,6 +23,7 @@ from hlcmp_drake.config.scenario import (
     ArmTask,
     DemonstrationConfig,
     Fail,
+    RotationChecks,
     Scenario,
     StepReferenceConfig,
     check_number,
@@ -121,6 +122,14 @@ def validate_scenario(
     for name, config in scenario.controllers.items():
         config.check(name, scenario.n_axes, fail)
         config.check_reference(name, scenario.reference, fail)
+        if isinstance(config, RotationChecks) and not (
+            isinstance(scenario.task, ArmTask) and scenario.task.control_path == "fast"
+        ):
+            fail(
+                f"controllers.{name}",
+                f"controller '{name}' acts on the tool's orientation: it needs an !ArmTask "
+                "on the fast path (task.control_path: fast)",
+            )
     scenario.recording.check(fail)
     scenario.probe.check(fail)
     scenario.iiwa_driver.check(fail)

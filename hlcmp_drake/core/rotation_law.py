@@ -294,6 +294,7 @@ class RotationalHlcmp:
         Q_kr, Q_dr, Q_vr per tool axis (>= 0), pi_r [1/s] and L_r [N m s/rad].
     """
 
+    learns = True
     log_fields = {
         "rotational_stiffness": "Kr",
         "rotational_damping": "Dr",
@@ -374,6 +375,7 @@ class RotationalImpedance:
         Diagonal of L_r.
     """
 
+    learns = False
     log_fields: dict[str, str] = {}
     theta_size = 0
 

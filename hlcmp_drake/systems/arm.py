@@ -184,43 +184,54 @@ class NullSpaceImpedance(LeafSystem):
 
 
 class ToolContactForce(LeafSystem):
-    """The contact force on the tool's body, world frame: what a wrist force/torque sensor
-    reads of the environment (gravity and inertia of the tool aside). Sums the hydroelastic
-    and point contacts in the plant's contact results that involve `tool_body`.
+    """The contact force on the tool's body, world frame, and its torque about the tool
+    point: what a wrist force/torque sensor reads of the environment (gravity and inertia
+    of the tool aside). Sums the hydroelastic and point contacts in the plant's contact
+    results that involve the tool's body.
 
     Input ports:
 
     - ``contact_results`` (abstract, `ContactResults`): the plant's contact results
       output.
+    - ``body_poses`` (abstract, vector of RigidTransform): the plant's body poses, for
+      the torque's lever arms and the tool frame.
     - ``applied_force`` (3), only with `applied_force=True`: a force the world applies to
       the tool other than by contact (a torn hole's friction, `HoleFriction`'s ``force``),
-      which a wrist sensor reads too, world [N].
+      which a wrist sensor reads too, world [N]; taken as acting at the tool point (no
+      torque about it: the hole's friction acts along the tool's axis).
 
     Output ports:
 
     - ``force`` (3): the environment's force on the tool, world [N] (`force_on_tool`).
     - ``task_force`` (M): its components along `axes`, M = len(axes) [N].
+    - ``torque`` (3): the environment's torque on the tool about the tool point, in the
+      tool frame's axes [N m] (`torque_on_tool`).
 
     Parameters
     ----------
     plant : MultibodyPlant
         Finalized; the tool body's collision geometries are looked up in it.
-    tool_body : RigidBody
-        The tool's body, whose contacts are summed.
+    tool_frame : Frame
+        The tool point's frame; its body's contacts are summed.
     axes : sequence of int
         The world axes (0 = x, 1 = y, 2 = z) of ``task_force``; default all three.
     applied_force : bool
         Whether to declare the ``applied_force`` input (default False).
     """
 
-    def __init__(self, plant, tool_body, axes=(0, 1, 2), applied_force: bool = False):
+    def __init__(self, plant, tool_frame, axes=(0, 1, 2), applied_force: bool = False):
         super().__init__()
         self._plant = plant
+        tool_body = tool_frame.body()
         self._body_index = tool_body.index()
+        self._X_BT = tool_frame.GetFixedPoseInBodyFrame()
         self._geometries = set(plant.GetCollisionGeometriesForBody(tool_body))
         self._axes = list(axes)
         self.contact_results = self.DeclareAbstractInputPort(
             "contact_results", AbstractValue.Make(ContactResults())
+        )
+        self.body_poses = self.DeclareAbstractInputPort(
+            "body_poses", plant.get_body_poses_output_port().Allocate()
         )
         self.applied_force = (
             self.DeclareVectorInputPort("applied_force", BasicVector(3)) if applied_force else None
@@ -228,6 +239,25 @@ class ToolContactForce(LeafSystem):
         prereq = {self.all_input_ports_ticket()}
         self.DeclareVectorOutputPort("force", 3, self._calc_force, prereq)
         self.DeclareVectorOutputPort("task_force", len(self._axes), self._calc_task_force, prereq)
+        self.DeclareVectorOutputPort("torque", 3, self._calc_torque, prereq)
+
+    def _tool_contacts(self, context: Context):
+        """(p_WC, f) of each contact on the tool: its point, world [m], and the force on
+        the tool there, world [N]; with a hydroelastic contact also its moment about C."""
+        results = self.contact_results.Eval(context)
+        for i in range(results.num_hydroelastic_contacts()):
+            info = results.hydroelastic_contact_info(i)
+            surface = info.contact_surface()
+            wrench = info.F_Ac_W()  # on the body of geometry M, at the centroid C
+            sign = 1.0 if surface.id_M() in self._geometries else -1.0
+            if sign > 0 or surface.id_N() in self._geometries:
+                yield surface.centroid(), sign * wrench.translational(), sign * wrench.rotational()
+        for i in range(results.num_point_pair_contacts()):
+            info = results.point_pair_contact_info(i)
+            if info.bodyA_index() == self._body_index:  # contact_force() acts on body B
+                yield info.contact_point(), -info.contact_force(), np.zeros(3)
+            elif info.bodyB_index() == self._body_index:
+                yield info.contact_point(), info.contact_force(), np.zeros(3)
 
     def force_on_tool(self, context: Context) -> np.ndarray:
         """The contact force on the tool's body at this context, world frame.
@@ -240,28 +270,40 @@ class ToolContactForce(LeafSystem):
         Returns
         -------
         (3,) array
-            Sum of the hydroelastic and point-contact forces acting on `tool_body`, plus the
-            `applied_force` input when there is one [N].
+            Sum of the hydroelastic and point-contact forces acting on the tool's body, plus
+            the `applied_force` input when there is one [N].
         """
-        results = self.contact_results.Eval(context)
         total = np.zeros(3)
-        for i in range(results.num_hydroelastic_contacts()):
-            info = results.hydroelastic_contact_info(i)
-            surface = info.contact_surface()
-            force = info.F_Ac_W().translational()  # acts on the body of geometry M
-            if surface.id_M() in self._geometries:
-                total += force
-            elif surface.id_N() in self._geometries:
-                total -= force
-        for i in range(results.num_point_pair_contacts()):
-            info = results.point_pair_contact_info(i)
-            if info.bodyA_index() == self._body_index:
-                total -= info.contact_force()  # contact_force() acts on body B
-            elif info.bodyB_index() == self._body_index:
-                total += info.contact_force()
+        for _, force, _ in self._tool_contacts(context):
+            total += force
         if self.applied_force is not None:
             total += self.applied_force.Eval(context)
         return total
+
+    def torque_on_tool(self, context: Context) -> np.ndarray:
+        """The contacts' torque on the tool's body about the tool point T, tool frame:
+        R_WT^T sum(tau_C + (p_WC - p_WT) x f_C).
+
+        Parameters
+        ----------
+        context : Context
+            A context of this system (its `contact_results` and `body_poses` inputs are
+            evaluated).
+
+        Returns
+        -------
+        (3,) array
+            [N m], about the tool frame's x, y, z.
+        """
+        X_WT = self.body_poses.Eval(context)[int(self._body_index)] @ self._X_BT
+        p_WT = X_WT.translation()
+        total = np.zeros(3)
+        for point, force, moment in self._tool_contacts(context):
+            total += moment + np.cross(np.asarray(point) - p_WT, force)
+        return X_WT.rotation().inverse() @ total
+
+    def _calc_torque(self, context, output):
+        output.SetFromVector(self.torque_on_tool(context))
 
     def _calc_force(self, context, output):
         output.SetFromVector(self.force_on_tool(context))

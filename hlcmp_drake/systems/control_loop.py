@@ -96,7 +96,15 @@ class ControlTick:
     ----------
     kernel : str
         ``compiled`` or ``numpy``: the path of the tick's arithmetic.
+    reference_ports : tuple of (str, int)
+        The reference inputs `evaluate` takes, in order: name and size.
+    n_axes : int
+        M, the task axes (the size of f_c and of a read external force).
+    extra_series : dict of str to str
+        Further loggable values of `log_row` -> their series name (none here).
     """
+
+    extra_series: dict[str, str] = {}
 
     def __init__(
         self,
@@ -110,7 +118,10 @@ class ControlTick:
         self.kernel = kernel_path()
         self._task_joint_torque = implementation(task_joint_torque, self.kernel)
         self._nothing_below = np.zeros(model.nv)
-        m = model.n_axes
+        m = self.n_axes = model.n_axes
+        self.reference_ports = tuple(
+            (name, 1 if name == "phase" else m) for name in REFERENCE_PORTS
+        )
         self.log_columns = {
             "position": slice(0, m),
             "force": slice(m, 2 * m),
@@ -213,6 +224,10 @@ class ControlLoop(LeafSystem):
     - ``desired_position``, ``desired_velocity``, ``desired_acceleration`` (M): x_d [m],
       x_d' [m/s], x_d'' [m/s^2] from the reference.
     - ``phase`` (1): the canonical phase s [-].
+    - the 6-D tick's (`systems.pose_control.PoseControlTick`) also
+      ``desired_orientation`` (4), ``desired_angular_velocity`` (3) and
+      ``desired_angular_acceleration`` (3): R_d (w, x, y, z), ω_d [rad/s], ω_d' [rad/s^2],
+      world (the tick's `reference_ports` list them).
     - ``theta`` (P), only for a law with a state (P > 0): a learner's flattened weights
       θ = [θ_k, θ_d, θ_v] (each (M, N) row-major; for the Hl-CMP [N/m], [N s/m], [N]), the
       variable impedance's [x_c, x_c', Φ]; from an Integrator.
@@ -227,7 +242,8 @@ class ControlLoop(LeafSystem):
       Integrator's input) [θ's units per s].
     - ``logs`` (`ControlTick.log_size` = 2 M + 1 + M K, K the law's `log_fields`): the
       loggable series evaluated at the present context, not held: x [m], f_c [N], the
-      number of saturated joints [-], then each logged series (M); layout in
+      number of saturated joints [-], then each logged series (M), then the tick's
+      `extra_series` (the 6-D tick's commanded torque and tool orientation); layout in
       `log_columns`.
 
     Parameters
@@ -242,11 +258,11 @@ class ControlLoop(LeafSystem):
         super().__init__()
         self._tick_of = tick
         law, model = tick.law, tick.model
-        nq, nv, m = model.nq, model.nv, model.n_axes
+        nq, nv = model.nq, model.nv
         self.plant_state = self.DeclareVectorInputPort("plant_state", BasicVector(nq + nv))
         self._reference = [
-            self.DeclareVectorInputPort(name, BasicVector(1 if name == "phase" else m))
-            for name in REFERENCE_PORTS
+            self.DeclareVectorInputPort(name, BasicVector(size))
+            for name, size in tick.reference_ports
         ]
         self.theta = (
             self.DeclareVectorInputPort("theta", BasicVector(law.theta_size))
@@ -254,7 +270,7 @@ class ControlLoop(LeafSystem):
             else None
         )
         self.external_force = (
-            self.DeclareVectorInputPort("external_force", BasicVector(m))
+            self.DeclareVectorInputPort("external_force", BasicVector(tick.n_axes))
             if law.reads_external_force
             else None
         )

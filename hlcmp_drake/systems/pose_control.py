@@ -16,6 +16,7 @@ import numpy as np
 from hlcmp_drake.core.laws import LawOutput
 from hlcmp_drake.core.rotation_law import PoseInstant, PoseLaw
 from hlcmp_drake.systems.arm import BelowTaskImpedance
+from hlcmp_drake.systems.ports import REFERENCE_PORTS
 from hlcmp_drake.systems.spatial_task_space import (
     SpatialTaskSpaceModel,
     SpatialTerms,
@@ -69,8 +70,17 @@ class PoseTickResult:
     saturated: int
 
 
+# The 6-D tick's reference inputs beyond the translational ones, and their sizes.
+ORIENTATION_REFERENCE_PORTS = (
+    ("desired_orientation", 4),
+    ("desired_angular_velocity", 3),
+    ("desired_angular_acceleration", 3),
+)
+
+
 class PoseControlTick:
-    """The 6-D controller at one plant state.
+    """The 6-D controller at one plant state, with `systems.control_loop.ControlTick`'s
+    interface: `systems.control_loop.ControlLoop` runs it once per plant step.
 
     Parameters
     ----------
@@ -82,7 +92,20 @@ class PoseControlTick:
     law : PoseLaw
     effort_limits : (nv,) array
         [N m].
+
+    Attributes
+    ----------
+    reference_ports : tuple of (str, int)
+        x_d, x_d', x_d'' (3 each), s (1), then `ORIENTATION_REFERENCE_PORTS`.
+    n_axes : int
+        3: the translational task axes (f_c's size; the torque is an extra series).
+    extra_series : dict of str to str
+        The commanded torque tau_c (3, world [N m]) as "tau_c" and the tool's orientation
+        (4, w x y z, world) as "q_tool".
     """
+
+    n_axes = 3
+    extra_series = {"torque": "tau_c", "orientation": "q_tool"}
 
     def __init__(
         self,
@@ -93,9 +116,27 @@ class PoseControlTick:
     ):
         self.model, self.below_task, self.law = model, below_task, law
         self.effort_limits = np.asarray(effort_limits, dtype=float)
+        self.reference_ports = (
+            *((name, 1 if name == "phase" else 3) for name in REFERENCE_PORTS),
+            *ORIENTATION_REFERENCE_PORTS,
+        )
+        columns = {"position": 3, "force": 3, "saturated": 1}
+        columns.update({name: 3 for name in law.log_fields})
+        columns.update({"torque": 3, "orientation": 4})
+        self.log_columns, start = {}, 0
+        for name, size in columns.items():
+            self.log_columns[name] = slice(start, start + size)
+            start += size
+        self.log_size = start
 
     def evaluate(
-        self, state: np.ndarray, reference: PoseReference, theta: np.ndarray | None
+        self,
+        state: np.ndarray,
+        reference: PoseReference | tuple,
+        theta: np.ndarray | None,
+        *,
+        time: float = 0.0,
+        external_force: np.ndarray | None = None,
     ) -> PoseTickResult:
         """The controller's output at one plant state.
 
@@ -103,13 +144,19 @@ class PoseControlTick:
         ----------
         state : (nq + nv,) array
             The plant's positions [rad] and velocities [rad/s].
-        reference : PoseReference
+        reference : PoseReference, or its values in the order of `reference_ports`
         theta : (law.theta_size,) array, or None for a law without θ
+        time, external_force
+            Unused (the 6-D laws have no schedule and read no force): `ControlTick`'s
+            signature.
 
         Returns
         -------
         PoseTickResult
         """
+        if not isinstance(reference, PoseReference):
+            xd, xd_dot, xd_ddot, phase, q_d, omega_d, omega_d_dot = reference
+            reference = PoseReference(xd, xd_dot, xd_ddot, q_d, omega_d, omega_d_dot, phase[0])
         terms = self.model.terms(state, coriolis_matrix=False)
         velocity = terms.spatial_velocity
         now = PoseInstant(
@@ -134,3 +181,26 @@ class PoseControlTick:
         )
         torque, saturated = wrench_to_joint_torque(terms, out.force, below, self.effort_limits)
         return PoseTickResult(terms, out, torque, saturated)
+
+    def log_row(self, result: PoseTickResult) -> np.ndarray:
+        """The tick's loggable values in the layout of `log_columns`: P, f_c, the number of
+        saturated joints, the law's series, tau_c and the tool's orientation.
+
+        Parameters
+        ----------
+        result : PoseTickResult
+
+        Returns
+        -------
+        (log_size,) array
+        """
+        return np.concatenate(
+            [
+                result.terms.position,
+                result.law.force[3:],
+                [result.saturated],
+                *(result.law.logs[name] for name in self.law.log_fields),
+                result.law.force[:3],
+                result.terms.orientation,
+            ]
+        )

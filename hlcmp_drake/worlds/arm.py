@@ -10,12 +10,14 @@ import functools
 from typing import TYPE_CHECKING, Callable
 
 import numpy as np
+from pydrake.common.eigen_geometry import Quaternion
 from pydrake.math import RotationMatrix
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder
 
 from hlcmp_drake.config.scenario import ArmTask, Scenario
 from hlcmp_drake.core.dmp import Dmp
+from hlcmp_drake.core.orientation_dmp import OrientationDmp
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.systems.arm import BelowTaskImpedance, NullSpaceImpedance, ToolContactForce
 from hlcmp_drake.systems.control_loop import ControlTick
@@ -37,6 +39,7 @@ from hlcmp_drake.worlds.common import (
     add_torque_map,
     modular_log_ports,
     read_scenario_demonstration,
+    read_scenario_orientations,
 )
 from hlcmp_drake.worlds.controllers import (
     WorldPorts,
@@ -45,6 +48,7 @@ from hlcmp_drake.worlds.controllers import (
 )
 from hlcmp_drake.worlds.extras import ToolSensing, add_tool_sensing
 from hlcmp_drake.worlds.models import add_plant, load_models, scoped_frame, solve_ik_for_tool
+from hlcmp_drake.worlds.pose import add_pose_reference, pose_tick
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -55,20 +59,24 @@ if TYPE_CHECKING:
 @dc.dataclass
 class ArmSetup:
     """What every controller's diagram of an arm scenario shares: the fitted DMP, the
-    start posture q0 [rad] (inverse kinematics) and the tool orientation to hold."""
+    start posture q0 [rad] (inverse kinematics), the tool orientation there (held below
+    the task by a translational controller) and, for a pose demonstration, the fitted
+    orientation DMP (a 6-D controller's reference; without it a 6-D controller holds
+    `tool_orientation`)."""
 
     dmp: Dmp
     q0: np.ndarray
     tool_orientation: RotationMatrix
+    orientation_dmp: OrientationDmp | None = None
 
 
 def solve_start_posture(
-    scenario: Scenario, tip_position: ArrayLike
+    scenario: Scenario, tip_position: ArrayLike, orientation: RotationMatrix | None = None
 ) -> tuple[np.ndarray, RotationMatrix]:
     """The start posture for the tool point at `tip_position`, and the tool's orientation there.
 
     Inverse kinematics on a plant of the scenario's models, seeded with task.ik_seed_rad
-    (elbow up), with the tool pointing as the task asks.
+    (elbow up), with the tool pointing as the task asks (or as `orientation`).
 
     Parameters
     ----------
@@ -76,6 +84,8 @@ def solve_start_posture(
         With an ArmTask.
     tip_position : (3,) array
         World position of the tool point [m], e.g. the DMP's start.
+    orientation : RotationMatrix, optional
+        The tool's whole orientation there (a pose demonstration's first).
 
     Returns
     -------
@@ -92,7 +102,7 @@ def solve_start_posture(
     task: ArmTask = scenario.task
     plant = MultibodyPlant(0.0)
     load_models(plant, scenario)
-    q0 = solve_ik_for_tool(plant, task, tip_position, task.ik_seed_rad)
+    q0 = solve_ik_for_tool(plant, task, tip_position, task.ik_seed_rad, orientation)
     if q0 is None:
         raise InputError(
             f"inverse kinematics found no posture with the tool at {np.round(tip_position, 3)} "
@@ -132,8 +142,28 @@ def fit_demonstration(scenario: Scenario) -> Dmp:
     return Dmp.fit(t, positions, axes, scenario.dmp)
 
 
-def prepare(scenario: Scenario, dmp: Dmp | None = None) -> ArmSetup:
-    """What every controller's diagram shares: the DMP, its start posture and the tool orientation.
+def fit_orientation_demonstration(scenario: Scenario) -> OrientationDmp | None:
+    """Fit the orientation DMP to the scenario's demonstration, when it is a pose.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        With a DemonstrationConfig; the DMP's settings are scenario.dmp.
+
+    Returns
+    -------
+    OrientationDmp or None
+        None for a position-only demonstration.
+    """
+    demonstrated = read_scenario_orientations(scenario)
+    return None if demonstrated is None else OrientationDmp.fit(*demonstrated, scenario.dmp)
+
+
+def prepare(
+    scenario: Scenario, dmp: Dmp | None = None, orientation_dmp: OrientationDmp | None = None
+) -> ArmSetup:
+    """What every controller's diagram shares: the DMPs, the start posture and the tool
+    orientation there.
 
     Parameters
     ----------
@@ -141,11 +171,14 @@ def prepare(scenario: Scenario, dmp: Dmp | None = None) -> ArmSetup:
         With an ArmTask and a DemonstrationConfig.
     dmp : Dmp, optional
         E.g. a saved skill's; None: fitted to the scenario's demonstration.
+    orientation_dmp : OrientationDmp, optional
+        A pose skill's; None: fitted to the demonstration when it is a pose.
 
     Returns
     -------
     ArmSetup
-        The DMP, q0 [rad] with the tool at the DMP's start, and the tool orientation there.
+        The DMPs, q0 [rad] with the tool at the DMP's start (and, for a pose, in its
+        start orientation), and the tool orientation there.
 
     Raises
     ------
@@ -153,8 +186,14 @@ def prepare(scenario: Scenario, dmp: Dmp | None = None) -> ArmSetup:
         From fitting the demonstration or from the inverse kinematics.
     """
     dmp = dmp or fit_demonstration(scenario)
-    q0, orientation = solve_start_posture(scenario, dmp.start)
-    return ArmSetup(dmp, q0, orientation)
+    orientation_dmp = orientation_dmp or fit_orientation_demonstration(scenario)
+    start = (
+        None
+        if orientation_dmp is None
+        else RotationMatrix(Quaternion(np.asarray(orientation_dmp.start, float)))
+    )
+    q0, orientation = solve_start_posture(scenario, dmp.start, start)
+    return ArmSetup(dmp, q0, orientation, orientation_dmp)
 
 
 @dc.dataclass
@@ -304,6 +343,7 @@ def build(
         contact_force=world.sensor.GetOutputPort("task_force"),
         theta0=theta0,
     )
+    log_ports = {**log_ports, "tau_ext": world.sensor.GetOutputPort("torque")}
     loggers = (
         add_harness(
             builder,
@@ -495,9 +535,15 @@ def _add_fast_controller(
 ):
     """The C++ DMP source -> ControlLoop (one Python call per plant step) -> plant, θ in
     a C++ Integrator fed the loop's held rate (`add_control_loop`); on a `RealArm`, at its
-    period, reading its state estimate, with the controller's model set off the arm."""
-    reference = add_reference(builder, scenario, dmp=setup.dmp, compiled=True)
-    tick = arm_tick(scenario, name, plant=plant, setup=setup)
+    period, reading its state estimate, with the controller's model set off the arm. A
+    6-D controller reads the pose reference and runs the 6-D tick (`worlds.pose`), and
+    its desired orientation is logged as "q_tool_d"."""
+    if controller_kind(scenario, name).pose:
+        reference = add_pose_reference(builder, scenario, setup)
+        tick = pose_tick(scenario, name, plant=plant, setup=setup)
+    else:
+        reference = add_reference(builder, scenario, dmp=setup.dmp, compiled=True)
+        tick = arm_tick(scenario, name, plant=plant, setup=setup)
     imperfection = scenario.robot_imperfection
     if imperfection.model_differs:
         set_model_off(
@@ -509,7 +555,7 @@ def _add_fast_controller(
             tool_mass_error=imperfection.tool_mass_error,
             tool_com_error=np.asarray(imperfection.tool_com_error_m),
         )
-    return add_control_loop(
+    controller, ports, saturated = add_control_loop(
         builder,
         scenario,
         name,
@@ -523,6 +569,9 @@ def _add_fast_controller(
         period=real_arm.period if real_arm else None,
         sensed_force=real_arm.force if real_arm else None,
     )
+    if controller_kind(scenario, name).pose:
+        ports["q_tool_d"] = reference.GetOutputPort("desired_orientation")
+    return controller, ports, saturated
 
 
 def arm_tick(

@@ -34,7 +34,12 @@ from hlcmp_drake.systems.references import (
     linear_dmp_source,
 )
 from hlcmp_drake.systems.task_space import TaskForceToJointTorque
-from hlcmp_drake.worlds.controllers import AddedController, controller_kind, initial_theta
+from hlcmp_drake.worlds.controllers import (
+    AddedController,
+    controller_kind,
+    initial_theta,
+    kind_of,
+)
 
 if TYPE_CHECKING:
     from pydrake.multibody.plant import MultibodyPlant
@@ -107,9 +112,27 @@ def read_scenario_demonstration(
             f"{reference.file}: has columns {','.join(axes)}, the scenario "
             f"'{scenario.name}' needs x,y,z"
         )
-    if quaternions is not None:
+    translational = any(not kind_of(config).pose for config in scenario.controllers.values())
+    if quaternions is not None and translational:
         check_held_orientation(reference.file, quaternions, scenario.task.tool_direction, lines)
     return t, positions, axes, lines
+
+
+def read_scenario_orientations(scenario: Scenario) -> tuple[np.ndarray, np.ndarray] | None:
+    """The demonstrated tool orientations of the scenario's demonstration, if it has them.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        With a DemonstrationConfig reference (its file resolved).
+
+    Returns
+    -------
+    (t (T,) [s], quaternions (T, 4) w x y z, unit, hemisphere-continuous), or None for a
+    position-only demonstration.
+    """
+    t, _, _, quaternions = read_demonstration(scenario.reference.file, with_orientation=True)
+    return None if quaternions is None else (t, quaternions)
 
 
 # How far a pose demonstration's tool axis may stray from the one the arm holds.
@@ -122,6 +145,8 @@ def check_held_orientation(
     """A translational skill follows a pose demonstration's positions only, its tool held
     with +z along `tool_direction`: every demonstrated tool axis must be that one within
     HELD_AXIS_TOLERANCE_RAD, or the demonstration's orientation would be silently ignored.
+    (Checked when a scenario has a translational controller; a 6-D one follows the
+    demonstrated orientation.)
 
     Parameters
     ----------
@@ -307,8 +332,9 @@ def add_control_loop(
     scenario : Scenario
     name : str
         The controller's label (the loop's name).
-    tick : ControlTick
-        The world's controller at one instant.
+    tick : ControlTick or PoseControlTick
+        The world's controller at one instant; its `reference_ports` are read from
+        `reference` by name, its `extra_series` logged.
     plant : MultibodyPlant
     reference : System
         The compiled reference: x_d, x_d', x_d'', s.
@@ -344,7 +370,7 @@ def add_control_loop(
     if measured_state is None:
         measured_state = plant.get_state_output_port()
     builder.Connect(measured_state, loop.plant_state)
-    for port in REFERENCE_PORTS:
+    for port, _ in tick.reference_ports:
         builder.Connect(reference.GetOutputPort(port), loop.GetInputPort(port))
     builder.Connect(loop.GetOutputPort("joint_torque"), plant.get_actuation_input_port())
     if loop.external_force is not None:
@@ -386,6 +412,7 @@ def add_control_loop(
         "plant_state": plant.get_state_output_port(),
         "saturated_joints": (logs, loop.log_columns["saturated"]),
         **controller.logs,
+        **{series: (logs, loop.log_columns[field]) for field, series in tick.extra_series.items()},
     }
     # The saturated-joint count alone, for the safety monitor (a C++ selection).
     select = builder.AddSystem(MatrixGain(np.eye(logs.size())[loop.log_columns["saturated"]]))

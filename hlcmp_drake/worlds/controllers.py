@@ -20,9 +20,11 @@ import numpy as np
 
 from hlcmp_drake.config.scenario import (
     ConstantImpedanceConfig,
+    ConstantPoseImpedanceConfig,
     ControllerConfig,
     HlcmpConfig,
     HlcmpForgettingConfig,
+    PoseHlcmpConfig,
     Scenario,
     StepReferenceConfig,
     VariableImpedanceConfig,
@@ -35,6 +37,13 @@ from hlcmp_drake.core.laws import (
     HlcmpGains,
     HlcmpLaw,
     VariableImpedanceLaw,
+)
+from hlcmp_drake.core.rotation_law import (
+    PoseImpedance,
+    PoseLaw,
+    RotationalHlcmp,
+    RotationalImpedance,
+    constant_pose_impedance,
 )
 from hlcmp_drake.systems.baselines import VariableImpedanceController
 from hlcmp_drake.systems.law_controller import LawController
@@ -177,45 +186,102 @@ def constant_impedance_law(
     )
 
 
+def pose_hlcmp_law(config: PoseHlcmpConfig, scenario: Scenario) -> PoseLaw:
+    """The 6-D Hl-CMP: the translational Hl-CMP (`hlcmp_law`) and the rotational one
+    (`core.rotation_law.RotationalHlcmp`) on the same phase basis, Q of both read in the
+    config's `q_units`.
+
+    Parameters
+    ----------
+    config : PoseHlcmpConfig
+    scenario : Scenario
+        Its DMP settings (the phase basis).
+
+    Returns
+    -------
+    PoseLaw
+    """
+    centers, widths = basis_centers_and_widths(scenario.dmp.n_basis, scenario.dmp.alpha_s)
+    scale = config.rate_scale()
+    rotational = HlcmpGains(
+        np.asarray(config.q_kr, float) * scale,
+        np.asarray(config.q_dr, float) * scale,
+        np.asarray(config.q_vr, float) * scale,
+        config.pi_r,
+        np.asarray(config.gain_l_r, float),
+    )
+    return PoseLaw(hlcmp_law(config, scenario), RotationalHlcmp(centers, widths, rotational))
+
+
+def constant_pose_impedance_law(config: ConstantPoseImpedanceConfig, scenario: Scenario) -> PoseLaw:
+    """The constant 6-D impedance of the config (`core.rotation_law.constant_pose_impedance`).
+
+    Parameters
+    ----------
+    config : ConstantPoseImpedanceConfig
+    scenario : Scenario
+        Unused: the law has no phase basis.
+
+    Returns
+    -------
+    PoseLaw
+        With no θ.
+    """
+    impedance = PoseImpedance(
+        np.asarray(config.stiffness_N_per_m, float),
+        np.asarray(config.damping_Ns_per_m, float),
+        np.asarray(config.rotational_stiffness_Nm_per_rad, float),
+        np.asarray(config.rotational_damping_Nms_per_rad, float),
+    )
+    return constant_pose_impedance(
+        impedance,
+        config.pi,
+        np.asarray(config.gain_l, float),
+        config.pi_r,
+        np.asarray(config.gain_l_r, float),
+    )
+
+
 def initial_theta(
     config: HlcmpConfig,
     scenario: Scenario,
     theta0: Theta | None = None,
 ) -> np.ndarray:
-    """A learner's flattened initial weights [θ_k, θ_d, θ_v].
+    """A learner's flattened initial weights [θ_k, θ_d, θ_v] (and, for the 6-D Hl-CMP,
+    [θ_kr, θ_dr, θ_vr] after them).
 
     Parameters
     ----------
-    config : HlcmpConfig
-        Its uniform initial weights theta_k0, theta_d0, theta_v0.
+    config : HlcmpConfig or PoseHlcmpConfig
+        Its uniform initial weights theta_k0, theta_d0, theta_v0 (theta_kr0, theta_dr0,
+        theta_vr0).
     scenario : Scenario
         Its number of axes M and basis functions N.
-    theta0 : tuple of three (M, N) arrays, optional
+    theta0 : tuple of (M, N) arrays (then three (3, N) arrays for the 6-D Hl-CMP), optional
         In place of the configured uniform weights: a learned skill, or the previous
         trial's result.
 
     Returns
     -------
-    (3 M N,) array
+    (3 M N,) array, or (3 M N + 9 N,) for the 6-D Hl-CMP
 
     Raises
     ------
     ValueError
-        When `theta0` does not hold 3 M N values.
+        When `theta0` does not hold that many values.
     """
-    size = scenario.n_axes * scenario.dmp.n_basis
+    n = scenario.dmp.n_basis
+    sizes = [scenario.n_axes * n] * 3
+    starts = [config.theta_k0, config.theta_d0, config.theta_v0]
+    if isinstance(config, PoseHlcmpConfig):
+        sizes += [3 * n] * 3
+        starts += [config.theta_kr0, config.theta_dr0, config.theta_vr0]
     if theta0 is not None:
         flat = np.concatenate([np.ravel(t) for t in theta0])
-        if flat.size != 3 * size:
-            raise ValueError(f"theta0 must hold 3*M*N = {3 * size} values, got {flat.size}")
+        if flat.size != sum(sizes):
+            raise ValueError(f"theta0 must hold {sum(sizes)} values, got {flat.size}")
         return flat
-    return np.concatenate(
-        [
-            np.full(size, config.theta_k0),
-            np.full(size, config.theta_d0),
-            np.full(size, config.theta_v0),
-        ]
-    )
+    return np.concatenate([np.full(size, start) for size, start in zip(sizes, starts)])
 
 
 def desired_force_schedule(
@@ -299,6 +365,11 @@ def _frozen_forgetting(config: HlcmpForgettingConfig) -> HlcmpForgettingConfig:
     return dc.replace(_frozen_hlcmp(config), forgetting_per_s=0.0)
 
 
+def _frozen_pose_hlcmp(config: PoseHlcmpConfig) -> PoseHlcmpConfig:
+    zeros = [0.0] * 3
+    return dc.replace(_frozen_hlcmp(config), q_kr=zeros, q_dr=zeros, q_vr=zeros)
+
+
 @dc.dataclass(frozen=True)
 class ControllerKind:
     """What one kind of controller is and how it goes into a diagram.
@@ -322,6 +393,10 @@ class ControllerKind:
     frozen : callable(config) -> config, optional
         For a learner: the same config with its learning switched off (θ stays as it
         starts), for replaying a skill.
+    rotation : type, optional
+        For a 6-D controller (the tool's orientation its task too, `law` a
+        `core.rotation_law.PoseLaw`): the class of the law's rotational half; what it logs
+        and whether it learns add to `law_type`'s.
     """
 
     role: str
@@ -330,16 +405,24 @@ class ControllerKind:
     system: Callable[[Any, Scenario, np.ndarray], LeafSystem] | None = None
     uses_contact_force: bool = False
     frozen: Callable[[Any], Any] | None = None
+    rotation: type | None = None
+
+    @property
+    def pose(self) -> bool:
+        """Whether it controls the tool's orientation as well as its point (6-D)."""
+        return self.rotation is not None
 
     @property
     def learns(self) -> bool:
         """Whether its weights θ adapt during a run (and are read back after it)."""
-        return bool(self.law_type is not None and self.law_type.learns)
+        halves = (self.law_type, self.rotation)
+        return any(half is not None and half.learns for half in halves)
 
     @property
     def logs(self) -> dict[str, str]:
         """Its own series: the law's output name -> the series name in timeseries.npz."""
-        return dict(self.law_type.log_fields) if self.law_type is not None else {}
+        halves = (self.law_type, self.rotation)
+        return {k: v for half in halves if half is not None for k, v in half.log_fields.items()}
 
 
 CONTROLLER_KINDS: dict[type, ControllerKind] = {
@@ -356,6 +439,19 @@ CONTROLLER_KINDS: dict[type, ControllerKind] = {
         law=variable_impedance_law,
         system=_variable_impedance_system,
         uses_contact_force=True,
+    ),
+    PoseHlcmpConfig: ControllerKind(
+        LEARNER,
+        law_type=HlcmpLaw,
+        law=pose_hlcmp_law,
+        frozen=_frozen_pose_hlcmp,
+        rotation=RotationalHlcmp,
+    ),
+    ConstantPoseImpedanceConfig: ControllerKind(
+        CONSTANT_IMPEDANCE,
+        law_type=ConstantImpedanceLaw,
+        law=constant_pose_impedance_law,
+        rotation=RotationalImpedance,
     ),
 }
 

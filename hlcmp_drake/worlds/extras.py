@@ -127,10 +127,11 @@ def add_tool_sensing(
     ]
     forces = [extra.tool_force for extra in extras if extra.tool_force is not None]
     sensor = builder.AddSystem(
-        ToolContactForce(plant, tool_frame.body(), axes, applied_force=bool(forces))
+        ToolContactForce(plant, tool_frame, axes, applied_force=bool(forces))
     )
     sensor.set_name("wrist_force_sensor")
     builder.Connect(plant.get_contact_results_output_port(), sensor.contact_results)
+    builder.Connect(plant.get_body_poses_output_port(), sensor.body_poses)
     if len(forces) == 1:
         builder.Connect(forces[0], sensor.applied_force)
     elif forces:

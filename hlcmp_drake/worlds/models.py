@@ -85,9 +85,14 @@ def add_plant(
 
 
 def solve_ik_for_tool(
-    plant: MultibodyPlant, task: ArmTask, tip_position: ArrayLike, seed: ArrayLike
+    plant: MultibodyPlant,
+    task: ArmTask,
+    tip_position: ArrayLike,
+    seed: ArrayLike,
+    orientation: RotationMatrix | None = None,
 ) -> np.ndarray | None:
-    """Inverse kinematics: the tool point at `tip_position`, pointing as the task asks.
+    """Inverse kinematics: the tool point at `tip_position`, pointing as the task asks
+    (or with the whole `orientation`, a pose demonstration's first).
 
     Parameters
     ----------
@@ -100,6 +105,8 @@ def solve_ik_for_tool(
         World position of the tool point [m] (held within 0.1 mm).
     seed : (nq,) array
         Joint positions [rad] to start from and stay close to.
+    orientation : RotationMatrix, optional
+        The tool frame's whole orientation in the world, in place of the task's.
 
     Returns
     -------
@@ -115,10 +122,12 @@ def solve_ik_for_tool(
         np.asarray(tip_position) - 1e-4,
         np.asarray(tip_position) + 1e-4,
     )
-    if task.tool_rpy_rad:
+    if orientation is None and task.tool_rpy_rad:
+        orientation = RotationMatrix(RollPitchYaw(task.tool_rpy_rad))
+    if orientation is not None:
         ik.AddOrientationConstraint(
             plant.world_frame(),
-            RotationMatrix(RollPitchYaw(task.tool_rpy_rad)),
+            orientation,
             frame,
             RotationMatrix(),
             1e-3,
