@@ -175,7 +175,9 @@ BREAKS = [
     ("dmp.smoothing_s", _number(">= 0")),
     # the controllers
     ("controllers.*.pi", _number("> 0")),
+    ("controllers.*.pi_r", _number("> 0")),
     ("controllers.*.theta_?0", _number("any")),
+    ("controllers.*.theta_??0", _number("any")),  # the rotational weights' start
     ("controllers.*.q_units", lambda v, s: ["nope"]),
     ("controllers.*.control_step_s", _number("> 0")),
     ("controllers.*.forgetting_per_s", _number(">= 0")),

@@ -14,8 +14,10 @@ from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.scenario import (
     ArmTask,
     ConstantImpedanceConfig,
+    ConstantPoseImpedanceConfig,
     HlcmpConfig,
     HlcmpForgettingConfig,
+    PoseHlcmpConfig,
 )
 from hlcmp_drake.experiments import EXPERIMENTS
 from hlcmp_drake.run.runner import evaluate
@@ -41,12 +43,28 @@ def _example_configs(scenario):
         ConstantImpedanceConfig,
         ConstantImpedanceConfig([100.0] * m, [20.0] * m, gain_l=[10.0] * m),
     )
+    rotational = {"q_kr": [0.3] * 3, "q_dr": [0.01] * 3, "q_vr": [0.1] * 3, "gain_l_r": [0.1] * 3}
+    configs.setdefault(PoseHlcmpConfig, PoseHlcmpConfig(**fields, **rotational))
+    configs.setdefault(
+        ConstantPoseImpedanceConfig,
+        ConstantPoseImpedanceConfig(
+            [100.0] * m,
+            [20.0] * m,
+            gain_l=[10.0] * m,
+            rotational_stiffness_Nm_per_rad=[10.0] * 3,
+            rotational_damping_Nms_per_rad=[1.0] * 3,
+            gain_l_r=[0.1] * 3,
+        ),
+    )
     return configs
 
 
 def _applies(kind, scenario):
     """An arm world evaluates a law in its one-call loop or the modular LawController; a
-    kind without a law (the variable impedance) is a slider comparison."""
+    kind without a law (the variable impedance) is a slider comparison; a 6-D kind needs
+    an arm (its tool's orientation)."""
+    if kind.pose:
+        return isinstance(scenario.task, ArmTask)
     return kind.law is not None or not isinstance(scenario.task, ArmTask)
 
 
@@ -83,8 +101,9 @@ def test_every_controller_kind_builds_steps_and_logs_in_every_world(world_name, 
         assert series in run.series and np.all(np.isfinite(run.series[series])), series
     assert len(run.t) >= 5
     if kind.learns:
-        assert len(run.theta) == 3
-        assert all(t.shape == (scenario.n_axes, scenario.dmp.n_basis) for t in run.theta)
+        n = scenario.dmp.n_basis
+        shapes = [(scenario.n_axes, n)] * 3 + ([(3, n)] * 3 if kind.pose else [])
+        assert [t.shape for t in run.theta] == shapes
         frozen = kind.frozen(config)
         assert kind_of(frozen) is kind and frozen.q_k == [0.0] * scenario.n_axes
     else:

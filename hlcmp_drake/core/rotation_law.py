@@ -505,7 +505,7 @@ class PoseLaw:
                 now.xd_dot,
                 now.xd_ddot,
                 now.phase,
-                inertia[3:, 3:],
+                np.ascontiguousarray(inertia[3:, 3:]),  # the compiled law's matmul wants it
                 # an operator with `@`, as TaskSpaceInstant.coriolis may be
                 cast(np.ndarray, coriolis),
                 now.gravity[3:] + inertia[3:, :3] @ omega_ref_dot,
