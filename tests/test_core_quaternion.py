@@ -124,3 +124,14 @@ def test_the_matrix_rotates_as_the_quaternion_does():
     np.testing.assert_allclose(np.einsum("kij,kj->ki", matrices, v), quat.rotate(q, v), atol=1e-14)
     np.testing.assert_allclose(quat.to_matrix(-q[0]), matrices[0], atol=1e-15)
     np.testing.assert_allclose(matrices[3] @ matrices[3].T, np.eye(3), atol=1e-14)
+
+
+def test_cross_is_numpys_cross_to_the_bit():
+    from hlcmp_drake.core.quaternion import cross
+
+    rng = np.random.default_rng(7)
+    a, b = rng.normal(size=(5, 3)), rng.normal(size=(5, 3))
+    np.testing.assert_array_equal(cross(a, b), np.cross(a, b))
+    np.testing.assert_array_equal(cross(a[0], b), np.cross(a[0], b))  # broadcast
+    np.testing.assert_array_equal(cross(a[1], b[2]), np.cross(a[1], b[2]))
+    assert cross(a[1], b[2]).shape == (3,)

@@ -162,7 +162,7 @@ def rotational_reference(
     error_world = rotation @ e_r
     error_rate = np.linalg.solve(quat.left_jacobian(-np.asarray(e_r, float)), omega_e)
     omega_ref = omega_d - pi * error_world
-    omega_ref_dot = omega_d_dot - pi * (np.cross(omega, error_world) + rotation @ error_rate)
+    omega_ref_dot = omega_d_dot - pi * (quat.cross(omega, error_world) + rotation @ error_rate)
     return omega_ref, omega_ref_dot
 
 

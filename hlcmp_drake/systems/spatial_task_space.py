@@ -16,6 +16,7 @@ import numpy as np
 from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.framework import Context
 
+from hlcmp_drake.core import quaternion as quat
 from hlcmp_drake.core.task_inertia import EIGENVALUE_FLOOR, conditioned_task_inertia
 from hlcmp_drake.systems.task_space import saturate
 
@@ -234,7 +235,7 @@ class SpatialCoriolisProduct:
             joint_coriolis, jdot_u = self._model.bias_pair(self._v, u)
             # The angular rows of Jdot are not symmetric in (v, u) as the polarization's
             # form is: Jdot_w(v) u = sym(v, u) + (J_w v) x (J_w u) / 2.
-            jdot_u[:3] += 0.5 * np.cross(self._omega, self._jac[:3] @ u)
+            jdot_u[:3] += 0.5 * quat.cross(self._omega, self._jac[:3] @ u)
             products.append(self._jbar.T @ joint_coriolis - self._inertia @ jdot_u)
         product = np.column_stack(products)
         return product if np.ndim(w) == 2 else product[:, 0]
