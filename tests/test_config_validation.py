@@ -127,3 +127,22 @@ def test_the_sliders_control_path_is_checked_at_load(overrides, expected):
     load_scenario(
         "one_dof", ["task.control_path=modular", "controllers.vic_fd_0.5.sample_period_s=0.002"]
     )
+
+
+def test_a_6d_controller_needs_an_arm_on_the_fast_path(tmp_path):
+    """The tool's orientation is an arm's, and the 6-D tick runs only in the one-call loop:
+    a 6-D controller elsewhere is refused at load, its label named, in one line."""
+    with pytest.raises(InputError, match="acts on the tool's orientation") as error:
+        load_scenario("peg_in_hole", ["task.control_path=modular"])
+    assert re.match(r".*peg_in_hole\.yaml:\d+: hlcmp_6d: controller 'hlcmp_6d'", str(error.value))
+    assert "\n" not in str(error.value)
+    six = (
+        "controllers:\n  six: !ConstantPoseImpedanceConfig\n    stiffness_N_per_m: [100.0]\n"
+        "    damping_Ns_per_m: [10.0]\n    gain_l: [1.0]\n"
+        "    rotational_stiffness_Nm_per_rad: [1.0, 1.0, 1.0]\n"
+        "    rotational_damping_Nms_per_rad: [0.1, 0.1, 0.1]\n    gain_l_r: [0.1, 0.1, 0.1]\n"
+    )
+    slider = tmp_path / "slider.yaml"
+    slider.write_text((DIAGRAMS_DIR / "one_dof.yaml").read_text().replace("controllers:\n", six))
+    with pytest.raises(InputError, match=r"slider\.yaml:\d+: six: .* needs an !ArmTask"):
+        load_scenario(slider)
