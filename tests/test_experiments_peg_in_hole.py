@@ -1,0 +1,98 @@
+"""experiments.peg_in_hole: the claims P1 and P2 judged on given metrics (each can fail),
+the orientation error against the held or the desired orientation, and a short run whose
+metrics are recomputed from what `hlcmp run` writes."""
+
+import json
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.experiments import peg_in_hole
+from hlcmp_drake.run.runner import run_loaded_scenario
+
+
+@pytest.fixture(scope="module")
+def scenario():
+    return load_scenario("peg_in_hole")[0]
+
+
+def _metrics(k_r=(5.0, 40.0, 3.0), force=(10.0, 20.0), torque=(0.1, 0.3), depth=0.0195):
+    """Metrics of the 6-D learner and the stiff constant as P1 and P2 read them."""
+    done = {"done": True, "evidence": "deep enough"}
+    return {
+        "hlcmp_6d": {
+            "task": done,
+            "max_rotational_stiffness_Nm_per_rad": list(k_r),
+            "max_force_norm_N": force[0],
+            "max_torque_norm_Nm": torque[0],
+            "depth_reached_m": depth,
+        },
+        "const_6d_stiff": {
+            "task": done,
+            "max_force_norm_N": force[1],
+            "max_torque_norm_Nm": torque[1],
+            "depth_reached_m": 0.012,
+        },
+    }
+
+
+def _claims(scenario, metrics):
+    return peg_in_hole.claims(metrics, scenario, None, "hlcmp_6d")
+
+
+def test_p1_holds_when_the_tilting_stiffness_rose_and_the_own_axis_stayed_small(scenario):
+    assert _claims(scenario, _metrics())["P1"]["holds"] is True
+    own_large = _claims(scenario, _metrics(k_r=(5.0, 40.0, 10.1)))["P1"]
+    assert own_large["holds"] is False and own_large["parts"]["small_about_own_axis"] is False
+    unlearned = _claims(scenario, _metrics(k_r=(0.0, 0.0, 0.0)))["P1"]
+    assert unlearned["parts"] == {"adapts_on_a_tilting_axis": False, "small_about_own_axis": False}
+
+
+def test_p2_needs_both_a_lower_peak_force_and_a_lower_peak_torque(scenario):
+    assert _claims(scenario, _metrics())["P2"]["holds"] is True
+    harder = _claims(scenario, _metrics(torque=(0.4, 0.3)))["P2"]
+    assert harder["holds"] is False and harder["parts"]["lower_peak_torque"] is False
+    assert harder["peak_torque_Nm"] == {"hlcmp_6d": 0.4, "const_6d_stiff": 0.3}
+
+
+def test_claims_are_not_judged_when_the_learner_did_not_reach_the_depth(scenario):
+    metrics = _metrics()
+    metrics["hlcmp_6d"]["task"] = {"done": False, "evidence": "jammed at 11 mm"}
+    judged = _claims(scenario, metrics)
+    assert {judged["P1"]["holds"], judged["P2"]["holds"]} == {None}
+    assert "jammed at 11 mm" in judged["P2"]["evidence"]
+
+
+def test_a_translational_learner_has_no_rotational_claims(scenario):
+    metrics = {"hlcmp": {"task": {"done": True, "evidence": ""}}}
+    assert peg_in_hole.claims(metrics, scenario, None, "hlcmp") == {}
+
+
+def test_the_done_criterion_is_2_mm_of_the_demonstrated_depth(scenario):
+    entrance, axis = peg_in_hole.hole_axis(scenario)
+    t = np.linspace(0.0, 1.0, 11)
+    reference = entrance + np.outer(np.linspace(-0.005, 0.020, 11), axis)
+    for short, done in ((0.0019, True), (0.0021, False)):
+        reached = reference - short * axis
+        run = SimpleNamespace(t=t, series={"x": reached, "xd": reference})
+        assert peg_in_hole.inserted(run, scenario)["done"] is done
+
+
+@pytest.mark.slow  # the 6-D learner through the first contact, about half a minute
+def test_a_short_run_writes_what_its_metrics_are_recomputed_from(tmp_path):
+    short, path = load_scenario("peg_in_hole", ["duration_s=4.0"])
+    short.controllers = {"hlcmp_6d": short.controllers["hlcmp_6d"]}
+    result = run_loaded_scenario(short, path, tmp_path / "peg", claims=False)
+    metrics = json.loads((result.out_dir / "metrics.json").read_text())
+    data = np.load(result.out_dir / "timeseries.npz")
+    series = {key.split("/", 1)[1]: data[key] for key in data.files if key.startswith("hlcmp_6d/")}
+    assert series["tau_ext"].shape == (len(data["t"]), 3) and np.any(series["tau_ext"])
+    recomputed = peg_in_hole.EXPERIMENT.metrics_of(
+        SimpleNamespace(t=data["t"], series=series), short.controllers["hlcmp_6d"], short
+    )
+    assert recomputed == metrics["controllers"]["hlcmp_6d"]
+    # The tool's orientation from the logged plant state is the one the tick logged.
+    measured = peg_in_hole.tool_orientations(SimpleNamespace(series=series), short)
+    same_sign = np.sign(np.sum(measured * series["q_tool"], axis=1))[:, None]
+    np.testing.assert_allclose(same_sign * measured, series["q_tool"], atol=1e-9)
