@@ -7,6 +7,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.experiments import peg_in_hole
 from hlcmp_drake.run.runner import run_loaded_scenario
