@@ -212,7 +212,7 @@ class TorqueClient:
         self._lower = plant.GetPositionLowerLimits() - 1e-3  # as arm_check tolerates
         self._upper = plant.GetPositionUpperLimits() + 1e-3
         self._wrist = None
-        self._force_world = self._torque_tool = np.zeros(3)
+        self._force_world, self._torque_tool = np.zeros(3), np.zeros(3)
         self._latest = None  # (received at, status bytes) not yet answered
         self.first_status_wall = None
         self.last_status_wall = None
