@@ -27,8 +27,9 @@ def test_messages_round_trip_and_bad_ones_are_named():
     )
     assert utime == 99
     np.testing.assert_array_equal(torque, status.velocity)
-    utime, force = decode_wrench(encode_wrench(5, [1.0, -2.0, 3.0]))
+    utime, force, torque = decode_wrench(encode_wrench(5, [1.0, -2.0, 3.0], [0.5, 0.25, -4.0]))
     assert utime == 5 and force.tolist() == [1.0, -2.0, 3.0]
+    assert torque.tolist() == [0.5, 0.25, -4.0]
     with pytest.raises(ProtocolError, match="for 7 joints, the arm has 6"):
         decode_status(encode_status(status), 6)
     with pytest.raises(ProtocolError, match="does not decode"):

@@ -72,6 +72,10 @@ def assert_metrics_match(served, simulated):
         assert served.keys() == simulated.keys()
         for key in simulated:
             assert_metrics_match(served[key], simulated[key])
+    elif isinstance(simulated, list):  # per axis
+        assert len(served) == len(simulated)
+        for mine, theirs in zip(served, simulated):
+            assert_metrics_match(mine, theirs)
     elif isinstance(simulated, (int, float)) and not isinstance(simulated, bool):
         assert served == pytest.approx(simulated, rel=METRICS_RTOL, abs=1e-12)
     else:
@@ -389,11 +393,12 @@ def test_serve_in_one_process_from_the_command_line(tmp_path, capsys):
 
 
 @pytest.mark.parametrize(
-    "scenario_name, controller", [("insertion", "const_500"), ("cutting", "hlcmp")]
+    "scenario_name, controller",
+    [("insertion", "const_500"), ("cutting", "hlcmp"), ("peg_in_hole", "const_6d_stiff")],
 )
 def test_served_controller_equals_its_simulated_run(scenario_name, controller, tmp_path):
-    """A constant impedance, and the cutting's Hl-CMP: served over memq://, the same numbers
-    as simulated (0.5 s)."""
+    """A constant impedance, the cutting's Hl-CMP and a constant 6-D impedance: served over
+    memq://, the same series as simulated (0.5 s)."""
     from hlcmp_drake.run.simulate import simulate
     from hlcmp_drake.worlds.build import diagram_factory
 
@@ -621,3 +626,41 @@ def test_statuses_that_queue_up_are_answered_once_the_newest_only():
     np.testing.assert_allclose(client.theta, theta + 0.001 * rate)
     send(2000, displaced)  # the late one again, after the newer was answered
     assert len(commands) == answered + 1 and client.ticks == 3
+
+
+@pytest.mark.slow
+def test_served_6d_hlcmp_equals_its_simulated_run_through_the_contact(tmp_path):
+    """hlcmp serve peg_in_hole --lcm memq:// serves the 6-D Hl-CMP (the first learner) and
+    ends ok; for 4.2 s, through the peg's first contact with the chamfer (at 3.4 s), its
+    series (R_d, the learned K_r, D_r, v_r, the wrist force and torque among them) and
+    metrics are those of the simulated run, within the insertion test's tolerances."""
+    from hlcmp_drake.cli import main
+    from hlcmp_drake.experiments import experiment_of
+    from hlcmp_drake.run.simulate import simulate
+    from hlcmp_drake.worlds.build import diagram_factory
+
+    out = tmp_path / "served"
+    args = ["serve", "peg_in_hole", "--lcm", "memq://", "--duration", "4.2", "--out", out]
+    assert main([*map(str, args), "--quiet"]) == 0
+    record = json.loads((out / "serve.json").read_text())
+    assert record["controller"] == "hlcmp_6d" and record["status"] == "ok"
+    assert record["ticks"] == 4201 and record["missed_ticks"] == 0
+
+    scenario, _ = load_scenario("peg_in_hole", ["duration_s=4.2"])
+    simulated = simulate(diagram_factory(scenario)("hlcmp_6d"), scenario, "hlcmp_6d")
+    served = np.load(out / "timeseries.npz")
+    np.testing.assert_allclose(served["t"], simulated.t, atol=1e-12)
+    assert {key for key in served.files if key != "t"} == {
+        f"hlcmp_6d/{name}" for name in simulated.series
+    }
+    for name, values in simulated.series.items():
+        scale = max(1.0, np.abs(values).max())
+        assert np.abs(served[f"hlcmp_6d/{name}"] - values).max() <= 1e-9 * scale, name
+    # It touched the hole: the wrist force and torque compared are not zeros.
+    assert np.abs(simulated.series["f_ext"]).max() > 5.0
+    assert np.abs(simulated.series["tau_ext"]).max() > 0.05
+    config = scenario.controllers["hlcmp_6d"]
+    expected = experiment_of(scenario).metrics_of(simulated, config, scenario)
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["status"] == "ok"
+    assert_metrics_match(metrics["controllers"]["hlcmp_6d"], json.loads(json.dumps(expected)))

@@ -1008,11 +1008,12 @@ class IiwaDriverConfig:
     each status with an lcmt_iiwa_command on `command_channel` (joint torques, and the
     measured positions echoed).
 
-    `force_source` is where the logged and checked wrist force comes from: "wrist_sensor",
-    an lcmt_force_torque on `wrist_channel` (the environment's force on the tool, in the
-    tool frame [N]), or "external_torque", f = pinv(J^T) tau_ext from the status's external
-    joint torques (J: the tool point's translational Jacobian). The controllers themselves
-    do not read it; it feeds the metrics and the contact-force watchdog.
+    `force_source` is where the logged and checked wrist wrench comes from: "wrist_sensor",
+    an lcmt_force_torque on `wrist_channel` (the environment's force on the tool [N] and
+    its torque about the tool point [N m], both in the tool frame), or "external_torque",
+    [τ; f] = pinv(J^T) tau_ext from the status's external joint torques (J: the tool
+    point's 6 x nv spatial Jacobian). The controllers themselves do not read it; it feeds
+    the metrics and the contact-force watchdog.
 
     Watchdogs: the client stops commanding when no status has come for `stale_status_s`
     (the driver then holds the arm after its own 50 ms), and waits `start_guard_s` after

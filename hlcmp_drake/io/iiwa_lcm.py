@@ -206,8 +206,8 @@ def decode_torque_command(data: bytes, num_joints: int) -> tuple[int, np.ndarray
     return message.utime, torque
 
 
-def encode_wrench(utime: int, force: np.ndarray) -> bytes:
-    """The lcmt_force_torque bytes of a wrist sensor's force (no moment is measured).
+def encode_wrench(utime: int, force: np.ndarray, torque: np.ndarray) -> bytes:
+    """The lcmt_force_torque bytes of a wrist sensor's reading.
 
     Parameters
     ----------
@@ -215,6 +215,8 @@ def encode_wrench(utime: int, force: np.ndarray) -> bytes:
         The time stamp [µs] (the status it belongs to).
     force : (3,) array
         The environment's force on the tool, in the tool frame [N].
+    torque : (3,) array
+        The environment's torque on the tool about the tool point, in the tool frame [N m].
 
     Returns
     -------
@@ -223,11 +225,12 @@ def encode_wrench(utime: int, force: np.ndarray) -> bytes:
     message = lcmt_force_torque()
     message.timestamp = int(utime)
     message.fx, message.fy, message.fz = map(float, force)
+    message.tx, message.ty, message.tz = map(float, torque)
     return message.encode()
 
 
-def decode_wrench(data: bytes) -> tuple[int, np.ndarray]:
-    """The time stamp and the force of an lcmt_force_torque.
+def decode_wrench(data: bytes) -> tuple[int, np.ndarray, np.ndarray]:
+    """The time stamp, the force and the torque of an lcmt_force_torque.
 
     Parameters
     ----------
@@ -239,6 +242,8 @@ def decode_wrench(data: bytes) -> tuple[int, np.ndarray]:
         [µs].
     force : (3,) array
         [N], in the sensor's frame.
+    torque : (3,) array
+        [N m], about the sensor's origin, in its frame.
 
     Raises
     ------
@@ -246,7 +251,8 @@ def decode_wrench(data: bytes) -> tuple[int, np.ndarray]:
         When the bytes do not decode.
     """
     message = _decode(lcmt_force_torque, data, "a wrist message")
-    return message.timestamp, np.array([message.fx, message.fy, message.fz])
+    force = np.array([message.fx, message.fy, message.fz])
+    return message.timestamp, force, np.array([message.tx, message.ty, message.tz])
 
 
 def open_lcm(url: str) -> DrakeLcm:

@@ -2,12 +2,15 @@
 protocol -- the same controller a run simulates, for drake-iiwa-driver on a real arm or
 for `hlcmp sim-driver`.
 
-Every status is answered with one tick of `ControlTick`, the function the simulated runs
-evaluate once per plant step: the task-space terms at the measured state, the law
+Every status is answered with one tick of the fast path's tick (`worlds.arm.fast_tick`:
+`ControlTick`, or `PoseControlTick` for a 6-D controller), the function the simulated
+runs evaluate once per plant step: the task-space terms at the measured state, the law
 (Hl-CMP learning online, a constant impedance, or a frozen skill), the torque below the
 task, the saturation at the effort limits. The driver compensates gravity itself, so the
 command is that torque minus G(q). θ takes the same explicit-Euler step as in the fast
-path, θ += Δt θ', with Δt between the statuses' time stamps.
+path, θ += Δt θ', with Δt between the statuses' time stamps. The reference (the position
+DMP's, and a 6-D controller's orientation) is the fast path's own source, simulated alone
+and sampled at the ticks.
 
 Watchdogs stop commanding (the driver then holds the arm) with the reason in serve.json:
 no status for `iiwa_driver.stale_status_s`, a non-finite value in a status or a command,
@@ -50,12 +53,13 @@ from hlcmp_drake.run.learning import check_skill_world, learning_scenario
 from hlcmp_drake.run.runner import evaluate, experiment_worlds, without_claims, write_results
 from hlcmp_drake.run.sim_driver import DriverSummary, SimulatedIiwaDriver
 from hlcmp_drake.systems.monitor import plant_state_check
-from hlcmp_drake.worlds.arm import ArmSetup, arm_check, arm_tick, prepare
+from hlcmp_drake.worlds.arm import ArmSetup, add_fast_reference, arm_check, fast_tick, prepare
 from hlcmp_drake.worlds.build import driven_world_of
 from hlcmp_drake.worlds.common import sample_reference
 from hlcmp_drake.worlds.controllers import controller_kind, initial_theta
 from hlcmp_drake.worlds.controllers import learners as learning_controllers
 from hlcmp_drake.worlds.models import load_models, scoped_frame
+from hlcmp_drake.worlds.pose import LOGGED_REFERENCE
 
 # The statuses a served run may end with: "ok" (served its duration), "unstable" (a
 # safety watchdog), "stopped" (the driver went quiet or sent something unreadable).
@@ -169,7 +173,7 @@ class TorqueClient:
         plant = MultibodyPlant(0.0)
         load_models(plant, scenario)
         self.plant = plant
-        self.tick = arm_tick(scenario, controller, plant=plant, setup=setup)
+        self.tick = fast_tick(scenario, controller, plant=plant, setup=setup)
         self.law = self.tick.law
         self.theta = (
             initial_theta(scenario.controllers[controller], scenario, theta0)
@@ -180,7 +184,21 @@ class TorqueClient:
         self._tool = scoped_frame(plant, scenario.task.tool_frame)
         self._axes = list(scenario.task.axes)
         self.nq, self.nv = plant.num_positions(), plant.num_velocities()
-        self._reference = sample_reference(scenario, setup.dmp, self.config.period_s, self.duration)
+        ports = [name for name, _ in self.tick.reference_ports]
+        self._reference = sample_reference(
+            scenario,
+            lambda builder: add_fast_reference(builder, scenario, controller, setup),
+            ports,
+            self.config.period_s,
+            self.duration,
+        )
+        # The sampled reference logged as the simulated run logs it: x_d, and a 6-D
+        # controller's R_d.
+        self._logged_reference = {
+            series: ports.index(port)
+            for port, series in {"desired_position": "xd", **LOGGED_REFERENCE}.items()
+            if port in ports
+        }
         # One tick at the start posture before any status: a compiled tick compiles (or loads
         # from numba's cache) its kernels on its first call, which takes seconds.
         _ = self.tick.evaluate(
@@ -194,7 +212,7 @@ class TorqueClient:
         self._lower = plant.GetPositionLowerLimits() - 1e-3  # as arm_check tolerates
         self._upper = plant.GetPositionUpperLimits() + 1e-3
         self._wrist = None
-        self._force_world = np.zeros(3)
+        self._force_world, self._torque_tool = np.zeros(3), np.zeros(3)
         self._latest = None  # (received at, status bytes) not yet answered
         self.first_status_wall = None
         self.last_status_wall = None
@@ -211,12 +229,25 @@ class TorqueClient:
         self._stamp_steps = 0
         self.tick_seconds: list[float] = []
         self.log_t: list[float] = []
-        self.log_rows: dict[str, list] = {
-            name: [] for name in ("x", "xd", "f_ext", "fc", "plant_state", "saturated_joints")
+        # The tick's log column -> its series name: the law's, then the tick's own extras
+        # (a 6-D tick's tau_c and tool orientation).
+        self._tick_series = {
+            **controller_kind(scenario, controller).logs,
+            **self.tick.extra_series,
         }
-        # The law's log column -> its series name.
-        self._law_series = controller_kind(scenario, controller).logs
-        self.log_rows.update({series: [] for series in self._law_series.values()})
+        self.log_rows: dict[str, list] = {
+            name: []
+            for name in (
+                "x",
+                "f_ext",
+                "tau_ext",
+                "fc",
+                "plant_state",
+                "saturated_joints",
+                *self._logged_reference,
+                *self._tick_series.values(),
+            )
+        }
         self.stopped_because: str | None = None
         self.status = FINISHED
         lcm.Subscribe(self.config.status_channel, self._on_status)
@@ -411,25 +442,29 @@ class TorqueClient:
         self._utime0 = status.utime
         return True
 
-    def _wrist_force(self, status: IiwaStatus) -> np.ndarray:
-        """The environment's force on the tool, world frame [N], from the configured source.
-        The tick has just set the controller plant's context to the status's positions."""
+    def _wrist_wrench(self, status: IiwaStatus) -> tuple[np.ndarray, np.ndarray]:
+        """The environment's force on the tool, world frame [N], and its torque about the
+        tool point, tool frame [N m], from the configured source. The tick has just set the
+        controller plant's context to the status's positions."""
         context = self.tick.model.context
+        rotation = self._tool.CalcRotationMatrixInWorld(context)
         if self.config.force_source == "external_torque":
             world = self.plant.world_frame()
-            jacobian = self.plant.CalcJacobianTranslationalVelocity(
+            jacobian = self.plant.CalcJacobianSpatialVelocity(
                 context, JacobianWrtVariable.kV, self._tool, np.zeros(3), world, world
             )
-            return np.linalg.lstsq(jacobian.T, status.torque_external, rcond=None)[0]
+            # The wrench [τ; f] at the tool point, world, whose J^T is the external torque.
+            wrench = np.linalg.lstsq(jacobian.T, status.torque_external, rcond=None)[0]
+            return wrench[3:], rotation.inverse() @ wrench[:3]
         if self._wrist is None:
-            return np.zeros(3)
-        _, force_tool = decode_wrench(self._wrist)
-        return self._tool.CalcRotationMatrixInWorld(context) @ force_tool
+            return np.zeros(3), np.zeros(3)
+        _, force_tool, torque_tool = decode_wrench(self._wrist)
+        return rotation @ force_tool, torque_tool
 
     def _check(self, t, status, state, command, result) -> bool:
         """The run's safety checks (`arm_check` and the plant-state check) on this tick;
-        False, and the client stopped, at a problem. Keeps the wrist force for the log."""
-        self._force_world = self._wrist_force(status)
+        False, and the client stopped, at a problem. Keeps the wrist wrench for the log."""
+        self._force_world, self._torque_tool = self._wrist_wrench(status)
         problem = self._state_check(state)
         if problem is None and not np.all(np.isfinite(command)):
             problem = "a non-finite torque command"
@@ -451,12 +486,14 @@ class TorqueClient:
         self.log_t.append(t)
         logs = self.log_rows
         logs["x"].append(row[columns["position"]])
-        logs["xd"].append(self._reference[0][k])
         logs["f_ext"].append(self._force_world[self._axes])
+        logs["tau_ext"].append(self._torque_tool)
         logs["fc"].append(row[columns["force"]])
         logs["plant_state"].append(state)
         logs["saturated_joints"].append(row[columns["saturated"]])
-        for field, series in self._law_series.items():
+        for series, port in self._logged_reference.items():
+            logs[series].append(self._reference[port][k])
+        for field, series in self._tick_series.items():
             logs[series].append(row[columns[field]])
 
     def run_result(self) -> RunResult:
@@ -696,7 +733,9 @@ def serve_scenario(
     if warning is not None and warn is not None:
         warn(warning)
     lcm = open_lcm(lcm_url)
-    setup = prepare(scenario, skill.dmp if skill is not None else None)
+    setup = (
+        prepare(scenario, skill.dmp, skill.orientation) if skill is not None else prepare(scenario)
+    )
     client = TorqueClient(scenario, controller, lcm, theta0, setup)
     if lcm_url.startswith("memq://"):
         reporter.say(f"serve: {controller} and the simulated driver in this process (memq://)")

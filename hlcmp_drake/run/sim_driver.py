@@ -2,7 +2,8 @@
 protocol, behaving like drake-iiwa-driver in torque-only mode on a real arm:
 
 - every period it publishes lcmt_iiwa_status (measured q, estimated v, the commanded,
-  measured and external joint torques) and the wrist sensor's lcmt_force_torque;
+  measured and external joint torques) and the wrist sensor's lcmt_force_torque (the
+  force and the torque about the tool point);
 - it applies each command's torques on top of its own gravity compensation G(q);
 - it aborts on a command that comes within 0.25 s of its first status (a controller
   left running from before), and holds the arm with joint PD (the real driver's gains)
@@ -136,6 +137,7 @@ class SimulatedIiwaDriver:
         self._context = self.plant.GetMyMutableContextFromRoot(root)
         sensor = built.diagram.GetSubsystemByName("wrist_force_sensor")
         self._force = sensor.GetOutputPort("force")
+        self._torque = sensor.GetOutputPort("torque")
         self._sensor_context = sensor.GetMyContextFromRoot(root)
         self._tool = scoped_frame(self.plant, scenario.task.tool_frame)
         self._actuation = self.plant.get_actuation_input_port()
@@ -163,12 +165,13 @@ class SimulatedIiwaDriver:
         return self._context.get_time()
 
     def publish_status(self) -> None:
-        """Publish the wrist sensor's force and the arm's status at the present time."""
+        """Publish the wrist sensor's wrench and the arm's status at the present time."""
         plant, context = self.plant, self._context
         q, v = plant.GetPositions(context), plant.GetVelocities(context)
         force_world = self._force.Eval(self._sensor_context)
+        torque_tool = self._torque.Eval(self._sensor_context)
         rotation = self._tool.CalcRotationMatrixInWorld(context)
-        jacobian = plant.CalcJacobianTranslationalVelocity(
+        jacobian = plant.CalcJacobianSpatialVelocity(
             context,
             JacobianWrtVariable.kV,
             self._tool,
@@ -179,15 +182,16 @@ class SimulatedIiwaDriver:
         self.status_utime = int(round(self.time * 1e6))
         # As Drake's simulated iiwa reports them: the joint torque (the command in force
         # plus gravity compensation at this state, saturated) negated, for both the
-        # commanded and the measured torque; the wrist force, taken to act at the tool
-        # point, is the arm's external torque, with its own sign.
+        # commanded and the measured torque; the wrist sensor's wrench (its torque about
+        # the tool point) is the arm's external torque J^T [τ; f], with its own sign.
         joint_torque = -self._joint_torque(self._applied)
+        wrench_world = np.concatenate([rotation @ torque_tool, force_world])
         status = IiwaStatus(
-            self.status_utime, q, v, joint_torque, joint_torque, jacobian.T @ force_world
+            self.status_utime, q, v, joint_torque, joint_torque, jacobian.T @ wrench_world
         )
         self._lcm.Publish(
             self.config.wrist_channel,
-            encode_wrench(self.status_utime, rotation.inverse() @ force_world),
+            encode_wrench(self.status_utime, rotation.inverse() @ force_world, torque_tool),
         )
         self._lcm.Publish(self.config.status_channel, encode_status(status))
         if self._first_status_wall is None:

@@ -21,6 +21,7 @@ from hlcmp_drake.core.orientation_dmp import OrientationDmp
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.systems.arm import BelowTaskImpedance, NullSpaceImpedance, ToolContactForce
 from hlcmp_drake.systems.control_loop import ControlTick
+from hlcmp_drake.systems.pose_control import PoseControlTick
 from hlcmp_drake.systems.robot import (
     JointFriction,
     arm_bodies,
@@ -48,12 +49,12 @@ from hlcmp_drake.worlds.controllers import (
 )
 from hlcmp_drake.worlds.extras import ToolSensing, add_tool_sensing
 from hlcmp_drake.worlds.models import add_plant, load_models, scoped_frame, solve_ik_for_tool
-from hlcmp_drake.worlds.pose import add_pose_reference, pose_tick
+from hlcmp_drake.worlds.pose import LOGGED_REFERENCE, add_pose_reference, pose_tick
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
     from pydrake.multibody.tree import Frame
-    from pydrake.systems.framework import OutputPort
+    from pydrake.systems.framework import OutputPort, System
 
 
 @dc.dataclass
@@ -537,13 +538,9 @@ def _add_fast_controller(
     a C++ Integrator fed the loop's held rate (`add_control_loop`); on a `RealArm`, at its
     period, reading its state estimate, with the controller's model set off the arm. A
     6-D controller reads the pose reference and runs the 6-D tick (`worlds.pose`), and
-    its desired orientation is logged as "q_tool_d"."""
-    if controller_kind(scenario, name).pose:
-        reference = add_pose_reference(builder, scenario, setup)
-        tick = pose_tick(scenario, name, plant=plant, setup=setup)
-    else:
-        reference = add_reference(builder, scenario, dmp=setup.dmp, compiled=True)
-        tick = arm_tick(scenario, name, plant=plant, setup=setup)
+    its desired orientation is logged as "q_tool_d" (`worlds.pose.LOGGED_REFERENCE`)."""
+    reference = add_fast_reference(builder, scenario, name, setup)
+    tick = fast_tick(scenario, name, plant=plant, setup=setup)
     imperfection = scenario.robot_imperfection
     if imperfection.model_differs:
         set_model_off(
@@ -569,9 +566,52 @@ def _add_fast_controller(
         period=real_arm.period if real_arm else None,
         sensed_force=real_arm.force if real_arm else None,
     )
-    if controller_kind(scenario, name).pose:
-        ports["q_tool_d"] = reference.GetOutputPort("desired_orientation")
+    for port, series in LOGGED_REFERENCE.items():
+        if port in dict(tick.reference_ports):
+            ports[series] = reference.GetOutputPort(port)
     return controller, ports, saturated
+
+
+def add_fast_reference(
+    builder: DiagramBuilder, scenario: Scenario, controller_name: str, setup: ArmSetup
+) -> System:
+    """Add the reference the fast path's controller reads: the pose reference for a 6-D
+    controller (`worlds.pose.add_pose_reference`), else the compiled DMP source.
+
+    Parameters
+    ----------
+    builder : DiagramBuilder
+    scenario : Scenario
+        With an ArmTask and a DemonstrationConfig.
+    controller_name : str
+        A controller with a one-tick law.
+    setup : ArmSetup
+        The DMPs (and the start orientation a 6-D controller holds without an orientation
+        DMP).
+
+    Returns
+    -------
+    System
+        With the output ports of `fast_tick`'s `reference_ports`.
+    """
+    if controller_kind(scenario, controller_name).pose:
+        return add_pose_reference(builder, scenario, setup)
+    return add_reference(builder, scenario, dmp=setup.dmp, compiled=True)
+
+
+def fast_tick(
+    scenario: Scenario, controller_name: str, *, plant: MultibodyPlant, setup: ArmSetup
+) -> ControlTick | PoseControlTick:
+    """The fast path's controller at one instant: `worlds.pose.pose_tick` for a 6-D
+    controller, else `arm_tick` (same parameters).
+
+    Returns
+    -------
+    ControlTick or PoseControlTick
+    """
+    if controller_kind(scenario, controller_name).pose:
+        return pose_tick(scenario, controller_name, plant=plant, setup=setup)
+    return arm_tick(scenario, controller_name, plant=plant, setup=setup)
 
 
 def arm_tick(

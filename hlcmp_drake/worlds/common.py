@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import dataclasses as dc
 import math
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING, Callable, Sequence
 
 import numpy as np
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
@@ -26,7 +26,6 @@ from hlcmp_drake.io.demos import read_demonstration
 from hlcmp_drake.io.errors import InputError, located
 from hlcmp_drake.systems.control_loop import ControlLoop, ControlTick
 from hlcmp_drake.systems.monitor import SafetyMonitor, plant_state_check
-from hlcmp_drake.systems.ports import REFERENCE_PORTS
 from hlcmp_drake.systems.references import (
     DmpSource,
     StepReference,
@@ -223,20 +222,25 @@ def add_reference(
 
 
 def sample_reference(
-    scenario: Scenario, dmp: Dmp, period: float, duration: float
+    scenario: Scenario,
+    add_source: Callable[[DiagramBuilder], System],
+    ports: Sequence[str],
+    period: float,
+    duration: float,
 ) -> tuple[np.ndarray, ...]:
-    """The compiled DMP source of `add_reference` sampled every `period` from 0 to
-    `duration`, simulated alone with the scenario's simulator config: the values a
-    diagram's controller would read at its ticks, for a controller outside any diagram
-    (`hlcmp serve`).
+    """A reference source's `ports` sampled every `period` from 0 to `duration`, the
+    source simulated alone with the scenario's simulator config: the values a diagram's
+    controller would read at its ticks, for a controller outside any diagram (`hlcmp
+    serve`).
 
     Parameters
     ----------
     scenario : Scenario
-        With a DemonstrationConfig reference (its duration_s replays at another tau) and
-        its simulator config.
-    dmp : Dmp
-        The fitted DMP.
+        Its simulator config.
+    add_source : callable(builder) -> System
+        Adds the reference (e.g. `add_reference`'s compiled DMP source) and returns it.
+    ports : sequence of str
+        Its output ports to sample, e.g. a tick's `reference_ports` names.
     period : float
         The tick period [s].
     duration : float
@@ -244,22 +248,22 @@ def sample_reference(
 
     Returns
     -------
-    tuple of four arrays
-        x_d (K, M) [m], x_d' (K, M) [m/s], x_d'' (K, M) [m/s^2] and s (K, 1), at the K
-        ticks k * period, k = 0 ... round(duration / period).
+    tuple of arrays
+        One (K, size) array per port, in the order of `ports`, at the K ticks
+        k * period, k = 0 ... round(duration / period).
     """
     builder = DiagramBuilder()
-    source = add_reference(builder, scenario, dmp=dmp, compiled=True)
+    source = add_source(builder)
     diagram = builder.Build()
     simulator = Simulator(diagram)
     ApplySimulatorConfig(scenario.simulator_config, simulator)
     context = source.GetMyContextFromRoot(simulator.get_mutable_context())
-    ticks = int(round(duration / period)) + 1
-    samples = [[] for _ in REFERENCE_PORTS]
-    for k in range(ticks):
+    outputs = [source.GetOutputPort(port) for port in ports]
+    samples = [[] for _ in ports]
+    for k in range(int(round(duration / period)) + 1):
         simulator.AdvanceTo(k * period)
-        for values, port in zip(samples, REFERENCE_PORTS):
-            values.append(source.GetOutputPort(port).Eval(context).copy())
+        for values, port in zip(samples, outputs):
+            values.append(port.Eval(context).copy())
     return tuple(np.array(values) for values in samples)
 
 

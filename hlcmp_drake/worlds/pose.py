@@ -31,6 +31,9 @@ if TYPE_CHECKING:
 
     from hlcmp_drake.worlds.arm import ArmSetup
 
+# The pose reference's outputs a run logs beyond x_d ("xd"), by port: the series name.
+LOGGED_REFERENCE = {"desired_orientation": "q_tool_d"}
+
 
 def add_pose_reference(builder: DiagramBuilder, scenario: Scenario, setup: ArmSetup) -> Diagram:
     """Add the 6-D controller's reference, named "reference": the compiled position DMP
