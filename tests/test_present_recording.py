@@ -53,9 +53,21 @@ def test_recording_is_self_contained(request, run):
 @pytest.mark.slow  # reads the recordings of whole bundled scenarios
 @pytest.mark.parametrize("run", RUNS)
 def test_recording_draws_every_run_offline_in_chromium(request, run, tmp_path):
-    browser = _chromium()
     out_dir = request.getfixturevalue(run)
     controllers, geometry = RUNS[run]
+    titles = _titles_in_chromium(out_dir / "recording.html", tmp_path)
+    # The Meshcat scene tree lists the replayed runs and their geometry, and an animation.
+    assert "runs" in titles, titles[:40]
+    for name in controllers:
+        assert name in titles
+    assert titles.count(geometry) == len(controllers)
+    assert "Animations" in titles
+
+
+def _titles_in_chromium(page, tmp_path):
+    """The titles of Meshcat's scene tree and controls once headless Chromium has drawn
+    the recording `page` (skips without Chromium)."""
+    browser = _chromium()
     result = subprocess.run(
         [
             browser,
@@ -69,19 +81,13 @@ def test_recording_draws_every_run_offline_in_chromium(request, run, tmp_path):
             f"--user-data-dir={tmp_path / 'profile'}",
             "--virtual-time-budget=10000",
             "--dump-dom",
-            (out_dir / "recording.html").as_uri(),
+            page.as_uri(),
         ],
         capture_output=True,
         text=True,
         timeout=180,
     )
-    titles = re.findall(r'<li class="title">([^<]*)', result.stdout)
-    # The Meshcat scene tree lists the replayed runs and their geometry, and an animation.
-    assert "runs" in titles, titles[:40]
-    for name in controllers:
-        assert name in titles
-    assert titles.count(geometry) == len(controllers)
-    assert "Animations" in titles
+    return re.findall(r'<li class="title">([^<]*)', result.stdout)
 
 
 class _SceneCalls:
@@ -216,7 +222,9 @@ def _commands(html):
     ]
 
 
-def test_an_arm_recording_draws_the_tool_frame_and_a_6d_run_its_desired_orientation():
+@pytest.fixture(scope="module")
+def peg_recording():
+    """The recording of short peg_in_hole runs: the 6-D Hl-CMP's and the translational one's."""
     scenario, _ = load_scenario("peg_in_hole", ["duration_s=0.05"])
     setup = arm.prepare(scenario)
     with kernel_chosen("numpy"):  # nothing here is about the tick's speed: no compiling
@@ -224,8 +232,15 @@ def test_an_arm_recording_draws_the_tool_frame_and_a_6d_run_its_desired_orientat
             name: simulate(arm.build(scenario, name, setup), scenario, name)
             for name in ("hlcmp_6d", "hlcmp")
         }
+    return runs, record_runs(scenario, runs, Meshcat())
+
+
+def test_an_arm_recording_draws_the_tool_frame_and_a_6d_run_its_desired_orientation(
+    peg_recording,
+):
+    runs, html = peg_recording
     assert "q_tool_d" in runs["hlcmp_6d"].series and "q_tool_d" not in runs["hlcmp"].series
-    commands = _commands(record_runs(scenario, runs, Meshcat()))
+    commands = _commands(html)
     objects = b"".join(c for c in commands if b"set_object" in c[:40])
     (animation,) = [c for c in commands if b"set_animation" in c[:40]]
     for name in runs:  # the tool frame: Drake's triad on the peg's body, posed with it
@@ -238,6 +253,15 @@ def test_an_arm_recording_draws_the_tool_frame_and_a_6d_run_its_desired_orientat
         assert desired + b"/" + axis in objects
     assert desired in animation  # posed at every frame
     assert b"/drake/runs/hlcmp/tool_desired" not in objects + animation  # no orientation task
+
+
+def test_the_tool_triads_are_drawn_offline_in_chromium(peg_recording, tmp_path):
+    page = tmp_path / "recording.html"
+    page.write_text(peg_recording[1])
+    titles = _titles_in_chromium(page, tmp_path)
+    assert titles.count("tool_frame") == 2  # each copy's tool frame
+    assert titles.count("tool_desired") == 1  # the 6-D run's desired orientation
+    assert titles.count("x-axis") == titles.count("y-axis") == titles.count("z-axis") == 3
 
 
 def test_a_world_without_a_tool_draws_no_triad():
