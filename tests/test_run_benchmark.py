@@ -140,7 +140,7 @@ def test_the_report_is_timed_in_a_folder_of_its_own(tmp_path):
     assert list(tmp_path.iterdir()) == [own]  # the report's files went elsewhere and are gone
 
 
-def test_the_6d_tick_is_timed_beside_the_translational_one_at_the_same_states():
+def test_the_6d_tick_is_timed_beside_the_translational_one_on_each_path():
     from hlcmp_drake.core.kernels import kernel_path, numba_available
     from hlcmp_drake.run.benchmark import pose_tick_cost
 
