@@ -2,6 +2,7 @@
 real browser draws, every run replayed under its label), each copy and its sign in view,
 and the live view."""
 
+import base64
 import json
 import re
 import shutil
@@ -13,8 +14,11 @@ from pydrake.geometry import Meshcat
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.scenario import RecordingConfig
+from hlcmp_drake.core.kernels import kernel_chosen
 from hlcmp_drake.io.runs import RunResult
 from hlcmp_drake.present.recording import LiveView, frame_copies, record_runs
+from hlcmp_drake.run.simulate import simulate
+from hlcmp_drake.worlds import arm
 
 RUNS = {
     "one_dof_run": (
@@ -49,9 +53,21 @@ def test_recording_is_self_contained(request, run):
 @pytest.mark.slow  # reads the recordings of whole bundled scenarios
 @pytest.mark.parametrize("run", RUNS)
 def test_recording_draws_every_run_offline_in_chromium(request, run, tmp_path):
-    browser = _chromium()
     out_dir = request.getfixturevalue(run)
     controllers, geometry = RUNS[run]
+    titles = _titles_in_chromium(out_dir / "recording.html", tmp_path)
+    # The Meshcat scene tree lists the replayed runs and their geometry, and an animation.
+    assert "runs" in titles, titles[:40]
+    for name in controllers:
+        assert name in titles
+    assert titles.count(geometry) == len(controllers)
+    assert "Animations" in titles
+
+
+def _titles_in_chromium(page, tmp_path):
+    """The titles of Meshcat's scene tree and controls once headless Chromium has drawn
+    the recording `page` (skips without Chromium)."""
+    browser = _chromium()
     result = subprocess.run(
         [
             browser,
@@ -65,32 +81,26 @@ def test_recording_draws_every_run_offline_in_chromium(request, run, tmp_path):
             f"--user-data-dir={tmp_path / 'profile'}",
             "--virtual-time-budget=10000",
             "--dump-dom",
-            (out_dir / "recording.html").as_uri(),
+            page.as_uri(),
         ],
         capture_output=True,
         text=True,
         timeout=180,
     )
-    titles = re.findall(r'<li class="title">([^<]*)', result.stdout)
-    # The Meshcat scene tree lists the replayed runs and their geometry, and an animation.
-    assert "runs" in titles, titles[:40]
-    for name in controllers:
-        assert name in titles
-    assert titles.count(geometry) == len(controllers)
-    assert "Animations" in titles
+    return re.findall(r'<li class="title">([^<]*)', result.stdout)
 
 
 class _SceneCalls:
     """Records what frame_copies asks of a Meshcat."""
 
     def __init__(self):
-        self.transforms, self.objects, self.camera = {}, {}, None
+        self.transforms, self.objects, self.colors, self.camera = {}, {}, {}, None
 
     def SetTransform(self, path, transform):
         self.transforms[path] = transform
 
     def SetObject(self, path, shape, rgba=None):
-        self.objects[path] = shape
+        self.objects[path], self.colors[path] = shape, rgba
 
     def SetCameraPose(self, camera, target):
         self.camera = (np.asarray(camera), np.asarray(target))
@@ -202,3 +212,74 @@ def test_a_recording_replays_each_run_under_its_label():
     for label in runs:
         assert meshcat.HasPath(f"/drake/runs/{label}")
     assert not meshcat.HasPath("/drake/runs/nobody")
+
+
+def _commands(html):
+    """The bytes of every Meshcat command a StaticHtml replays (msgpack, paths as text)."""
+    return [
+        base64.b64decode(payload)
+        for payload in re.findall(r"data:application/octet-binary;base64,([A-Za-z0-9+/=]+)", html)
+    ]
+
+
+@pytest.fixture(scope="module")
+def peg_recording():
+    """The recording of short peg_in_hole runs: the 6-D Hl-CMP's and the translational one's."""
+    scenario, _ = load_scenario("peg_in_hole", ["duration_s=0.05"])
+    setup = arm.prepare(scenario)
+    with kernel_chosen("numpy"):  # nothing here is about the tick's speed: no compiling
+        runs = {
+            name: simulate(arm.build(scenario, name, setup), scenario, name)
+            for name in ("hlcmp_6d", "hlcmp")
+        }
+    return runs, record_runs(scenario, runs, Meshcat())
+
+
+def test_an_arm_recording_draws_the_tool_frame_and_a_6d_run_its_desired_orientation(
+    peg_recording,
+):
+    runs, html = peg_recording
+    assert "q_tool_d" in runs["hlcmp_6d"].series and "q_tool_d" not in runs["hlcmp"].series
+    commands = _commands(html)
+    objects = b"".join(c for c in commands if b"set_object" in c[:40])
+    (animation,) = [c for c in commands if b"set_animation" in c[:40]]
+    for name in runs:  # the tool frame: Drake's triad on the peg's body, posed with it
+        body = f"/drake/runs/{name}/peg_tool/tool".encode()
+        for axis in (b"x-axis", b"y-axis", b"z-axis"):
+            assert body + b"/_frames/tool_frame/" + axis in objects
+        assert body in animation
+    desired = b"/drake/runs/hlcmp_6d/tool_desired"
+    for axis in (b"x-axis", b"y-axis", b"z-axis"):
+        assert desired + b"/" + axis in objects
+    assert desired in animation  # posed at every frame
+    assert b"/drake/runs/hlcmp/tool_desired" not in objects + animation  # no orientation task
+
+
+def test_the_tool_triads_are_drawn_offline_in_chromium(peg_recording, tmp_path):
+    page = tmp_path / "recording.html"
+    page.write_text(peg_recording[1])
+    titles = _titles_in_chromium(page, tmp_path)
+    assert titles.count("tool_frame") == 2  # each copy's tool frame
+    assert titles.count("tool_desired") == 1  # the 6-D run's desired orientation
+    assert titles.count("x-axis") == titles.count("y-axis") == titles.count("z-axis") == 3
+
+
+def test_a_world_without_a_tool_draws_no_triad():
+    scenario, _ = load_scenario("one_dof")
+    commands = _commands(record_runs(scenario, _fake_runs(["learner"]), Meshcat()))
+    assert not any(b"_frames" in c or b"tool_desired" in c for c in commands)
+
+
+def test_the_desired_triad_lays_each_axis_from_the_origin_along_its_own_direction():
+    from hlcmp_drake.present.recording import TRIAD_LENGTH_M, _add_triad
+
+    calls = _SceneCalls()
+    _add_triad(calls, "/triad", 0.001, 0.35)
+    for k, axis in enumerate(("x-axis", "y-axis", "z-axis")):
+        cylinder, pose = calls.objects[f"/triad/{axis}"], calls.transforms[f"/triad/{axis}"]
+        assert cylinder.length() == TRIAD_LENGTH_M and cylinder.radius() == 0.001
+        color = calls.colors[f"/triad/{axis}"]  # x red, y green, z blue
+        np.testing.assert_array_equal([color.r(), color.g(), color.b()], np.eye(3)[k])
+        assert color.a() == 0.35
+        ends = pose.multiply(np.array([[0, 0, -0.5], [0, 0, 0.5]]).T * TRIAD_LENGTH_M).T
+        np.testing.assert_allclose(ends, [np.zeros(3), TRIAD_LENGTH_M * np.eye(3)[k]], atol=1e-15)

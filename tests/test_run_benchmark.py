@@ -36,6 +36,8 @@ def test_quick_benchmark_writes_every_measurement(tmp_path, capsys):
     }
     assert results["one_dof_rtf"] == min(by_controller.values())
     assert results["controller_tick_us"]["p99"] >= results["controller_tick_us"]["p50"] > 0
+    assert results["pose_over_translational_tick"] > 0
+    assert results["pose_tick_us"]["p99"] >= results["pose_tick_us"]["p50"] > 0
     walls = results["insertion_wall_s"]
     assert set(walls) == {"fast", "cpp", "fast_bare", "cpp_bare", "modular"} and all(
         len(w) == 1 for w in walls.values()
@@ -51,7 +53,7 @@ def test_quick_benchmark_writes_every_measurement(tmp_path, capsys):
     assert "report" not in results  # a smoke run does not time the whole report
     out = capsys.readouterr().out
     assert "controller_overhead_ratio" in out and "quick smoke run" in out
-    assert "pose_dmp_vs_cartesian_dmp" in out
+    assert "pose_dmp_vs_cartesian_dmp" in out and "pose_over_translational_tick" in out
     assert "met" not in out.split() and "missed" not in out
 
 
@@ -136,3 +138,47 @@ def test_the_report_is_timed_in_a_folder_of_its_own(tmp_path):
     timed = report_wall_s([str(own)])
     assert timed["wall_s"] > 0 and timed["jobs"] >= 1
     assert list(tmp_path.iterdir()) == [own]  # the report's files went elsewhere and are gone
+
+
+def test_the_6d_tick_is_timed_beside_the_translational_one_on_each_path():
+    from hlcmp_drake.core.kernels import kernel_path, numba_available
+    from hlcmp_drake.run.benchmark import pose_tick_cost
+
+    timed = pose_tick_cost(duration=0.02, repetitions=2)
+    assert timed["pose_tick_states"] == 6  # logged every 4 ms
+    paths = {"numpy", "compiled"} if numba_available() else {"numpy"}
+    for side in ("pose", "translational"):
+        by_path = timed[f"{side}_tick_us_by_path"]
+        assert set(by_path) == paths
+        assert all(tick["p99"] >= tick["p50"] > 0 for tick in by_path.values())
+        assert timed[f"{side}_tick_us"] == by_path[kernel_path()]
+    ratios = timed["pose_over_translational_tick_by_path"]
+    assert set(ratios) == paths and all(ratio > 0 for ratio in ratios.values())
+    assert timed["pose_over_translational_tick"] == ratios[kernel_path()]
+
+
+def test_the_6d_tick_rows_name_both_paths_and_the_bench_path_first():
+    from hlcmp_drake.present.tables import to_text
+    from hlcmp_drake.run.benchmark import table
+
+    results = _results("full")
+    results["machine"]["tick_kernel"] = "compiled"
+    results.update(
+        pose_tick_states=101,
+        pose_tick_us_by_path={
+            "compiled": {"p50": 1900.0, "p99": 2600.0},
+            "numpy": {"p50": 2200.0, "p99": 3000.0},
+        },
+        translational_tick_us_by_path={
+            "compiled": {"p50": 250.0, "p99": 400.0},
+            "numpy": {"p50": 500.0, "p99": 700.0},
+        },
+        pose_over_translational_tick=7.6,
+        pose_over_translational_tick_by_path={"compiled": 7.6, "numpy": 4.4},
+    )
+    lines = to_text(table(results)).splitlines()
+    (first,) = [k for k, line in enumerate(lines) if "pose_over_translational_tick" in line]
+    assert "(compiled; 6-D 1900 / 2600 µs, translational 250 / 400 µs" in lines[first]
+    assert lines[first].split()[-1] == "7.60"
+    assert "numpy path (6-D 2200 / 3000 µs, translational 500 / 700 µs)" in lines[first + 1]
+    assert lines[first + 1].split()[-1] == "4.40"

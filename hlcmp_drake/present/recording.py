@@ -7,6 +7,11 @@ own copy of the world -- a plant and SceneGraph with a MeshcatVisualizer under t
 /drake/runs/<controller> -- and the copies are set apart along the world y axis by
 `recording.spacing_m`, in the order the scenario lists the controllers.
 
+In an arm world each copy draws its tool frame as a small triad at the tool point (x red,
+y green, z blue: Drake's frame illustration, posed with the plant); a 6-D run's recording
+also draws, fainter and thinner, the desired orientation it logged ("q_tool_d") at the
+same point, at /drake/runs/<controller>/tool_desired.
+
 Both views label every copy with a sign above it, the controller's name on the colour of
 its place in the order (matplotlib's C0, C1, ...), at /drake/runs/<controller>/label, and
 place the camera so that every copy is in view: it looks from the direction of
@@ -27,19 +32,25 @@ import time
 
 import numpy as np
 from pydrake.common import MemoryFile
+from pydrake.common.eigen_geometry import Quaternion
 from pydrake.geometry import (
+    Cylinder,
     InMemoryMesh,
     Mesh,
     Meshcat,
     MeshcatVisualizer,
     MeshcatVisualizerParams,
+    Rgba,
     Role,
 )
-from pydrake.math import RigidTransform, RollPitchYaw
+from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.multibody.plant import MultibodyPlantConfig
 from pydrake.systems.framework import DiagramBuilder
+from pydrake.visualization import AddFrameTriadIllustration
 
-from hlcmp_drake.config.scenario import RecordingConfig, Scenario
+from hlcmp_drake.config.models import scoped_frame
+from hlcmp_drake.config.scenario import ArmTask, RecordingConfig, Scenario
+from hlcmp_drake.core import quaternion as quat
 from hlcmp_drake.worlds.models import add_plant
 
 FIELD_OF_VIEW_DEG = 75.0  # Meshcat's default perspective camera (vertical)
@@ -47,6 +58,9 @@ MIN_ASPECT = 4.0 / 3.0  # the narrowest browser window the framing allows for
 MARGIN = 1.1  # room around the copies, as a factor on the camera distance
 SIGN_HEIGHT = 0.04  # a sign's height per metre of camera distance (about 2.5 % of the view)
 BOX_SAMPLES = 12  # plant states per run from which a copy's extent is measured
+TRIAD_LENGTH_M = 0.04  # the tool frame's axes: longer than the tools are thick, small on an arm
+TRIAD_RADIUS_M = 0.002
+DESIRED_TRIAD = (0.001, 0.35)  # the desired orientation's axes: radius [m], opacity
 
 
 @dc.dataclass
@@ -57,6 +71,7 @@ class _Copy:
     plant: object
     scene_graph: object
     context: object
+    tool: object  # the arm's tool frame (drawn as a triad), None in a world without one
 
     @classmethod
     def build(cls, scenario, meshcat, label):
@@ -64,17 +79,34 @@ class _Copy:
         # The replay only poses geometry: a continuous plant without contact is enough.
         replay = dc.replace(scenario, plant_config=MultibodyPlantConfig(time_step=0.0))
         plant, scene_graph = add_plant(builder, replay)
+        tool = None
+        if isinstance(scenario.task, ArmTask):
+            tool = scoped_frame(plant, scenario.task.tool_frame)
+            AddFrameTriadIllustration(
+                scene_graph=scene_graph,
+                frame=tool,
+                name="tool_frame",
+                length=TRIAD_LENGTH_M,
+                radius=TRIAD_RADIUS_M,
+                opacity=1.0,
+            )
         params = MeshcatVisualizerParams(
             prefix=f"runs/{label}", role=Role.kIllustration, delete_on_initialization_event=False
         )
         MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat, params)
         diagram = builder.Build()
-        return cls(diagram, plant, scene_graph, diagram.CreateDefaultContext())
+        return cls(diagram, plant, scene_graph, diagram.CreateDefaultContext(), tool)
 
     def draw(self, t, positions):
         self.context.SetTime(t)
         self.plant.SetPositions(self.plant.GetMyContextFromRoot(self.context), positions)
         self.diagram.ForcedPublish(self.context)
+
+    def tool_point(self):
+        """The tool point in the world [m] at the positions last drawn."""
+        return self.tool.CalcPoseInWorld(
+            self.plant.GetMyContextFromRoot(self.context)
+        ).translation()
 
     def extent(self, samples):
         """(lo, hi): the world box around the illustration geometry over the positions
@@ -303,7 +335,8 @@ def record_runs(scenario: Scenario, runs: dict, meshcat: Meshcat | None = None) 
     scenario : Scenario
         The world to replay the runs in, and the recording settings.
     runs : dict of str to RunResult
-        By label; each must have logged its plant state as the series "plant_state".
+        By label; each must have logged its plant state as the series "plant_state"; a
+        6-D run's desired orientation "q_tool_d" (w, x, y, z) is drawn at its tool point.
     meshcat : Meshcat, optional
         The Meshcat to record in (a new one by default); each run's world is drawn under
         /drake/runs/<label>, its sign at /drake/runs/<label>/label.
@@ -325,12 +358,26 @@ def record_runs(scenario: Scenario, runs: dict, meshcat: Meshcat | None = None) 
     frame_copies(meshcat, config, list(runs), extent)
     meshcat.StartRecording(frames_per_second, set_visualizations_while_recording=False)
     for name, run in runs.items():
-        for t, state in zip(
-            _frame_times(run.t, frames_per_second), _states_at(run, frames_per_second)
-        ):
+        copy, times = copies[name], _frame_times(run.t, frames_per_second)
+        states = _at_frames(run.t, run.series["plant_state"], frames_per_second)
+        desired = None
+        if "q_tool_d" in run.series and copy.tool is not None:
+            # Linear between the logged samples (a log period apart), then renormalized.
+            desired = _at_frames(
+                run.t, quat.hemisphere_continuous(run.series["q_tool_d"]), frames_per_second
+            )
+            desired /= np.linalg.norm(desired, axis=1, keepdims=True)
+            _add_triad(meshcat, f"/drake/runs/{name}/tool_desired", *DESIRED_TRIAD)
+        for k, (t, state) in enumerate(zip(times, states)):
             if not np.all(np.isfinite(state)):
                 break
-            copies[name].draw(t, state[:nq])
+            copy.draw(t, state[:nq])
+            if desired is not None and np.all(np.isfinite(desired[k])):
+                meshcat.SetTransform(
+                    f"/drake/runs/{name}/tool_desired",
+                    RigidTransform(Quaternion(desired[k]), copy.tool_point()),
+                    t,
+                )
     meshcat.StopRecording()
     meshcat.PublishRecording()
     return meshcat.StaticHtml()
@@ -402,7 +449,22 @@ def _frame_times(t, fps):
     return np.arange(0.0, t[-1] + 1e-9, 1.0 / fps)
 
 
-def _states_at(run, fps):
-    times = _frame_times(run.t, fps)
-    states = run.series["plant_state"]
-    return np.column_stack([np.interp(times, run.t, states[:, i]) for i in range(states.shape[1])])
+def _at_frames(t, values, fps):
+    """The logged `values` (T, n), linear between their samples, at the frames' times."""
+    times = _frame_times(t, fps)
+    return np.column_stack([np.interp(times, t, values[:, i]) for i in range(values.shape[1])])
+
+
+def _add_triad(meshcat, path, radius, opacity):
+    """Axes x, y, z (red, green, blue) of TRIAD_LENGTH_M as cylinders from the origin of
+    `path`, which is then posed as the frame they show."""
+    length = TRIAD_LENGTH_M
+    along = {  # a Cylinder's axis is its z: turned onto each axis, its base at the origin
+        "x-axis": (RotationMatrix.MakeYRotation(np.pi / 2), [length / 2, 0.0, 0.0]),
+        "y-axis": (RotationMatrix.MakeXRotation(-np.pi / 2), [0.0, length / 2, 0.0]),
+        "z-axis": (RotationMatrix.Identity(), [0.0, 0.0, length / 2]),
+    }
+    for k, (axis, (rotation, center)) in enumerate(along.items()):
+        color = np.eye(3)[k]
+        meshcat.SetObject(f"{path}/{axis}", Cylinder(radius, length), Rgba(*color, opacity))
+        meshcat.SetTransform(f"{path}/{axis}", RigidTransform(rotation, center))

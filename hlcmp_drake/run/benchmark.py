@@ -14,7 +14,7 @@ import time
 from functools import partial
 
 import numpy as np
-from pydrake.systems.analysis import Simulator
+from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 from pydrake.systems.controllers import InverseDynamicsController
 from pydrake.systems.framework import DiagramBuilder
 from pydrake.systems.primitives import ConstantVectorSource, TrajectorySource
@@ -23,7 +23,7 @@ from pydrake.trajectories import PiecewisePolynomial
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.scenario import Scenario
 from hlcmp_drake.core import quaternion as quat
-from hlcmp_drake.core.dmp import Dmp, DmpSettings, phase_at
+from hlcmp_drake.core.dmp import Dmp, DmpSettings
 from hlcmp_drake.core.kernels import kernel_chosen, kernel_path, numba_available
 from hlcmp_drake.core.orientation_dmp import OrientationDmp
 from hlcmp_drake.experiments import EXPERIMENTS
@@ -33,10 +33,13 @@ from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.run.report import run_report
 from hlcmp_drake.run.runner import run_scenario
 from hlcmp_drake.run.simulate import prepared_simulator, simulate
+from hlcmp_drake.systems.ports import REFERENCE_PORTS
 from hlcmp_drake.worlds import arm
 from hlcmp_drake.worlds.build import diagram_factory
-from hlcmp_drake.worlds.common import BuiltDiagram
+from hlcmp_drake.worlds.common import BuiltDiagram, add_reference
+from hlcmp_drake.worlds.controllers import initial_theta
 from hlcmp_drake.worlds.models import load_models
+from hlcmp_drake.worlds.pose import add_pose_reference, pose_tick
 
 
 def _wall(function):
@@ -180,8 +183,8 @@ def insertion_runs(duration: float, repetitions: int) -> dict:
 
 def tick_paths(scenario: Scenario, setup: arm.ArmSetup, run: RunResult, repetitions: int) -> dict:
     """One Hl-CMP tick of the insertion (`ControlTick.evaluate`, θ' included) at every logged
-    state of `run`, on the numpy path and on the compiled one (`core.kernels`), the two
-    alternating; empty without numba.
+    state of `run` and its reference there, on the numpy path and on the compiled one
+    (`core.kernels`), the two alternating (`_tick_times`); empty without numba.
 
     Parameters
     ----------
@@ -189,7 +192,7 @@ def tick_paths(scenario: Scenario, setup: arm.ArmSetup, run: RunResult, repetiti
         The insertion.
     setup : ArmSetup
     run : RunResult
-        A run of the insertion's Hl-CMP: its plant states and set-points are the inputs.
+        A run of the insertion's Hl-CMP: its plant states and times are the inputs.
     repetitions : int
         Rounds; the ratio is the median of the per-round ratios of the median ticks.
 
@@ -200,38 +203,142 @@ def tick_paths(scenario: Scenario, setup: arm.ArmSetup, run: RunResult, repetiti
     """
     if not numba_available():
         return {}
-    ticks = {}
+    sides = {}
+    references = _reference_along(
+        partial(add_reference, scenario=scenario, dmp=setup.dmp, compiled=True), scenario, run.t
+    )
+    inputs = list(zip(run.series["plant_state"], references))
     for path in ("numpy", "compiled"):
         with kernel_chosen(path):
-            ticks[path] = arm.arm_tick(
-                scenario, "hlcmp", plant=_control_plant(scenario), setup=setup
-            )
-    xd = run.series["xd"]
-    xd_dot = np.gradient(xd, run.t, axis=0)
-    reference = zip(
-        xd,
-        xd_dot,
-        np.gradient(xd_dot, run.t, axis=0),
-        phase_at(run.t, setup.dmp.tau, setup.dmp.settings.alpha_s)[:, None],
-    )
-    theta = np.random.default_rng(0).uniform(0, 300, ticks["numpy"].law.theta_size)
-    inputs = list(zip(run.series["plant_state"], reference))
-    medians: dict[str, list[float]] = {path: [] for path in ticks}
-    for _ in range(repetitions + 1):  # the first round compiles (or loads the cache): not kept
-        for path, tick in ticks.items():
-            times = []
-            for state, now in inputs:
-                start = time.perf_counter()
-                _ = tick.evaluate(state, now, theta).law.rates
-                times.append(time.perf_counter() - start)
-            medians[path].append(1e6 * float(np.median(times)))
-    kept = {path: values[1:] for path, values in medians.items()}
+            tick = arm.arm_tick(scenario, "hlcmp", plant=_control_plant(scenario), setup=setup)
+        theta = np.random.default_rng(0).uniform(0, 300, tick.law.theta_size)
+        sides[path] = (tick, inputs, theta)
+    kept = {
+        path: [1e6 * float(np.median(times)) for times in rounds]
+        for path, rounds in _tick_times(sides, repetitions).items()
+    }
     return {
         "controller_tick_numpy_over_compiled": statistics.median(
             [n / c for n, c in zip(kept["numpy"], kept["compiled"])]
         ),
         "controller_tick_median_us_by_path": kept,
     }
+
+
+def pose_tick_cost(duration: float, repetitions: int) -> dict:
+    """The 6-D Hl-CMP's tick (`PoseControlTick.evaluate`, θ' included) beside the
+    translational Hl-CMP's (`ControlTick.evaluate`) in the peg-in-hole world, both at every
+    state logged (every 4 ms) by a short run of the translational one (the cheaper run)
+    and at the 6-D reference there (the translational tick reads its position part), each
+    from its configured initial θ, alternating (`_tick_times`); both on the numpy
+    path and, with numba, on the compiled one. On the compiled path only the 6-D tick's
+    translational law is compiled: its rotational law, 6-D task-space terms and wrench
+    map are numpy on both.
+
+    Parameters
+    ----------
+    duration : float
+        Simulated seconds of the run whose states are the inputs.
+    repetitions : int
+        Rounds; a ratio is the median of the per-round ratios of the median ticks.
+
+    Returns
+    -------
+    dict
+        pose_tick_us and translational_tick_us ({p50, p99} over every kept tick [µs]) and
+        pose_over_translational_tick, on the path every fast-path run takes
+        (`kernel_path`); the same by path (``..._by_path``); pose_tick_states, the
+        number of states.
+    """
+    scenario, _ = load_scenario(
+        "peg_in_hole", [f"duration_s={duration}", "log_period_s=0.004", "task.control_path=fast"]
+    )
+    setup = arm.prepare(scenario)
+    run = simulate(arm.build(scenario, "hlcmp", setup), scenario, "hlcmp")
+    references = _reference_along(
+        partial(add_pose_reference, scenario=scenario, setup=setup), scenario, run.t
+    )
+    sides, plant = {}, _control_plant(scenario)  # each tick's model has its own context
+    paths = ("numpy", "compiled") if numba_available() else ("numpy",)
+    for path in paths:
+        with kernel_chosen(path):
+            for side, name, make, size in (
+                ("pose", "hlcmp_6d", pose_tick, None),
+                ("translational", "hlcmp", arm.arm_tick, len(REFERENCE_PORTS)),
+            ):
+                tick = make(scenario, name, plant=plant, setup=setup)
+                inputs = [
+                    (state, now[:size]) for state, now in zip(run.series["plant_state"], references)
+                ]
+                theta = initial_theta(scenario.controllers[name], scenario)
+                sides[f"{side}_{path}"] = (tick, inputs, theta)
+    times = _tick_times(sides, repetitions)
+    out: dict = {"pose_tick_states": len(run.t)}
+    for path in paths:
+        for side in ("pose", "translational"):
+            ticks = 1e6 * np.concatenate(times[f"{side}_{path}"])
+            out.setdefault(f"{side}_tick_us_by_path", {})[path] = {
+                "p50": float(np.percentile(ticks, 50)),
+                "p99": float(np.percentile(ticks, 99)),
+            }
+        out.setdefault("pose_over_translational_tick_by_path", {})[path] = statistics.median(
+            [
+                float(np.median(pose) / np.median(translational))
+                for pose, translational in zip(
+                    times[f"pose_{path}"], times[f"translational_{path}"]
+                )
+            ]
+        )
+    path = kernel_path()
+    for key in ("pose_tick_us", "translational_tick_us", "pose_over_translational_tick"):
+        out[key] = out[f"{key}_by_path"][path]
+    return out
+
+
+def _reference_along(add, scenario: Scenario, times: np.ndarray) -> list[tuple]:
+    """A run's reference at its log times: `add(builder)` adds the reference system alone,
+    which is simulated as the scenario's runs are (it reads nothing of the plant), and its
+    output ports read at each of `times`, in port order."""
+    builder = DiagramBuilder()
+    reference = add(builder)
+    simulator = Simulator(builder.Build())
+    ApplySimulatorConfig(scenario.simulator_config, simulator)
+    context = reference.GetMyContextFromRoot(simulator.get_mutable_context())
+    ports = [reference.get_output_port(k) for k in range(reference.num_output_ports())]
+    values = []
+    for t in times:
+        simulator.AdvanceTo(t)
+        values.append(tuple(port.Eval(context).copy() for port in ports))
+    return values
+
+
+def _tick_times(sides: dict, rounds: int) -> dict[str, list[np.ndarray]]:
+    """The wall time [s] of each tick at each of its inputs, evaluated and its θ' read, the
+    sides alternating round by round; the first round compiles (or loads the cache) and
+    is not kept.
+
+    Parameters
+    ----------
+    sides : dict of str to (tick, list of (state, reference), theta)
+        `ControlTick` or `PoseControlTick`, its inputs, and θ.
+    rounds : int
+        The kept rounds.
+
+    Returns
+    -------
+    dict of str to list of arrays
+        Per side, one array of tick times per kept round.
+    """
+    times: dict[str, list[np.ndarray]] = {side: [] for side in sides}
+    for _ in range(rounds + 1):
+        for side, (tick, inputs, theta) in sides.items():
+            round_times = np.empty(len(inputs))
+            for k, (state, now) in enumerate(inputs):
+                start = time.perf_counter()
+                _ = tick.evaluate(state, now, theta).law.rates
+                round_times[k] = time.perf_counter() - start
+            times[side].append(round_times)
+    return {side: kept[1:] for side, kept in times.items()}
 
 
 def one_dof_runs(duration: float, repetitions: int) -> dict:
@@ -564,6 +671,7 @@ FULL = {
     "insertion_s": 9.5,
     "cutting_s": 9.0,
     "one_dof_s": 20.0,
+    "pose_tick_s": 0.4,
     "repetitions": 3,
     "dmp_repetitions": 15,
     "scenario_s": None,
@@ -572,6 +680,7 @@ QUICK = {
     "insertion_s": 1.0,
     "cutting_s": 1.0,
     "one_dof_s": 0.5,
+    "pose_tick_s": 0.1,
     "repetitions": 1,
     "dmp_repetitions": 2,
     "scenario_s": 0.5,
@@ -613,6 +722,8 @@ def run_benchmark(quick: bool = False, reporter: Progress = SILENT) -> dict:
         "cutting": plan["cutting_s"],
     }
     results["cutting_world_wall_s"] = cutting["wall_s"]
+    reporter.say("peg_in_hole: the 6-D Hl-CMP's tick beside the translational one's ...")
+    results.update(pose_tick_cost(plan["pose_tick_s"], plan["repetitions"]))
     reporter.say("one_dof: each controller on the fast path, the Hl-CMP on the modular path ...")
     results.update(one_dof_runs(duration=plan["one_dof_s"], repetitions=plan["repetitions"]))
     reporter.say("DMP fit and rollout ...")
@@ -734,6 +845,8 @@ def _rows(results):
                 None,
             )
         )
+    if "pose_over_translational_tick" in results:  # bench.json files from before lack it
+        rows += _pose_tick_rows(results)
     if "one_dof_rtf" in results:  # bench.json files from before the slider's fast path lack it
         slowest = min(
             results["one_dof_rtf_by_controller"], key=results["one_dof_rtf_by_controller"].get
@@ -794,6 +907,40 @@ def _rows(results):
                 report["wall_s"] <= 90,
             )
         )
+    return rows
+
+
+def _pose_tick_rows(results):
+    """The 6-D tick beside the translational one, on the bench's path and on the other."""
+
+    def ticks(side, path):
+        tick = results[f"{side}_tick_us_by_path"][path]
+        return f"{tick['p50']:.0f} / {tick['p99']:.0f} µs"
+
+    kernel = results["machine"]["tick_kernel"]
+    rows = [
+        (
+            "pose_over_translational_tick: one 6-D Hl-CMP tick (PoseControlTick) / one "
+            "translational Hl-CMP tick (ControlTick), peg-in-hole world, at "
+            f"{results['pose_tick_states']} states of a short run, alternating rounds "
+            f"({kernel}; 6-D {ticks('pose', kernel)}, translational "
+            f"{ticks('translational', kernel)}, p50 / p99)",
+            number(results["pose_over_translational_tick"]),
+            "",
+            None,
+        )
+    ]
+    for path, ratio in results["pose_over_translational_tick_by_path"].items():
+        if path != kernel:
+            rows.append(
+                (
+                    f"the same on the {path} path (6-D {ticks('pose', path)}, translational "
+                    f"{ticks('translational', path)})",
+                    number(ratio),
+                    "",
+                    None,
+                )
+            )
     return rows
 
 
