@@ -217,7 +217,18 @@ def inserted(run: RunResult, scenario: Scenario) -> dict:
 
 def rotational_stiffness_on_tilting_axes(given: ClaimInputs) -> Verdict | None:
     """P1: the 6-D learner's learned K_r rose on a tilting axis (tool x or y) and stayed at
-    most OWN_AXIS_SHARE of that about the peg's own axis (tool z), peaks over the run."""
+    most OWN_AXIS_SHARE of that about the peg's own axis (tool z), peaks over the run.
+
+    Parameters
+    ----------
+    given : ClaimInputs
+        The learner's metrics (its rotational peaks) and its config (θ_kr's start).
+
+    Returns
+    -------
+    Verdict or None
+        None for a learner without a rotational part.
+    """
     learned = given.learner_metrics
     if learned is None or "max_rotational_stiffness_Nm_per_rad" not in learned:
         return None
@@ -240,7 +251,18 @@ def rotational_stiffness_on_tilting_axes(given: ClaimInputs) -> Verdict | None:
 def gentler_than_stiff(given: ClaimInputs) -> Verdict | None:
     """P2: the 6-D learner reached the hole's depth (its task) with a lower peak contact
     force (|f| over the run) and a lower peak torque (|τ| over the run) than the constant
-    impedance with the stiffest rotation."""
+    impedance with the stiffest rotation.
+
+    Parameters
+    ----------
+    given : ClaimInputs
+        The learner's and the constants' metrics; the constants found by config kind.
+
+    Returns
+    -------
+    Verdict or None
+        None for a learner without a rotational part, or without a 6-D constant.
+    """
     learned = given.learner_metrics
     stiff = _stiffest_rotation(given.scenario)
     if learned is None or stiff is None or "max_rotational_stiffness_Nm_per_rad" not in learned:

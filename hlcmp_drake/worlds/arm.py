@@ -30,6 +30,7 @@ from hlcmp_drake.systems.robot import (
     velocity_estimate,
 )
 from hlcmp_drake.systems.task_space import TaskSpaceDynamics, TaskSpaceModel
+from hlcmp_drake.worlds.arm_setup import ArmSetup
 from hlcmp_drake.worlds.checks import check_demonstration_feasible
 from hlcmp_drake.worlds.common import (
     BuiltDiagram,
@@ -55,20 +56,6 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike
     from pydrake.multibody.tree import Frame
     from pydrake.systems.framework import OutputPort, System
-
-
-@dc.dataclass
-class ArmSetup:
-    """What every controller's diagram of an arm scenario shares: the fitted DMP, the
-    start posture q0 [rad] (inverse kinematics), the tool orientation there (held below
-    the task by a translational controller) and, for a pose demonstration, the fitted
-    orientation DMP (a 6-D controller's reference; without it a 6-D controller holds
-    `tool_orientation`)."""
-
-    dmp: Dmp
-    q0: np.ndarray
-    tool_orientation: RotationMatrix
-    orientation_dmp: OrientationDmp | None = None
 
 
 def solve_start_posture(
@@ -603,7 +590,18 @@ def fast_tick(
     scenario: Scenario, controller_name: str, *, plant: MultibodyPlant, setup: ArmSetup
 ) -> ControlTick | PoseControlTick:
     """The fast path's controller at one instant: `worlds.pose.pose_tick` for a 6-D
-    controller, else `arm_tick` (same parameters).
+    controller, else `arm_tick`.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        With an ArmTask.
+    controller_name : str
+        A controller with a one-tick law.
+    plant : MultibodyPlant
+        Finalized, with the scenario's models (a world's plant, or a control-side copy).
+    setup : ArmSetup
+        The start posture and the orientation held below (or by) the task.
 
     Returns
     -------

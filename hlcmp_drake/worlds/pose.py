@@ -29,7 +29,7 @@ if TYPE_CHECKING:
     from pydrake.multibody.plant import MultibodyPlant
     from pydrake.systems.framework import Diagram
 
-    from hlcmp_drake.worlds.arm import ArmSetup
+    from hlcmp_drake.worlds.arm_setup import ArmSetup
 
 # The pose reference's outputs a run logs beyond x_d ("xd"), by port: the series name.
 LOGGED_REFERENCE = {"desired_orientation": "q_tool_d"}
