@@ -78,6 +78,8 @@ def test_the_done_criterion_is_2_mm_of_the_demonstrated_depth(scenario):
         reached = reference - short * axis
         run = SimpleNamespace(t=t, series={"x": reached, "xd": reference})
         assert peg_in_hole.inserted(run, scenario)["done"] is done
+    stopped = SimpleNamespace(t=t[:3], series={"x": reference[:3], "xd": reference[:3]})
+    assert peg_in_hole.inserted(stopped, scenario)["done"] is False  # the reference never got in
 
 
 @pytest.mark.slow  # the 6-D learner through the first contact, about half a minute

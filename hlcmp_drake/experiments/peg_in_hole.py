@@ -192,7 +192,8 @@ def _triple(values: list, scale: float, digits: int) -> str:
 
 
 def inserted(run: RunResult, scenario: Scenario) -> dict:
-    """Whether the peg got within DEPTH_TOLERANCE_M of the demonstrated depth in the hole.
+    """Whether the peg got within DEPTH_TOLERANCE_M of the demonstrated depth in the hole
+    (never, in a run that ended before its reference entered the hole).
 
     Parameters
     ----------
@@ -207,6 +208,12 @@ def inserted(run: RunResult, scenario: Scenario) -> dict:
     entrance, axis = hole_axis(scenario)
     reached = float(np.max(depth_in_hole(run.series["x"], entrance, axis)))
     target = float(np.max(depth_in_hole(run.series["xd"], entrance, axis)))
+    if target <= 0.0:  # a run stopped before its reference got to the hole
+        return {
+            "done": False,
+            "evidence": f"the run ended before its reference entered the hole (the reference "
+            f"{1000 * -target:.1f} mm above it, the tip {1000 * reached:.1f} mm into it)",
+        }
     done = reached >= target - DEPTH_TOLERANCE_M
     return {
         "done": bool(done),
