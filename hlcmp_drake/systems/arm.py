@@ -88,19 +88,51 @@ class BelowTaskImpedance:
         (nv,) array
             The joint torque below the task [N m].
         """
-        plant, world = self._plant, self._world
+        plant = self._plant
         if context is None:
             context = self._context
-            plant.SetPositionsAndVelocities(context, state)
-        error = (
-            self._frame.CalcRotationMatrixInWorld(context) @ self._R_desired_inverse
-        ).ToAngleAxis()
+            plant.SetPositions(context, state[: self.nq])
+        return self.torque_at(
+            state,
+            projector,
+            joint_gravity,
+            self._frame.CalcRotationMatrixInWorld(context),
+            plant.CalcJacobianAngularVelocity(
+                context, JacobianWrtVariable.kV, self._frame, self._world, self._world
+            ),
+        )
+
+    def torque_at(
+        self,
+        state: np.ndarray,
+        projector: np.ndarray,
+        joint_gravity: np.ndarray,
+        rotation: RotationMatrix,
+        angular_jacobian: np.ndarray,
+    ) -> np.ndarray:
+        """tau_0 where the tool frame's orientation and angular-velocity Jacobian at
+        `state`'s positions are already read (`TaskSpaceTerms.rotation` and
+        `.angular_jacobian` of a `TaskSpaceModel` of this tool frame): no plant query.
+
+        Parameters
+        ----------
+        state, projector, joint_gravity
+            As for `torque`.
+        rotation : RotationMatrix
+            The tool frame's orientation, world.
+        angular_jacobian : (3, nv) array
+            J_w, world.
+
+        Returns
+        -------
+        (nv,) array
+            The joint torque below the task [N m].
+        """
+        error = (rotation @ self._R_desired_inverse).ToAngleAxis()
         return self._below_task_torque(
             projector,
             joint_gravity,
-            plant.CalcJacobianAngularVelocity(
-                context, JacobianWrtVariable.kV, self._frame, world, world
-            ),
+            angular_jacobian,
             error.axis() * error.angle(),
             state[: self.nq],
             state[self.nq :],
@@ -110,6 +142,11 @@ class BelowTaskImpedance:
             self._k_p,
             self._d_p,
         )
+
+    @property
+    def frame(self):
+        """The tool frame whose orientation is held."""
+        return self._frame
 
 
 class NullSpaceImpedance(LeafSystem):
