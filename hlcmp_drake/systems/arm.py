@@ -53,7 +53,7 @@ class BelowTaskImpedance:
     ):
         self._plant, self._frame = plant, tool_frame
         self._context = plant.CreateDefaultContext()
-        self._R_desired_inverse = desired_orientation.inverse()
+        self._R_desired_inverse = desired_orientation.inverse().matrix()
         self._q0 = np.asarray(nominal_positions, dtype=float)
         self._k_o, self._d_o = float(orientation_stiffness), float(orientation_damping)
         self._k_p, self._d_p = float(posture_stiffness), float(posture_damping)
@@ -96,7 +96,7 @@ class BelowTaskImpedance:
             state,
             projector,
             joint_gravity,
-            self._frame.CalcRotationMatrixInWorld(context),
+            self._frame.CalcRotationMatrixInWorld(context).matrix(),
             plant.CalcJacobianAngularVelocity(
                 context, JacobianWrtVariable.kV, self._frame, self._world, self._world
             ),
@@ -107,7 +107,7 @@ class BelowTaskImpedance:
         state: np.ndarray,
         projector: np.ndarray,
         joint_gravity: np.ndarray,
-        rotation: RotationMatrix,
+        rotation: np.ndarray,
         angular_jacobian: np.ndarray,
     ) -> np.ndarray:
         """tau_0 where the tool frame's orientation and angular-velocity Jacobian at
@@ -118,8 +118,8 @@ class BelowTaskImpedance:
         ----------
         state, projector, joint_gravity
             As for `torque`.
-        rotation : RotationMatrix
-            The tool frame's orientation, world.
+        rotation : (3, 3) array
+            The tool frame's orientation R, world.
         angular_jacobian : (3, nv) array
             J_w, world.
 
@@ -128,12 +128,12 @@ class BelowTaskImpedance:
         (nv,) array
             The joint torque below the task [N m].
         """
-        error = (rotation @ self._R_desired_inverse).ToAngleAxis()
         return self._below_task_torque(
             projector,
             joint_gravity,
             angular_jacobian,
-            error.axis() * error.angle(),
+            rotation,
+            self._R_desired_inverse,
             state[: self.nq],
             state[self.nq :],
             self._q0,

@@ -6,7 +6,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.math import RotationMatrix
 from pydrake.multibody.tree import JacobianWrtVariable
 from pydrake.systems.framework import BasicVector, Context, LeafSystem, ValueProducer
 
@@ -34,7 +33,7 @@ class TaskSpaceTerms:
     # The frame's orientation R_WF and angular-velocity Jacobian J_w (3 x nv), world, which
     # the torque below the task reads (`systems.arm.BelowTaskImpedance.torque_at`); None
     # where the model has no rotation (`PrismaticTaskModel`).
-    rotation: RotationMatrix | None = None
+    rotation: np.ndarray | None = None
     angular_jacobian: np.ndarray | None = None
 
 
@@ -165,8 +164,8 @@ class TaskSpaceModel:
         TaskSpaceTerms
             Position [m] and velocity [m/s] (M,), Jacobian (M, nv), inertia [kg] and
             Coriolis [kg/s] (M, M), gravity [N] (M,), null-space projector (nv, nv) and
-            joint gravity G(q) (nv,) in the joints' units; the frame's orientation and its
-            angular-velocity Jacobian (3, nv), world.
+            joint gravity G(q) (nv,) in the joints' units; the frame's orientation (3, 3)
+            and its angular-velocity Jacobian (3, nv), world.
         """
         plant, ctx, world, frame = self.plant, self._context, self._world, self._frame
         plant.SetPositions(ctx, state[: self.nq])
@@ -194,7 +193,7 @@ class TaskSpaceModel:
             gravity,
             null_space,
             joint_gravity,
-            frame.CalcRotationMatrixInWorld(ctx),
+            frame.CalcRotationMatrixInWorld(ctx).matrix(),
             np.ascontiguousarray(spatial[:3]),
         )
 
