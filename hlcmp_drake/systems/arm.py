@@ -5,7 +5,7 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.math import RotationMatrix
 from pydrake.multibody.plant import ContactResults
-from pydrake.multibody.tree import JacobianWrtVariable
+from pydrake.multibody.tree import Frame, JacobianWrtVariable
 from pydrake.systems.framework import BasicVector, Context, LeafSystem
 
 from hlcmp_drake.core.kernels import implementation, kernel_path
@@ -144,7 +144,7 @@ class BelowTaskImpedance:
         )
 
     @property
-    def frame(self):
+    def frame(self) -> Frame:
         """The tool frame whose orientation is held."""
         return self._frame
 

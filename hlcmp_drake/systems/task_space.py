@@ -2,11 +2,12 @@
 M, C, G of paper Eq. 2 in the task space, all computed by Drake from a control-side
 plant; and the map from a task-space force back to joint torques."""
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.multibody.tree import JacobianWrtVariable
+from pydrake.multibody.tree import Frame, JacobianWrtVariable
 from pydrake.systems.framework import BasicVector, Context, LeafSystem, ValueProducer
 
 from hlcmp_drake.core.kernels import implementation, kernel_path
@@ -37,7 +38,7 @@ class TaskSpaceTerms:
     angular_jacobian: np.ndarray | None = None
 
 
-def axis_rows(axes, offset: int = 0) -> slice | np.ndarray:
+def axis_rows(axes: Sequence[int], offset: int = 0) -> slice | np.ndarray:
     """The index that picks the task `axes` out of a 3-vector's rows (from row `offset`): a
     slice where they are consecutive and ascending, as the arm's x, y, z are (a view;
     numpy's indexing by a list costs about 4 µs at these sizes, several times per tick),
@@ -112,7 +113,7 @@ class TaskSpaceModel:
         return self._context
 
     @property
-    def frame(self):
+    def frame(self) -> Frame:
         """The frame P is fixed on."""
         return self._frame
 
