@@ -353,3 +353,31 @@ def test_compiled_slider_tick_agrees_with_numpy_along_the_run(monkeypatch, one_d
     if not numpy_path.law.learns:
         inputs = [(s, r, np.concatenate([s, [0.0]]), e) for s, r, _, e in inputs]
     _assert_ticks_agree(compiled, numpy_path, inputs)
+
+
+def test_the_tick_reads_the_orientation_and_j_w_from_the_terms(arm_ticks, insertion):
+    """The tick's torque below the task, from the orientation and J_w in the model's terms,
+    equals the one `BelowTaskImpedance` reads by itself on its own context, to 1e-12 of
+    its scale; a below-task torque of another frame is refused."""
+    plant, ticks = arm_ticks
+    tick, _ = ticks["hlcmp"]
+    scenario, setup = insertion
+    for seed in range(5):
+        state, reference, theta = _inputs(setup, tick.law, seed)
+        result = tick.evaluate(state, reference, theta)
+        by_itself = tick.below_task.torque(
+            state, result.terms.null_space, result.terms.joint_gravity
+        )
+        reused = tick.below_task.torque_at(
+            state,
+            result.terms.null_space,
+            result.terms.joint_gravity,
+            result.terms.rotation,
+            result.terms.angular_jacobian,
+        )
+        assert np.abs(by_itself).max() > 1.0
+        np.testing.assert_allclose(reused, by_itself, rtol=0, atol=1e-12 * np.abs(by_itself).max())
+    other = plant.GetBodyByName("iiwa_link_7").body_frame()
+    below = BelowTaskImpedance(plant, other, setup.tool_orientation, setup.q0, 1.0, 1.0, 1.0, 1.0)
+    with pytest.raises(ValueError, match="must be one frame"):
+        ControlTick(tick.model, below, tick.law, tick.effort_limits)

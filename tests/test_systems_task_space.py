@@ -1,13 +1,19 @@
 """hlcmp_drake.systems.task_space: the task-space terms against Drake and finite differences,
-J^T f_c and the null space on the iiwa at a static pose, and the saturating force-to-torque
-map."""
+J^T f_c and the null space on the iiwa at a static pose, the saturating force-to-torque map,
+and the terms read once per state against Drake's separate queries."""
 
 import numpy as np
+import pytest
 from pydrake.multibody.parsing import Parser
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
 
-from hlcmp_drake.systems.task_space import TaskForceToJointTorque, TaskSpaceDynamics
+from hlcmp_drake.systems.task_space import (
+    TaskForceToJointTorque,
+    TaskSpaceDynamics,
+    TaskSpaceModel,
+    axis_rows,
+)
 
 
 def test_force_to_torque_saturates():
@@ -114,3 +120,57 @@ def test_null_space_torques_do_not_move_the_tool_point(arm):
     for _ in range(3):
         tau = t.null_space @ rng.normal(0, 10, 7) + t.joint_gravity  # gravity held
         np.testing.assert_allclose(t.jacobian @ _acceleration(arm, tau), 0.0, atol=1e-9)
+
+
+def test_axis_rows_pick_the_axes():
+    rows = np.arange(6.0)
+    for axes in ([0, 1, 2], [1, 2], [2], [0, 2], [2, 0], [1, 0]):
+        for offset in (0, 3):
+            np.testing.assert_array_equal(rows[axis_rows(axes, offset)], np.add(axes, offset))
+    assert axis_rows([0, 1, 2]) == slice(0, 3) and axis_rows([1, 2], 3) == slice(4, 6)
+
+
+def _drake_terms(plant, frame, point, axes, state):
+    """The position-dependent terms as separate Drake queries on a fresh context."""
+    context = plant.CreateDefaultContext()
+    plant.SetPositionsAndVelocities(context, state)
+    world = plant.world_frame()
+    return dict(
+        position=plant.CalcPointsPositions(context, frame, point.reshape(3, 1), world)[axes, 0],
+        jacobian=plant.CalcJacobianTranslationalVelocity(
+            context, JacobianWrtVariable.kV, frame, point.reshape(3, 1), world, world
+        )[axes],
+        angular_jacobian=plant.CalcJacobianAngularVelocity(
+            context, JacobianWrtVariable.kV, frame, world, world
+        ),
+        rotation=frame.CalcRotationMatrixInWorld(context).matrix(),
+        joint_gravity=-plant.CalcGravityGeneralizedForces(context),
+    )
+
+
+@pytest.mark.parametrize("axes", [[0, 1, 2], [0, 2], [1, 2]])
+def test_terms_read_once_equal_drakes_separate_queries(axes):
+    """`terms` sets only the positions and reads J and J_w from one spatial Jacobian: at a
+    second state, after a Coriolis product left other velocities in the context, every term
+    equals Drake's own query on a fresh context, and C_x w equals a fresh model's, exactly
+    up to the last bits (1e-14 of each term's scale)."""
+    plant = MultibodyPlant(0.0)
+    Parser(plant).AddModelsFromString(DOUBLE_PENDULUM, "sdf")
+    plant.Finalize()
+    frame, point = plant.GetBodyByName("l3").body_frame(), np.array([0.05, -0.02, -0.1])
+    model = TaskSpaceModel(plant, frame, point, axes)
+    rng = np.random.default_rng(7)
+    first, second = (np.concatenate([rng.normal(0, 0.6, 3), rng.normal(0, 1.0, 3)]) for _ in "ab")
+    w = rng.normal(0, 0.5, len(axes))
+    model.terms(first, coriolis_matrix=False).coriolis @ w  # leaves v - Jbar w in the context
+    terms = model.terms(second, coriolis_matrix=False)
+    fresh = TaskSpaceModel(plant, frame, point, axes).terms(second, coriolis_matrix=False)
+    expected = _drake_terms(plant, frame, point, axes, second)
+    expected["velocity"] = expected["jacobian"] @ second[3:]
+    got = {name: getattr(terms, name) for name in expected}
+    got["coriolis product"] = terms.coriolis @ w
+    expected["coriolis product"] = fresh.coriolis @ w
+    assert np.abs(expected["coriolis product"]).max() > 1e-2  # a product that tells
+    for name, value in expected.items():
+        scale = max(1.0, float(np.abs(value).max()))
+        np.testing.assert_allclose(got[name], value, rtol=0, atol=1e-14 * scale, err_msg=name)

@@ -103,11 +103,58 @@ def prismatic_task_dynamics(
 
 
 @jitable
+def rotation_vector(rotation: np.ndarray) -> np.ndarray:
+    """The principal rotation vector e of a rotation matrix R = exp([e]x): its axis times its
+    angle, |e| <= pi. By way of R's unit quaternion (w, x, y, z), w >= 0, each component
+    found from the largest of R's trace and diagonal terms (Shepperd's choice: no division
+    by a small number), then e = 2 atan2(|(x, y, z)|, w) (x, y, z) / |(x, y, z)|, accurate
+    at every angle (the Log of `core.quaternion.to_rotation_vector`, from a matrix). At an
+    angle of exactly pi, either of the two opposite vectors is the rotation.
+
+    Parameters
+    ----------
+    rotation : (3, 3) array
+        A rotation matrix.
+
+    Returns
+    -------
+    (3,) array
+        e [rad].
+    """
+    r = rotation
+    trace = r[0, 0] + r[1, 1] + r[2, 2]
+    if trace >= r[0, 0] and trace >= r[1, 1] and trace >= r[2, 2]:
+        four_w = 2.0 * np.sqrt(1.0 + trace)
+        w, x = 0.25 * four_w, (r[2, 1] - r[1, 2]) / four_w
+        y, z = (r[0, 2] - r[2, 0]) / four_w, (r[1, 0] - r[0, 1]) / four_w
+    elif r[0, 0] >= r[1, 1] and r[0, 0] >= r[2, 2]:
+        four_x = 2.0 * np.sqrt(1.0 + 2.0 * r[0, 0] - trace)
+        w, x = (r[2, 1] - r[1, 2]) / four_x, 0.25 * four_x
+        y, z = (r[0, 1] + r[1, 0]) / four_x, (r[0, 2] + r[2, 0]) / four_x
+    elif r[1, 1] >= r[2, 2]:
+        four_y = 2.0 * np.sqrt(1.0 + 2.0 * r[1, 1] - trace)
+        w, x = (r[0, 2] - r[2, 0]) / four_y, (r[0, 1] + r[1, 0]) / four_y
+        y, z = 0.25 * four_y, (r[1, 2] + r[2, 1]) / four_y
+    else:
+        four_z = 2.0 * np.sqrt(1.0 + 2.0 * r[2, 2] - trace)
+        w, x = (r[1, 0] - r[0, 1]) / four_z, (r[0, 2] + r[2, 0]) / four_z
+        y, z = (r[1, 2] + r[2, 1]) / four_z, 0.25 * four_z
+    if w < 0.0:  # q and -q are one rotation: the principal vector has w >= 0
+        w, x, y, z = -w, -x, -y, -z
+    sin_half = np.sqrt(x * x + y * y + z * z)
+    if sin_half == 0.0:
+        return np.zeros(3)
+    scale = 2.0 * np.arctan2(sin_half, w) / sin_half
+    return np.array([scale * x, scale * y, scale * z])
+
+
+@jitable
 def below_task_torque(
     projector: np.ndarray,
     joint_gravity: np.ndarray,
     angular_jacobian: np.ndarray,
-    rotation_error: np.ndarray,
+    rotation: np.ndarray,
+    desired_inverse: np.ndarray,
     positions: np.ndarray,
     velocities: np.ndarray,
     nominal_positions: np.ndarray,
@@ -116,8 +163,9 @@ def below_task_torque(
     posture_stiffness: float,
     posture_damping: float,
 ) -> np.ndarray:
-    """τ_0 = N^T (G(q) + J_w^T (-K_o e_R - D_o w) - K_p (q - q_0) - D_p q'), w = J_w q': the
-    tool's orientation and the arm's posture held below the translational task.
+    """τ_0 = N^T (G(q) + J_w^T (-K_o e_R - D_o w) - K_p (q - q_0) - D_p q'), w = J_w q',
+    e_R = Log(R R_d^T) (`rotation_vector`): the tool's orientation and the arm's posture held
+    below the translational task.
 
     Parameters
     ----------
@@ -127,8 +175,10 @@ def below_task_torque(
         G(q) [N m].
     angular_jacobian : (3, nv) array
         J_w, the tool's angular-velocity Jacobian, world.
-    rotation_error : (3,) array
-        e_R, the rotation vector from the desired to the current tool orientation [rad].
+    rotation : (3, 3) array
+        R, the tool's orientation, world.
+    desired_inverse : (3, 3) array
+        R_d^T, the inverse of the orientation to hold.
     positions, velocities : (nv,) arrays
         q [rad] and q' [rad/s].
     nominal_positions : (nv,) array
@@ -143,9 +193,9 @@ def below_task_torque(
     (nv,) array
         τ_0 [N m].
     """
-    moment = -orientation_stiffness * rotation_error - orientation_damping * (
-        angular_jacobian @ velocities
-    )
+    moment = -orientation_stiffness * rotation_vector(
+        rotation @ desired_inverse
+    ) - orientation_damping * (angular_jacobian @ velocities)
     return projector @ (
         joint_gravity
         + angular_jacobian.T @ moment

@@ -5,7 +5,7 @@ import numpy as np
 from pydrake.common.value import AbstractValue
 from pydrake.math import RotationMatrix
 from pydrake.multibody.plant import ContactResults
-from pydrake.multibody.tree import JacobianWrtVariable
+from pydrake.multibody.tree import Frame, JacobianWrtVariable
 from pydrake.systems.framework import BasicVector, Context, LeafSystem
 
 from hlcmp_drake.core.kernels import implementation, kernel_path
@@ -53,7 +53,7 @@ class BelowTaskImpedance:
     ):
         self._plant, self._frame = plant, tool_frame
         self._context = plant.CreateDefaultContext()
-        self._R_desired_inverse = desired_orientation.inverse()
+        self._R_desired_inverse = desired_orientation.inverse().matrix()
         self._q0 = np.asarray(nominal_positions, dtype=float)
         self._k_o, self._d_o = float(orientation_stiffness), float(orientation_damping)
         self._k_p, self._d_p = float(posture_stiffness), float(posture_damping)
@@ -88,20 +88,52 @@ class BelowTaskImpedance:
         (nv,) array
             The joint torque below the task [N m].
         """
-        plant, world = self._plant, self._world
+        plant = self._plant
         if context is None:
             context = self._context
-            plant.SetPositionsAndVelocities(context, state)
-        error = (
-            self._frame.CalcRotationMatrixInWorld(context) @ self._R_desired_inverse
-        ).ToAngleAxis()
+            plant.SetPositions(context, state[: self.nq])
+        return self.torque_at(
+            state,
+            projector,
+            joint_gravity,
+            self._frame.CalcRotationMatrixInWorld(context).matrix(),
+            plant.CalcJacobianAngularVelocity(
+                context, JacobianWrtVariable.kV, self._frame, self._world, self._world
+            ),
+        )
+
+    def torque_at(
+        self,
+        state: np.ndarray,
+        projector: np.ndarray,
+        joint_gravity: np.ndarray,
+        rotation: np.ndarray,
+        angular_jacobian: np.ndarray,
+    ) -> np.ndarray:
+        """tau_0 where the tool frame's orientation and angular-velocity Jacobian at
+        `state`'s positions are already read (`TaskSpaceTerms.rotation` and
+        `.angular_jacobian` of a `TaskSpaceModel` of this tool frame): no plant query.
+
+        Parameters
+        ----------
+        state, projector, joint_gravity
+            As for `torque`.
+        rotation : (3, 3) array
+            The tool frame's orientation R, world.
+        angular_jacobian : (3, nv) array
+            J_w, world.
+
+        Returns
+        -------
+        (nv,) array
+            The joint torque below the task [N m].
+        """
         return self._below_task_torque(
             projector,
             joint_gravity,
-            plant.CalcJacobianAngularVelocity(
-                context, JacobianWrtVariable.kV, self._frame, world, world
-            ),
-            error.axis() * error.angle(),
+            angular_jacobian,
+            rotation,
+            self._R_desired_inverse,
             state[: self.nq],
             state[self.nq :],
             self._q0,
@@ -110,6 +142,11 @@ class BelowTaskImpedance:
             self._k_p,
             self._d_p,
         )
+
+    @property
+    def frame(self) -> Frame:
+        """The tool frame whose orientation is held."""
+        return self._frame
 
 
 class NullSpaceImpedance(LeafSystem):

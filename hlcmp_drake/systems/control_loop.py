@@ -85,8 +85,9 @@ class ControlTick:
     model : TaskSpaceModel or PrismaticTaskModel
         The task point's task-space terms.
     below_task : BelowTaskImpedance or None
-        The arm's orientation and posture held below the task; None where the task axes
-        are all the joints (the slider).
+        The arm's orientation and posture held below the task, of the model's frame (it
+        reads that frame's orientation and J_w from the model's terms); None where the
+        task axes are all the joints (the slider).
     law : ControlLaw
         The task-space law (`core.laws`).
     effort_limits : (nv,) array
@@ -102,6 +103,11 @@ class ControlTick:
         M, the task axes (the size of f_c and of a read external force).
     extra_series : dict of str to str
         Further loggable values of `log_row` -> their series name (none here).
+
+    Raises
+    ------
+    ValueError
+        When `below_task` holds another frame than the model's.
     """
 
     extra_series: dict[str, str] = {}
@@ -113,6 +119,12 @@ class ControlTick:
         law,
         effort_limits,
     ):
+        if below_task is not None and below_task.frame.index() != model.frame.index():
+            raise ValueError(
+                f"the torque below the task holds {below_task.frame.name()!r}, the task "
+                f"model's frame is {model.frame.name()!r}: the tick reads the orientation "
+                "and J_w from the model's terms, so they must be one frame"
+            )
         self.model, self.below_task, self.law = model, below_task, law
         self.effort_limits = np.asarray(effort_limits, dtype=float)
         self.kernel = kernel_path()
@@ -179,8 +191,12 @@ class ControlTick:
         below = (
             self._nothing_below
             if self.below_task is None
-            else self.below_task.torque(
-                state, terms.null_space, terms.joint_gravity, self.model.context
+            else self.below_task.torque_at(
+                state,
+                terms.null_space,
+                terms.joint_gravity,
+                terms.rotation,
+                terms.angular_jacobian,
             )
         )
         torque, saturated = self._task_joint_torque(

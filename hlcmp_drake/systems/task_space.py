@@ -2,11 +2,12 @@
 M, C, G of paper Eq. 2 in the task space, all computed by Drake from a control-side
 plant; and the map from a task-space force back to joint torques."""
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.multibody.tree import JacobianWrtVariable
+from pydrake.multibody.tree import Frame, JacobianWrtVariable
 from pydrake.systems.framework import BasicVector, Context, LeafSystem, ValueProducer
 
 from hlcmp_drake.core.kernels import implementation, kernel_path
@@ -30,6 +31,34 @@ class TaskSpaceTerms:
     gravity: np.ndarray  # G_x = Jbar^T G(q)
     null_space: np.ndarray  # N^T = I - J^T Jbar^T (nv x nv), dynamically consistent
     joint_gravity: np.ndarray  # G(q) (nv,)
+    # The frame's orientation R_WF and angular-velocity Jacobian J_w (3 x nv), world, which
+    # the torque below the task reads (`systems.arm.BelowTaskImpedance.torque_at`); None
+    # where the model has no rotation (`PrismaticTaskModel`).
+    rotation: np.ndarray | None = None
+    angular_jacobian: np.ndarray | None = None
+
+
+def axis_rows(axes: Sequence[int], offset: int = 0) -> slice | np.ndarray:
+    """The index that picks the task `axes` out of a 3-vector's rows (from row `offset`): a
+    slice where they are consecutive and ascending, as the arm's x, y, z are (a view;
+    numpy's indexing by a list costs about 4 µs at these sizes, several times per tick),
+    else an index array.
+
+    Parameters
+    ----------
+    axes : sequence of int
+        Distinct world axes, 0 = x, 1 = y, 2 = z.
+    offset : int
+        The row of x (3 for the translational rows of a spatial Jacobian).
+
+    Returns
+    -------
+    slice or (M,) int array
+    """
+    axes = list(axes)
+    if axes == list(range(axes[0], axes[0] + len(axes))):
+        return slice(offset + axes[0], offset + axes[0] + len(axes))
+    return offset + np.array(axes)
 
 
 class TaskSpaceModel:
@@ -71,6 +100,8 @@ class TaskSpaceModel:
             len(self._axes),
         )
         self._world = plant.world_frame()  # looked up once: every tick uses it several times
+        self._rows = axis_rows(self._axes)
+        self._translational_rows = axis_rows(self._axes, offset=3)
         path = kernel_path()
         self._operational_space_terms = implementation(operational_space_terms, path)
         self._polarized_coriolis = implementation(polarized_coriolis, path)
@@ -78,13 +109,20 @@ class TaskSpaceModel:
     @property
     def context(self) -> Context:
         """The control-side plant context, holding the positions of the last `terms` call
-        (its velocities are changed by a `CoriolisProduct`)."""
+        (`terms` does not set its velocities; a `CoriolisProduct` changes them)."""
         return self._context
+
+    @property
+    def frame(self) -> Frame:
+        """The frame P is fixed on."""
+        return self._frame
 
     def _polarized_product(self, v, jbar, inertia, w):
         """C_x w at velocity v: b(v ± u) = C(q, v ± u)(v ± u) and a(v ± u) = J'(v ± u) with
         u = Jbar w, read on the context of the last `terms` call, whose positions (and so
-        their kinematics) stay; only its velocities change (`polarized_coriolis`)."""
+        their kinematics) stay; only its velocities change (`polarized_coriolis`). Two
+        velocities are the fewest: b(v + t u) = b(v) + 2 t C(q, v) u + t^2 b(u) has the
+        unknowns b(v) and b(u) besides the product, and the tick reads neither."""
         plant, ctx, world, frame, point = (
             self.plant,
             self._context,
@@ -97,18 +135,22 @@ class TaskSpaceModel:
         bias_plus = plant.CalcBiasTerm(ctx)
         accel_plus = plant.CalcBiasTranslationalAcceleration(
             ctx, JacobianWrtVariable.kV, frame, point, world, world
-        )[self._axes, 0]
+        )[self._rows, 0]
         plant.SetVelocities(ctx, v - u)
         bias_minus = plant.CalcBiasTerm(ctx)
         accel_minus = plant.CalcBiasTranslationalAcceleration(
             ctx, JacobianWrtVariable.kV, frame, point, world, world
-        )[self._axes, 0]
+        )[self._rows, 0]
         return self._polarized_coriolis(
             jbar, inertia, bias_plus, bias_minus, accel_plus, accel_minus
         )
 
     def terms(self, state: np.ndarray, coriolis_matrix: bool = True) -> TaskSpaceTerms:
         """All task-space terms at the plant state `state`.
+
+        Only the positions are set in the context: every query here depends on them alone,
+        so Drake computes their kinematics once, and the Coriolis product sets the
+        velocities it reads.
 
         Parameters
         ----------
@@ -123,15 +165,19 @@ class TaskSpaceModel:
         TaskSpaceTerms
             Position [m] and velocity [m/s] (M,), Jacobian (M, nv), inertia [kg] and
             Coriolis [kg/s] (M, M), gravity [N] (M,), null-space projector (nv, nv) and
-            joint gravity G(q) (nv,) in the joints' units.
+            joint gravity G(q) (nv,) in the joints' units; the frame's orientation (3, 3)
+            and its angular-velocity Jacobian (3, nv), world.
         """
-        plant, ctx, world = self.plant, self._context, self._world
-        plant.SetPositionsAndVelocities(ctx, state)
+        plant, ctx, world, frame = self.plant, self._context, self._world, self._frame
+        plant.SetPositions(ctx, state[: self.nq])
         v = state[self.nq :]
-        position = plant.CalcPointsPositions(ctx, self._frame, self._point, world)[self._axes, 0]
-        jac = plant.CalcJacobianTranslationalVelocity(
-            ctx, JacobianWrtVariable.kV, self._frame, self._point, world, world
-        )[self._axes]
+        position = plant.CalcPointsPositions(ctx, frame, self._point, world)[self._rows, 0]
+        # One Jacobian for both: its angular rows are J_w, its translational rows J (each
+        # copied contiguous: the kernels' matrix products need it).
+        spatial = plant.CalcJacobianSpatialVelocity(
+            ctx, JacobianWrtVariable.kV, frame, self._point, world, world
+        )
+        jac = np.ascontiguousarray(spatial[self._translational_rows])
         joint_gravity = -plant.CalcGravityGeneralizedForces(ctx)
         inertia, jbar, gravity, null_space = self._operational_space_terms(
             plant.CalcMassMatrix(ctx), jac, joint_gravity
@@ -140,7 +186,16 @@ class TaskSpaceModel:
         if coriolis_matrix:
             coriolis = coriolis @ np.eye(self.n_axes)
         return TaskSpaceTerms(
-            position, jac @ v, jac, inertia, coriolis, gravity, null_space, joint_gravity
+            position,
+            jac @ v,
+            jac,
+            inertia,
+            coriolis,
+            gravity,
+            null_space,
+            joint_gravity,
+            frame.CalcRotationMatrixInWorld(ctx).matrix(),
+            np.ascontiguousarray(spatial[:3]),
         )
 
 
