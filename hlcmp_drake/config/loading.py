@@ -398,28 +398,19 @@ class _NoController:
     be written with its class's tag."""
 
 
-# Scenario's schema for dumping: its controllers' Union with each class before its bases
-# (a longer MRO first), after a member that matches none.
-_DUMP_SCHEMA = dc.make_dataclass(
-    "Scenario",
-    [
-        (
-            field.name,
-            dict[
-                str,
-                Union[
-                    (_NoController,)
-                    + tuple(
-                        sorted(typing.get_args(ControllerConfig), key=lambda c: -len(c.__mro__))
-                    )
-                ],
-            ]
-            if field.name == "controllers"
-            else field.type,
-        )
+def _dump_schema() -> type:
+    """Scenario's schema for dumping: its controllers' Union with each class before its
+    bases (a longer MRO first), after a member that matches none."""
+    by_depth = sorted(typing.get_args(ControllerConfig), key=lambda c: -len(c.__mro__))
+    tagged = Union.__getitem__((_NoController, *by_depth))
+    fields = [
+        (field.name, dict[str, tagged] if field.name == "controllers" else field.type)  # type: ignore[valid-type]
         for field in dc.fields(Scenario)
-    ],
-)
+    ]
+    return dc.make_dataclass("Scenario", fields)
+
+
+_DUMP_SCHEMA = _dump_schema()
 
 
 def dump_scenario(scenario: Scenario) -> str:

@@ -219,9 +219,7 @@ class Skill:
             The skill with zero compliant-profile weights.
         """
         zeros = np.zeros_like(dmp.theta_p)
-        rotational = {}
-        if orientation is not None:
-            rotational = {key: np.zeros((3, dmp.settings.n_basis)) for key in ROTATIONAL_FIELDS}
+        rotational = None if orientation is None else np.zeros((3, dmp.settings.n_basis))
         return cls(
             dmp,
             zeros,
@@ -229,7 +227,9 @@ class Skill:
             zeros.copy(),
             orientation=orientation,
             demo_force=demo_force,
-            **rotational,
+            theta_kr=rotational,
+            theta_dr=None if rotational is None else rotational.copy(),
+            theta_vr=None if rotational is None else rotational.copy(),
         )
 
 
