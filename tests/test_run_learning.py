@@ -568,6 +568,9 @@ def test_a_6d_skill_learned_over_two_trials_replays_frozen(tmp_path):
     scenario, _ = load_scenario("peg_in_hole", ["controllers.hlcmp_6d.q_units=per_step"])
     assert skill.six_d and skill.world == world_of_scenario(scenario)
     assert skill.orientation is not None and np.abs(skill.theta_kr).max() > 0
+    rows = json.loads((tmp_path / "learn" / "metrics.json").read_text())["trials"]
+    assert [len(row["mean_abs_orientation_error_rad"]) for row in rows] == [3, 3]
+    assert [len(row["max_abs_torque_Nm"]) for row in rows] == [3, 3]
     learned = np.load(tmp_path / "learn" / "timeseries.npz")
     config = scenario.controllers["hlcmp_6d"]
     assert np.all(learned["trial_1/Kr"][0] == config.theta_kr0)

@@ -358,9 +358,14 @@ def run_trials(
     return runs
 
 
+# Per-trial measures of the tool's orientation, kept where the experiment reports them
+# (peg_in_hole: per tool axis).
+ORIENTATION_TRIAL_MEASURES = ("mean_abs_orientation_error_rad", "max_abs_torque_Nm")
+
+
 def trial_metrics(runs: list[RunResult], scenario: Scenario) -> list[dict]:
     """Per trial: position error [m], mean force [N] and smoothness [N] per axis, and
-    effort [N].
+    effort [N]; and the ORIENTATION_TRIAL_MEASURES the experiment reports.
 
     Parameters
     ----------
@@ -381,6 +386,7 @@ def trial_metrics(runs: list[RunResult], scenario: Scenario) -> list[dict]:
                 "mean_abs_force_N": m["mean_abs_force_N"],
                 "force_smoothness_N": m["force_smoothness_N"],
                 "effort_N": effort(run),
+                **{key: m[key] for key in ORIENTATION_TRIAL_MEASURES if key in m},
             }
         )
     return rows
