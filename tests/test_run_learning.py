@@ -594,3 +594,19 @@ def test_a_6d_skill_learned_over_two_trials_replays_frozen(tmp_path):
             )
         assert rolled_t[k] == pytest.approx(data["t"][k])
         np.testing.assert_allclose(data["trial_1/q_tool_d"][k], rolled_q[k], atol=1e-9)
+
+
+def test_a_6d_learner_starts_from_the_demonstrated_force_and_its_rotational_theta0():
+    from hlcmp_drake.config.loading import load_scenario
+    from hlcmp_drake.run.learning import demo_force_start, learning_scenario
+
+    overrides = ["controllers.hlcmp_6d.theta_kr0=2.0", "controllers.hlcmp_6d.theta_k0=50.0"]
+    scenario = learning_scenario(load_scenario("peg_in_hole", overrides)[0])
+    force = np.arange(90.0).reshape(3, 30)
+    theta = demo_force_start(scenario, force)
+    assert [t.shape for t in theta] == [(3, 30)] * 6
+    np.testing.assert_array_equal(theta[2], force)
+    assert np.all(theta[0] == 50.0) and np.all(theta[3] == 2.0)
+    assert np.all(theta[1] == 0.0) and not np.any(theta[4:])
+    translational = learning_scenario(load_scenario("peg_in_hole")[0], controller="hlcmp")
+    assert len(demo_force_start(translational, force)) == 3
