@@ -43,6 +43,8 @@ _EXPORTS = {
     "HlcmpForgettingConfig": "hlcmp_drake.config.scenario",
     "ConstantImpedanceConfig": "hlcmp_drake.config.scenario",
     "VariableImpedanceConfig": "hlcmp_drake.config.scenario",
+    "PoseHlcmpConfig": "hlcmp_drake.config.scenario",
+    "ConstantPoseImpedanceConfig": "hlcmp_drake.config.scenario",
     "load_scenario": "hlcmp_drake.config.loading",
     # Drake systems
     "DmpSource": "hlcmp_drake.systems.references",
@@ -66,6 +68,7 @@ _EXPORTS = {
     "simulate": "hlcmp_drake.run.simulate",
     "run_scenario": "hlcmp_drake.run.runner",
     "learn": "hlcmp_drake.run.learning",
+    "reproduce": "hlcmp_drake.run.learning",
     # skill libraries: a skill per task parameter, regressed to new ones
     "build_library": "hlcmp_drake.run.library",
     "SkillLibrary": "hlcmp_drake.run.skill_library",

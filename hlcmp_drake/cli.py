@@ -5,8 +5,8 @@
     hlcmp report [--out DIR] [--scenarios NAME|YAML ...] [--jobs N] [--variants V ...]
                  [--engine local|ray]          scenarios, one offline page
     hlcmp learn DEMO.csv --scenario S --out DIR [--trials K] [--skill SKILL.npz [--any-scenario]]
-                [--demo-force]
-    hlcmp reproduce SKILL.npz --scenario S --out DIR [--freeze] [--any-scenario]
+                [--demo-force] [--controller C]
+    hlcmp reproduce SKILL.npz --scenario S --out DIR [--freeze] [--any-scenario] [--controller C]
     hlcmp bench [--out DIR] [--quick]        measure where the time goes
     hlcmp fit DEMO.csv --out SKILL.npz       fit the DMP of a demonstration (positions or pose,
                                              and its force)
@@ -242,6 +242,7 @@ def _learning_options(args):
     """What learn and reproduce both take from the command line."""
     _quiet_drake(args)
     return dict(
+        controller=args.controller,
         reporter=Progress(args.quiet),
         overrides=args.set,
         warn=_warn,
@@ -675,6 +676,11 @@ def build_parser():
         "--any-scenario",
         action="store_true",
         help="use a skill learned in another world (scenario) all the same",
+    )
+    world.add_argument(
+        "--controller",
+        help="the learning controller's label (default: the scenario's first learner; "
+        "a 6-D one, e.g. peg_in_hole's hlcmp_6d, takes a pose demonstration or a 6-D skill)",
     )
 
     parser = _Parser(

@@ -148,3 +148,11 @@ def test_no_print_in_library_modules():
 def test_the_public_api_resolves():
     for name in hlcmp_drake.__all__:
         assert getattr(hlcmp_drake, name) is not None, name
+
+
+def test_every_controller_config_is_public():
+    from hlcmp_drake.config import scenario
+    from hlcmp_drake.worlds.controllers import CONTROLLER_KINDS
+
+    for config in CONTROLLER_KINDS:
+        assert getattr(hlcmp_drake, config.__name__) is getattr(scenario, config.__name__)

@@ -107,3 +107,30 @@ def test_fuzzed_scenarios_never_crash(tmp_path):
             assert "\n" not in str(error) and str(error).startswith(str(path))
             outcomes["error"] += 1
     assert outcomes["ok"] > 0 and outcomes["error"] > 0
+
+
+def test_a_dumped_scenario_reads_back_with_every_controller_of_its_own_class():
+    """dump_scenario keeps a subclass config (the 6-D ones, the forgetting Hl-CMP) what it
+    is, where yaml_dump_typed alone writes it as its base, HlcmpConfig or
+    ConstantImpedanceConfig; a scenario without one is written as yaml_dump_typed does."""
+    from pydrake.common.yaml import yaml_dump_typed
+
+    from hlcmp_drake.config.loading import dump_scenario, load_scenario_text
+
+    forgetting = (
+        "controllers.forgetting=!HlcmpForgettingConfig {q_k: [2000.0], q_d: [500.0], "
+        "q_v: [0.0], gain_l: [10.0], forgetting_per_s: 0.2}"
+    )
+    for name, overrides in (("peg_in_hole", []), ("one_dof", [forgetting])):
+        scenario, path = load_scenario(name, overrides)
+        back = load_scenario_text(dump_scenario(scenario), path)
+        assert set(back.controllers) == set(scenario.controllers)
+        for label, config in scenario.controllers.items():
+            assert type(back.controllers[label]) is type(config), label
+            assert back.controllers[label] == config, label
+        plain = load_scenario_text(yaml_dump_typed(scenario), path)
+        assert any(
+            type(plain.controllers[k]) is not type(c) for k, c in scenario.controllers.items()
+        )
+    insertion, _ = load_scenario("insertion")
+    assert dump_scenario(insertion) == yaml_dump_typed(insertion)

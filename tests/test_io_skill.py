@@ -1,6 +1,6 @@
 """hlcmp_drake.io.skill: a skill file round trips, with the world it was learned in; a
-format 1 file (no world) still loads; a bad, truncated, missing or non-skill file is one
-clear error."""
+format 1 file (no world) and a format 3 one (no rotational profiles) still load; a 6-D
+skill is format 4; a bad, truncated, missing or non-skill file is one clear error."""
 
 import dataclasses as dc
 
@@ -14,6 +14,7 @@ from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.io.skill import (
     FORMAT_VERSION,
     POSE_FORMAT_VERSION,
+    SIX_D_FORMAT_VERSION,
     Skill,
     SkillWorld,
     load_skill,
@@ -80,8 +81,8 @@ def _rewrite(path, **changes):
     "changes, message",
     [
         (
-            {"format_version": np.array(POSE_FORMAT_VERSION + 1)},
-            "format_version 4 is not supported (this version reads 1, 2, 3)",
+            {"format_version": np.array(SIX_D_FORMAT_VERSION + 1)},
+            "format_version 5 is not supported (this version reads 1, 2, 3, 4)",
         ),
         ({"world_digest": None}, "missing field(s): world_digest"),
         ({"world_digest": np.array("abc")}, "field 'world_digest' must be 64 hex digits"),
@@ -139,10 +140,20 @@ def test_a_non_skill_file_gets_its_own_message(tmp_path, content, extra):
 
 @pytest.fixture
 def pose_skill():
+    """A pose skill with translational profiles only (what format 3 holds)."""
     t, positions, quaternions, _ = tilted_turn(4)
     settings = DmpSettings(n_basis=20)
     dmp = Dmp.fit(t, positions, "xyz", settings)
-    return Skill.untrained(dmp, OrientationDmp.fit(t, quaternions, settings))
+    zeros = np.zeros_like(dmp.theta_p)
+    return Skill(dmp, zeros, zeros, zeros, orientation=OrientationDmp.fit(t, quaternions, settings))
+
+
+@pytest.fixture
+def six_d_skill(pose_skill):
+    """A 6-D skill: the pose skill with distinct rotational weights."""
+    rng = np.random.default_rng(1)
+    rotational = {key: rng.uniform(0, 10, (3, 20)) for key in ("theta_kr", "theta_dr", "theta_vr")}
+    return dc.replace(pose_skill, world=WORLD, **rotational)
 
 
 def test_a_pose_skill_round_trips_as_format_3_and_a_position_skill_stays_format_2(
@@ -151,6 +162,8 @@ def test_a_pose_skill_round_trips_as_format_3_and_a_position_skill_stays_format_
     path = save_skill(tmp_path / "pose.npz", pose_skill)
     with np.load(path) as data:
         assert int(data["format_version"]) == POSE_FORMAT_VERSION
+        assert "theta_kr" not in data.files
+    assert not load_skill(path).six_d and load_skill(path).theta_kr is None
     loaded = load_skill(path).orientation
     original = pose_skill.orientation
     for key in ("start", "goal", "demonstrated_rotation", "theta"):
@@ -190,3 +203,48 @@ def test_the_orientation_must_share_the_position_dmp_phase(pose_skill):
     other = dc.replace(pose_skill.orientation, tau=2 * pose_skill.orientation.tau)
     with pytest.raises(ValueError, match="settings and tau"):
         Skill.untrained(pose_skill.dmp, other)
+
+
+def test_a_6d_skill_round_trips_as_format_4_with_all_six_weights(tmp_path, six_d_skill):
+    path = save_skill(tmp_path / "six.npz", six_d_skill)
+    with np.load(path) as data:
+        assert int(data["format_version"]) == SIX_D_FORMAT_VERSION
+    loaded = load_skill(path)
+    assert loaded.six_d and loaded.world == WORLD and len(loaded.theta) == 6
+    for ours, theirs in zip(loaded.theta, six_d_skill.theta, strict=True):
+        np.testing.assert_array_equal(ours, theirs)
+    np.testing.assert_array_equal(loaded.orientation.theta, six_d_skill.orientation.theta)
+
+
+def test_an_untrained_pose_skill_is_6d_with_zero_weights(pose_skill):
+    untrained = Skill.untrained(pose_skill.dmp, pose_skill.orientation)
+    assert untrained.six_d and [t.shape for t in untrained.theta] == [(3, 20)] * 6
+    assert not any(np.any(t) for t in untrained.theta)
+    assert not Skill.untrained(pose_skill.dmp).six_d
+
+
+def test_rotational_weights_go_together_with_an_orientation(pose_skill, six_d_skill):
+    with pytest.raises(ValueError, match="all three or none"):
+        dc.replace(six_d_skill, theta_vr=None)
+    with pytest.raises(ValueError, match="need the orientation DMP"):
+        dc.replace(six_d_skill, orientation=None)
+    with pytest.raises(ValueError, match=r"must each be \(3, 20\)"):
+        dc.replace(six_d_skill, theta_dr=np.zeros((3, 7)))
+
+
+@pytest.mark.parametrize(
+    "changes, message",
+    [
+        ({"theta_dr": None}, "missing field(s): theta_dr"),
+        ({"theta_kr": np.zeros((2, 20))}, "field 'theta_kr' has shape (2, 20), expected (3, 20)"),
+        ({"theta_vr": np.full((3, 20), np.inf)}, "field 'theta_vr' must hold finite numbers"),
+        ({"orientation_goal": None}, "missing field(s): orientation_goal"),
+    ],
+)
+def test_bad_6d_skill_files(tmp_path, six_d_skill, changes, message):
+    path = save_skill(tmp_path / "skill.npz", six_d_skill)
+    _rewrite(path, **changes)
+    with pytest.raises(InputError) as error:
+        load_skill(path)
+    assert message in str(error.value)
+    assert str(error.value).startswith(str(path))

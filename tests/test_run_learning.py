@@ -424,3 +424,189 @@ def test_a_pose_skill_is_refused_by_the_translational_scenarios(tmp_path):
     check_skill_fits(Skill.untrained(dmp), scenario)
     with pytest.raises(InputError, match="has an orientation .* controls the translation only"):
         check_skill_fits(Skill.untrained(dmp, OrientationDmp.fit(t, quaternions)), scenario)
+
+
+# --- 6-D skills (peg_in_hole's hlcmp_6d) -----------------------------------------------
+
+PEG_DEMO = DIAGRAMS_DIR / "demos" / "peg_in_hole_demo.csv"
+
+
+@pytest.fixture(scope="module")
+def peg_skills(tmp_path_factory):
+    """Skills of the bundled peg-in-hole demonstration (θ = 0), recorded as learned in the
+    peg_in_hole world: a 6-D one (both DMPs, six weights) and a translational one."""
+    import dataclasses as dc
+
+    from hlcmp_drake.config.loading import load_scenario
+    from hlcmp_drake.config.world import world_of_scenario
+    from hlcmp_drake.io.skill import Skill, save_skill
+    from hlcmp_drake.worlds.arm import fit_demonstration, fit_orientation_demonstration
+
+    scenario, _ = load_scenario("peg_in_hole")
+    world, folder = world_of_scenario(scenario), tmp_path_factory.mktemp("peg_skills")
+    dmp, orientation = fit_demonstration(scenario), fit_orientation_demonstration(scenario)
+    six_d = dc.replace(Skill.untrained(dmp, orientation), world=world)
+    rng = np.random.default_rng(3)  # distinct weights, to see them arrive
+    six_d = dc.replace(six_d, **{k: rng.uniform(0, 1, (3, 30)) for k in ("theta_kr", "theta_vr")})
+    translational = dc.replace(Skill.untrained(dmp), world=world)
+    return {
+        "six_d": save_skill(folder / "six_d.npz", six_d),
+        "translational": save_skill(folder / "translational.npz", translational),
+    }
+
+
+@pytest.fixture
+def trials_seen(monkeypatch):
+    """run_trials replaced: records what it would simulate (the scenario and its keyword
+    arguments), then stops the command."""
+    seen = []
+
+    def run_trials(scenario, dmp, trials, **options):
+        seen.append((scenario, dmp, options))
+        raise Simulated(scenario.duration_s)
+
+    monkeypatch.setattr("hlcmp_drake.run.learning.run_trials", run_trials)
+    return seen
+
+
+def test_a_6d_skill_replays_with_its_orientation_dmp_and_six_weights(
+    peg_skills, tmp_path, trials_seen
+):
+    skill = load_skill(peg_skills["six_d"])
+    with pytest.raises(Simulated):
+        main(["reproduce", str(peg_skills["six_d"]), "--scenario", "peg_in_hole", "--freeze",
+              "--out", str(tmp_path / "o")])  # fmt: skip
+    scenario, dmp, options = trials_seen[0]
+    assert list(scenario.controllers) == ["hlcmp_6d"]  # the first learner, frozen
+    assert scenario.controllers["hlcmp_6d"].q_kr == [0.0] * 3
+    np.testing.assert_array_equal(dmp.theta_p, skill.dmp.theta_p)
+    np.testing.assert_array_equal(options["orientation_dmp"].theta, skill.orientation.theta)
+    assert len(options["theta0"]) == 6
+    for given, stored in zip(options["theta0"], skill.theta, strict=True):
+        np.testing.assert_array_equal(given, stored)
+
+
+@pytest.mark.parametrize(
+    "skill, controller, expected",
+    [
+        (
+            "translational",
+            [],
+            "the skill holds no rotational profiles (a translational skill), and the "
+            "controller 'hlcmp_6d' of 'peg_in_hole' is a 6-D Hl-CMP",
+        ),
+        (
+            "six_d",
+            ["--controller", "hlcmp"],
+            "the skill has an orientation (a 6-D skill), and the controller 'hlcmp' of "
+            "'peg_in_hole' controls the translation only",
+        ),
+        (
+            "six_d",
+            ["--controller", "const_6d_stiff"],
+            "--controller const_6d_stiff: scenario 'peg_in_hole' has no learning controller "
+            "of that label (its learners: hlcmp_6d, hlcmp)",
+        ),
+    ],
+)
+def test_a_skill_whose_weights_do_not_fit_the_learner_is_refused_in_one_line(
+    peg_skills, tmp_path, capsys, trials_seen, skill, controller, expected
+):
+    for command in (["reproduce", str(peg_skills[skill])],
+                    ["learn", str(PEG_DEMO), "--skill", str(peg_skills[skill])]):  # fmt: skip
+        args = [*command, "--scenario", "peg_in_hole", *controller, "--out", str(tmp_path / "o")]
+        assert main(args) == 2
+        error = capsys.readouterr().err.strip().splitlines()
+        assert len(error) == 1 and error[0].startswith(f"hlcmp: error: {expected}"), error
+    assert trials_seen == [] and not (tmp_path / "o").exists()
+
+
+def test_each_learner_takes_the_skill_that_fits_it(peg_skills, tmp_path, trials_seen):
+    for skill, controller in (("translational", "hlcmp"), ("six_d", "hlcmp_6d")):
+        with pytest.raises(Simulated):
+            main(["reproduce", str(peg_skills[skill]), "--scenario", "peg_in_hole",
+                  "--controller", controller, "--out", str(tmp_path / skill)])  # fmt: skip
+        scenario, _, options = trials_seen[-1]
+        assert list(scenario.controllers) == [controller]
+        assert len(options["theta0"]) == (6 if skill == "six_d" else 3)
+        assert (options["orientation_dmp"] is None) == (skill == "translational")
+
+
+def test_a_6d_learner_needs_a_pose_demonstration(tmp_path, capsys, trials_seen):
+    from hlcmp_drake.io.demos import read_demonstration, write_trajectory
+
+    t, positions, axes = read_demonstration(PEG_DEMO, with_orientation=True)[:3]
+    demo = write_trajectory(tmp_path / "positions.csv", t, positions, axes)
+    args = ["learn", str(demo), "--scenario", "peg_in_hole", "--out", str(tmp_path / "o")]
+    assert main(args) == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    assert error == [
+        f"hlcmp: error: {demo}: no orientation columns (qw,qx,qy,qz): the controller "
+        "'hlcmp_6d' is a 6-D Hl-CMP, which learns along the demonstrated orientation"
+    ]
+    with pytest.raises(Simulated):  # the translational learner follows its positions
+        main([*args, "--controller", "hlcmp"])
+    assert trials_seen[0][2]["theta0"] is None
+
+
+@pytest.mark.slow
+def test_a_6d_skill_learned_over_two_trials_replays_frozen(tmp_path):
+    """hlcmp_6d on peg_in_hole, 2 trials of 0.3 s (the approach): the skill holds both
+    DMPs and six weights; trial 2 starts where trial 1 ended; the frozen replay's profiles
+    are the skill's weights on the basis and its reference orientation the skill's DMP."""
+    from hlcmp_drake.config.loading import load_scenario
+    from hlcmp_drake.config.world import world_of_scenario
+    from hlcmp_drake.io.skill import SIX_D_FORMAT_VERSION
+
+    per_step = ["--set", "controllers.hlcmp_6d.q_units=per_step"]  # profiles worth looking at
+    world = ["--scenario", "peg_in_hole", *per_step, "--set", "duration_s=0.3", "--quiet"]
+    args = ["learn", str(PEG_DEMO), *world, "--trials", "2", "--out", str(tmp_path / "learn")]
+    assert main(args) == 0
+    with np.load(tmp_path / "learn" / "skill.npz") as data:
+        assert int(data["format_version"]) == SIX_D_FORMAT_VERSION
+    skill = load_skill(tmp_path / "learn" / "skill.npz")
+    scenario, _ = load_scenario("peg_in_hole", ["controllers.hlcmp_6d.q_units=per_step"])
+    assert skill.six_d and skill.world == world_of_scenario(scenario)
+    assert skill.orientation is not None and np.abs(skill.theta_kr).max() > 0
+    rows = json.loads((tmp_path / "learn" / "metrics.json").read_text())["trials"]
+    assert [len(row["mean_abs_orientation_error_rad"]) for row in rows] == [3, 3]
+    assert [len(row["max_abs_torque_Nm"]) for row in rows] == [3, 3]
+    learned = np.load(tmp_path / "learn" / "timeseries.npz")
+    config = scenario.controllers["hlcmp_6d"]
+    assert np.all(learned["trial_1/Kr"][0] == config.theta_kr0)
+    assert np.all(learned["trial_2/Kr"][0] > config.theta_kr0)  # continued from trial 1
+
+    assert main(["reproduce", str(tmp_path / "learn" / "skill.npz"), *world, "--freeze",
+                 "--out", str(tmp_path / "frozen")]) == 0  # fmt: skip
+    data = np.load(tmp_path / "frozen" / "timeseries.npz")
+    centers, widths = basis_centers_and_widths(30, skill.dmp.settings.alpha_s)
+    rolled_t, rolled_q, _, _ = skill.orientation.rollout(dt=0.01)
+    pairs = (("Ks", skill.theta_k), ("Kr", skill.theta_kr), ("Dr", skill.theta_dr),
+             ("vr", skill.theta_vr))  # fmt: skip
+    for k in (0, 15, 29):
+        s = phase_at(data["t"][k], skill.dmp.tau, skill.dmp.settings.alpha_s)
+        for series, theta in pairs:
+            np.testing.assert_allclose(
+                data[f"trial_1/{series}"][k],
+                theta @ normalized_basis(s, centers, widths),
+                rtol=1e-6,
+                atol=1e-12,
+            )
+        assert rolled_t[k] == pytest.approx(data["t"][k])
+        np.testing.assert_allclose(data["trial_1/q_tool_d"][k], rolled_q[k], atol=1e-9)
+
+
+def test_a_6d_learner_starts_from_the_demonstrated_force_and_its_rotational_theta0():
+    from hlcmp_drake.config.loading import load_scenario
+    from hlcmp_drake.run.learning import demo_force_start, learning_scenario
+
+    overrides = ["controllers.hlcmp_6d.theta_kr0=2.0", "controllers.hlcmp_6d.theta_k0=50.0"]
+    scenario = learning_scenario(load_scenario("peg_in_hole", overrides)[0])
+    force = np.arange(90.0).reshape(3, 30)
+    theta = demo_force_start(scenario, force)
+    assert [t.shape for t in theta] == [(3, 30)] * 6
+    np.testing.assert_array_equal(theta[2], force)
+    assert np.all(theta[0] == 50.0) and np.all(theta[3] == 2.0)
+    assert np.all(theta[1] == 0.0) and not np.any(theta[4:])
+    translational = learning_scenario(load_scenario("peg_in_hole")[0], controller="hlcmp")
+    assert len(demo_force_start(translational, force)) == 3

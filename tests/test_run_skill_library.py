@@ -88,6 +88,20 @@ def test_the_regression_recovers_a_smooth_function_between_the_grid_points(tmp_p
         assert np.allclose(library.predict(query).mean["theta_k"], 100 * regressed, rtol=1e-6)
 
 
+def test_a_library_of_pose_skills_is_refused_rather_than_stripped(tmp_path):
+    from hlcmp_drake.core.orientation_dmp import OrientationDmp
+
+    folder = write_library(tmp_path, *GRID)
+    dmp = _dmp(tmp_path)
+    turn = OrientationDmp(
+        dmp.settings, dmp.tau, np.array([1.0, 0, 0, 0]), np.array([1.0, 0, 0, 0]),
+        np.zeros(3), np.zeros((3, 10)), 1.0, False,
+    )  # fmt: skip
+    save_skill(folder / "skills" / "d=0.01,f=60.0" / "skill.npz", Skill.untrained(dmp, turn))
+    with pytest.raises(InputError, match="are pose skills .* would drop their orientation"):
+        SkillLibrary.load(folder)
+
+
 def test_the_standard_deviation_grows_away_from_the_data(tmp_path):
     library = SkillLibrary.load(write_library(tmp_path, *GRID)).fit()
 

@@ -25,7 +25,13 @@ from hlcmp_drake.run.sweep import plan_sweep, run_sweep, task_state, task_values
 
 
 @pytest.mark.parametrize(
-    "name, count", [("tiny", 2), ("one_dof_sensitivity", 18), ("insertion_learning_rate", 4)]
+    "name, count",
+    [
+        ("tiny", 2),
+        ("one_dof_sensitivity", 18),
+        ("insertion_learning_rate", 4),
+        ("peg_rotational_q", 3),
+    ],
 )
 def test_every_bundled_sweep_plans(tmp_path, name, count):
     plan = plan_sweep(name, tmp_path / name)
@@ -40,6 +46,22 @@ def test_every_bundled_sweep_plans(tmp_path, name, count):
         assert [r.q_k[2] for r in rates] == [3000.0, 30000.0, 300000.0, 3000000.0]
         assert [r.q_v[0] / r.q_d[0] for r in rates] == [0.1] * 4
         assert all(t.claims and len(t.controllers) == 4 for t in plan.tasks)
+    if name == "peg_rotational_q":
+        learners = [
+            load_scenario_text(t.scenario_yaml, t.scenario_path).controllers["hlcmp_6d"]
+            for t in plan.tasks
+        ]
+        assert [c.q_kr for c in learners] == [[0.3] * 3, [3.0] * 3, [30.0] * 3]
+        assert {c.q_dr[0] for c in learners} == {0.009}  # the rest as bundled
+        assert all(not t.claims and t.controllers == ["hlcmp_6d"] for t in plan.tasks)
+
+
+def test_the_bundled_rotational_q_sweep_reads_only_what_its_tasks_write(tmp_path):
+    """Its per-axis paths name elements of the peg_in_hole metrics' 3-lists (a short run)."""
+    from hlcmp_drake.run.sweep.planning import check_metrics
+
+    check_metrics(plan_sweep("peg_rotational_q", tmp_path / "out"))
+    assert not (tmp_path / "out").exists()
 
 
 def test_a_task_is_done_only_beside_its_own_scenario(tmp_path):
@@ -67,7 +89,9 @@ def test_metric_values_come_from_metrics_json_and_the_time_series(tmp_path):
         json.dumps(
             {
                 "status": "ok",
-                "controllers": {"vic_fd_0.5": {"reach_time_s": None, "x": {"z": 0.25}}},
+                "controllers": {
+                    "vic_fd_0.5": {"reach_time_s": None, "x": {"z": 0.25}, "tau": [0.1, 0.2]}
+                },
                 "claims": {"C5": {"holds": False}},
             }
         )
@@ -92,6 +116,9 @@ def test_metric_values_come_from_metrics_json_and_the_time_series(tmp_path):
         SweepMetric(label="last x", series="hlcmp/x", reduce="final"),
         SweepMetric(label="typo", path="controllers.vic_fd_0.5.nope"),
         SweepMetric(label="a dict", path="controllers.vic_fd_0.5.x"),
+        SweepMetric(label="tau_y", path="controllers.vic_fd_0.5.tau.1", scale=10.0),
+        SweepMetric(label="a list", path="controllers.vic_fd_0.5.tau"),
+        SweepMetric(label="past its end", path="controllers.vic_fd_0.5.tau.2"),
         SweepMetric(label="no series", series="pid/Ks"),
     ]
     values, missing = task_values(tmp_path, metrics)
@@ -106,9 +133,12 @@ def test_metric_values_come_from_metrics_json_and_the_time_series(tmp_path):
         "last x": 0.29,
         "typo": None,
         "a dict": None,
+        "tau_y": 2.0,
+        "a list": None,
+        "past its end": None,
         "no series": None,
     }
-    assert missing == ["typo", "a dict", "no series"]
+    assert missing == ["typo", "a dict", "a list", "past its end", "no series"]
 
 
 # --- engines -------------------------------------------------------------------------
@@ -293,7 +323,8 @@ def test_the_command_lists_tasks_with_dry_run_and_writes_nothing(tmp_path):
     [
         (
             ["nowhere"],
-            "nowhere: not a bundled sweep (insertion_learning_rate, one_dof_sensitivity, tiny",
+            "nowhere: not a bundled sweep (insertion_learning_rate, one_dof_sensitivity, "
+            "peg_rotational_q, tiny",
         ),
         (["tiny", "--address", "auto"], "--address: joins a Ray cluster, so it needs --engine ray"),
         (["tiny", "--workers", "0"], "must be at least 1"),
@@ -359,6 +390,56 @@ def test_a_metric_no_task_will_write_stops_the_sweep_before_the_first_task(
     assert result.stderr.startswith(f"hlcmp: error: {sweep}:9: metrics: entry 2: "), result.stderr
     assert expected in result.stderr
     assert not (tmp_path / "out").exists()  # no task ran, nothing was written
+
+
+def test_a_path_into_a_list_names_one_element_by_its_index():
+    from hlcmp_drake.run.sweep.planning import TaskOutputs, path_problem
+
+    outputs = TaskOutputs({"controllers": {"c": {"tau": [0.1, 0.2, 0.3]}}}, {}, [], None)
+    assert path_problem(outputs, "controllers.c.tau.2") is None
+    assert path_problem(outputs, "controllers.c.tau") == (
+        "controllers.c.tau is a list of 3 values: name one by its index (controllers.c.tau.0)"
+    )
+    assert path_problem(outputs, "controllers.c.tau.3") == (
+        "controllers.c.tau is a list of 3: '3' is no index of it (0 to 2)"
+    )
+    assert path_problem(outputs, "controllers.c.tau.y") == (
+        "controllers.c.tau is a list of 3: 'y' is no index of it (0 to 2)"
+    )
+    assert path_problem(outputs, "controllers.c.tau.0.x") == (
+        "controllers.c.tau.0 is a single value, it has no 'x'"
+    )
+
+
+def test_a_sweep_over_the_rotational_learning_rates_runs_with_the_6d_metrics(tmp_path):
+    """peg_in_hole's hlcmp_6d for 0.1 s at two Q_kr: each task's table row holds the 6-D
+    metrics of its own metrics.json and time series, and the larger Q_kr learns the
+    larger K_r (the override reached the controller)."""
+    sweep = tmp_path / "rotational.yaml"
+    sweep.write_text(
+        "scenario: peg_in_hole\nset: {duration_s: 0.1}\ncontrollers: [hlcmp_6d]\n"
+        "grid:\n  controllers.hlcmp_6d.q_kr: [[0.3, 0.3, 0.3], [30.0, 30.0, 30.0]]\n"
+        "metrics:\n"
+        "- {label: e_rx, path: controllers.hlcmp_6d.mean_abs_orientation_error_rad.0}\n"
+        "- {label: tau_y, path: controllers.hlcmp_6d.max_abs_torque_Nm.1}\n"
+        "- {label: Kr_z, path: controllers.hlcmp_6d.max_rotational_stiffness_Nm_per_rad.2}\n"
+        "- {label: Kr_z series, series: hlcmp_6d/Kr, reduce: max, column: 2}\n"
+    )
+    out = tmp_path / "out"
+    result = run_sweep(sweep, out, workers=1)
+    assert sorted(result.ran) == ["q_kr=0.3_0.3_0.3", "q_kr=30.0_30.0_30.0"]
+    assert not result.failed and not result.missing
+    rows = {row["id"]: row for row in _read_csv(out / "sweep.csv")}
+    for task, row in rows.items():
+        assert row["status"] == "ok"
+        entry = json.loads((out / "tasks" / task / "metrics.json").read_text())
+        entry = entry["controllers"]["hlcmp_6d"]
+        assert float(row["e_rx"]) == pytest.approx(entry["mean_abs_orientation_error_rad"][0])
+        assert float(row["tau_y"]) == pytest.approx(entry["max_abs_torque_Nm"][1])
+        assert float(row["Kr_z"]) == pytest.approx(entry["max_rotational_stiffness_Nm_per_rad"][2])
+        assert float(row["Kr_z series"]) == pytest.approx(float(row["Kr_z"]))
+    slow, fast = rows["q_kr=0.3_0.3_0.3"], rows["q_kr=30.0_30.0_30.0"]
+    assert float(fast["Kr_z"]) > float(slow["Kr_z"])
 
 
 def test_claims_and_kind_dependent_series_are_checked_against_every_task(tmp_path):

@@ -24,9 +24,8 @@ import math
 from pathlib import Path
 
 import yaml
-from pydrake.common.yaml import yaml_dump_typed
 
-from hlcmp_drake.config.loading import resolve_yaml
+from hlcmp_drake.config.loading import dump_scenario, resolve_yaml
 from hlcmp_drake.config.sweep import (
     _KEY,
     _load_task_scenario,
@@ -111,7 +110,7 @@ class LibraryTask:
     overrides : list of str
         Every ``key=value`` applied over the scenario file, in order (set, grid).
     scenario_yaml : str
-        The whole scenario after the overrides (`yaml_dump_typed`).
+        The whole scenario after the overrides (`dump_scenario`).
     scenario_path : str
         The scenario file it came from (for messages and a relative demonstration).
     trials : int
@@ -253,7 +252,7 @@ def plan_library_tasks(spec: LibrarySpec, out_dir: str | Path) -> list[LibraryTa
                 identifier,
                 {key: float(yaml.safe_load(text)) for key, text in texts.items()},
                 overrides,
-                yaml_dump_typed(scenario),
+                dump_scenario(scenario),
                 str(spec.scenario_path),
                 config.trials,
                 str(Path(out_dir) / "skills" / identifier),

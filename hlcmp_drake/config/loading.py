@@ -16,9 +16,9 @@ import typing
 from pathlib import Path
 from typing import Any, Mapping, NoReturn, Sequence, Union
 
-from pydrake.common.yaml import yaml_load_typed
+from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 
-from hlcmp_drake.config.scenario import DemonstrationConfig, Scenario
+from hlcmp_drake.config.scenario import ControllerConfig, DemonstrationConfig, Scenario
 from hlcmp_drake.config.validation import validate_scenario
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.io.paths import DIAGRAMS_DIR, VARIANTS_DIR
@@ -393,6 +393,53 @@ def load_scenario(
     return _load_text(text, path, overrides, experiments, layer), path
 
 
+class _NoController:
+    """No controller config is one: first in the dump's Union, it makes every controller
+    be written with its class's tag."""
+
+
+def _dump_schema() -> type:
+    """Scenario's schema for dumping: its controllers' Union with each class before its
+    bases (a longer MRO first), after a member that matches none."""
+    by_depth = sorted(typing.get_args(ControllerConfig), key=lambda c: -len(c.__mro__))
+    tagged = Union.__getitem__((_NoController, *by_depth))
+    fields = [
+        (field.name, dict[str, tagged] if field.name == "controllers" else field.type)  # type: ignore[valid-type]
+        for field in dc.fields(Scenario)
+    ]
+    return dc.make_dataclass("Scenario", fields)
+
+
+_DUMP_SCHEMA = _dump_schema()
+
+
+def dump_scenario(scenario: Scenario) -> str:
+    """The scenario as the YAML text `load_scenario_text` reads back as it is.
+
+    `yaml_dump_typed` alone writes a Union's value as the first of the Union's types it
+    is an instance of, untagged when that is the first: a PoseHlcmpConfig or an
+    HlcmpForgettingConfig (subclasses of HlcmpConfig) would come back as an HlcmpConfig,
+    their own fields dropped. A scenario with such a controller is written with every
+    controller tagged with its own class; any other exactly as `yaml_dump_typed` writes
+    it, so the tasks of a sweep or a library finished before stay finished.
+
+    Parameters
+    ----------
+    scenario : Scenario
+
+    Returns
+    -------
+    str
+        A YAML document.
+    """
+    members = typing.get_args(ControllerConfig)
+    lost = any(
+        next(m for m in members if isinstance(config, m)) is not type(config)
+        for config in scenario.controllers.values()
+    )
+    return yaml_dump_typed(scenario, schema=_DUMP_SCHEMA if lost else Scenario)
+
+
 def load_scenario_text(
     text: str,
     path: str | Path,
@@ -400,7 +447,7 @@ def load_scenario_text(
     experiments: Mapping[str, type] | None = None,
 ) -> Scenario:
     """Load, override and validate a scenario given as YAML text (e.g. one that
-    `pydrake.common.yaml.yaml_dump_typed` wrote, as a sweep ships it to its workers).
+    `dump_scenario` wrote, as a sweep ships it to its workers).
 
     Parameters
     ----------

@@ -26,7 +26,7 @@ point); each combination runs `repetitions` times.
 
 Planning loads every task's scenario with its overrides, so a bad key or value stops the
 sweep before anything runs, naming the sweep file's line. Each task ships its scenario as
-the YAML text `pydrake.common.yaml.yaml_dump_typed` writes (plain text, never a pickled
+the YAML text `hlcmp_drake.config.loading.dump_scenario` writes (plain text, never a pickled
 Drake object), with the controllers' order beside it (the dump sorts map keys).
 """
 
@@ -39,9 +39,15 @@ from pathlib import Path
 from typing import Optional, Protocol
 
 import yaml
-from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
+from pydrake.common.yaml import yaml_load_typed
 
-from hlcmp_drake.config.loading import line_of, load_scenario, resolve_scenario_path, resolve_yaml
+from hlcmp_drake.config.loading import (
+    dump_scenario,
+    line_of,
+    load_scenario,
+    resolve_scenario_path,
+    resolve_yaml,
+)
 from hlcmp_drake.config.scenario import Fail
 from hlcmp_drake.io.errors import InputError, located
 from hlcmp_drake.io.paths import DIAGRAMS_DIR
@@ -66,7 +72,8 @@ class SweepMetric:
         The column's header, with units (default: the path's or series' name).
     path : str
         A dotted path into metrics.json, e.g. "controllers.hlcmp.position_at_10s_m" or
-        "claims.hlcmp.C4.holds" (a label with dots, "vic_fd_0.5", is matched whole).
+        "claims.hlcmp.C4.holds" (a label with dots, "vic_fd_0.5", is matched whole); a
+        list's element by its index from 0, e.g. "controllers.hlcmp_6d.max_abs_torque_Nm.1".
     series : str
         Or a timeseries.npz array, "CONTROLLER/NAME", e.g. "hlcmp/Ks".
     reduce : str
@@ -193,7 +200,7 @@ class SweepTask:
     overrides : list of str
         Every ``key=value`` applied over the scenario file, in order (set, case, grid).
     scenario_yaml : str
-        The whole scenario after the overrides (`yaml_dump_typed`).
+        The whole scenario after the overrides (`dump_scenario`).
     scenario_path : str
         The scenario file it came from (for messages and a relative demonstration).
     controllers : list of str
@@ -598,7 +605,7 @@ def plan_tasks(sweep: Sweep, out_dir: str | Path) -> list[SweepTask]:
         scenario = dc.replace(
             scenario, controllers={label: scenario.controllers[label] for label in keep}
         )
-        text = yaml_dump_typed(scenario)
+        text = dump_scenario(scenario)
         for repetition in range(1, config.repetitions + 1):
             identifier = task_id(parameters, repetition, config.repetitions)
             if identifier in seen:

@@ -1,19 +1,30 @@
-"""A compliant skill theta = {theta_p, theta_k, theta_d, theta_v} (paper Eq. 17) as one file.
+"""A compliant skill theta = {theta_p, theta_k, theta_d, theta_v} (paper Eq. 17) as one file,
+and for a 6-D skill the orientation DMP and the rotational profiles' weights as well.
 
-The file is a NumPy .npz with a `format_version`; it holds the DMP (theta_p and its
-settings, tau, start, goal, Eq. 13 amplitudes, axis names), the learned compliant
-profiles' weights (M x N each) and, from format 2 on, the world the skill was learned in
-(`SkillWorld`: the scenario's name, the world's kind and a digest of what defines it).
-A pose skill (format 3) adds the orientation DMP (`core.orientation_dmp`) under keys
-starting with `orientation_`; it shares the position DMP's settings and tau. Position
-skills are still written as format 2, so a reader of format 2 reads them, and refuses a
-pose skill rather than drop its orientation. Loading checks the version, the keys and
-every shape. A format 1 file (written before skills recorded their world) still loads;
-its world is unknown (`Skill.world` None), as is that of a skill `hlcmp fit` made from a
-demonstration alone. A file of format 2 or 3 may also hold `demo_force` (M x N), the
-demonstration's wrist force on the phase basis (`hlcmp_drake.core.demo_force`); readers
-that do not know the field ignore it, and a file without it is a skill whose
-demonstration carried no force.
+The file is a NumPy .npz; each file is written as the lowest `format_version` that holds
+the skill, so an older reader refuses what it would otherwise read in part:
+
+- format 2, a position skill: ``format_version``; the DMP (theta_p and its settings):
+  ``axis_names`` (M,), ``n_basis``, ``alpha``, ``beta``, ``alpha_s``, ``smoothing_s``,
+  ``tau``, ``start``, ``goal``, ``amplitude``, ``goal_scaled`` (M,), ``theta_p`` (M, N);
+  the compliant profiles' weights ``theta_k``, ``theta_d``, ``theta_v`` (M, N); the world
+  it was learned in (`SkillWorld`) as the strings ``world_scenario``, ``world_kind``,
+  ``world_digest`` (all empty when unknown); optionally ``demo_force`` (M, N), the
+  demonstration's wrist force on the phase basis (`hlcmp_drake.core.demo_force`; readers
+  that do not know the field ignore it, and a file without it is a skill whose
+  demonstration carried no force).
+- format 3, a pose skill with translational profiles only: format 2's fields and the
+  orientation DMP (`core.orientation_dmp`, sharing the position DMP's settings and tau):
+  ``orientation_start``, ``orientation_goal`` (4,), ``orientation_rotation`` (3,),
+  ``orientation_theta`` (3, N), ``orientation_amplitude``, ``orientation_goal_scaled``.
+- format 4, a 6-D skill (what `hlcmp fit` makes of a pose demonstration and `hlcmp learn`
+  of a 6-D Hl-CMP's trials): format 3's fields and the rotational profiles' weights
+  ``theta_kr`` [N m/rad], ``theta_dr`` [N m s/rad], ``theta_vr`` [N m], (3, N) each.
+
+Loading checks the version, the keys and every shape. Older files still load: a format 1
+file (written before skills recorded their world) has its world unknown (`Skill.world`
+None), as has a skill `hlcmp fit` made from a demonstration alone; a format 3 file has no
+rotational profiles (`Skill.theta_kr` None).
 """
 
 from __future__ import annotations
@@ -34,8 +45,10 @@ from hlcmp_drake.io.errors import InputError
 FORMAT_VERSION = 2
 # A skill with an orientation DMP.
 POSE_FORMAT_VERSION = 3
+# A skill with an orientation DMP and the rotational profiles' weights (a 6-D skill).
+SIX_D_FORMAT_VERSION = 4
 # The versions this one reads: 1 is a skill without its world (Skill.world None).
-READABLE_VERSIONS = (1, 2, 3)
+READABLE_VERSIONS = (1, 2, 3, 4)
 # Format 3's orientation DMP: key -> the shape it must have (N: the basis functions).
 ORIENTATION_FIELDS = {
     "orientation_start": (4,),
@@ -45,6 +58,8 @@ ORIENTATION_FIELDS = {
     "orientation_amplitude": (),
     "orientation_goal_scaled": (),
 }
+# Format 4's rotational profiles' weights, (3, N) each.
+ROTATIONAL_FIELDS = ("theta_kr", "theta_dr", "theta_vr")
 # How far from 1 a stored quaternion's norm may be (it was written normalised).
 UNIT_NORM_TOLERANCE = 1e-9
 # Format 2's record of the world (SkillWorld's fields), all empty when it is unknown.
@@ -126,6 +141,11 @@ class Skill:
         weights [N] (`hlcmp_drake.core.demo_force.fit_feedforward_weights`): what
         `hlcmp learn --demo-force` starts theta_v from. None when the demonstration
         carried no force.
+    theta_kr, theta_dr, theta_vr : (3, N) arrays or None
+        A 6-D skill's rotational profiles' weights: stiffness [N m/rad], damping
+        [N m s/rad] and feed-forward torque [N m], one row per tool axis (what a 6-D
+        Hl-CMP learns, `core.rotation_law.RotationalHlcmp`). All three or none; only
+        with an orientation DMP, which is their reference.
     """
 
     dmp: Dmp
@@ -135,11 +155,44 @@ class Skill:
     world: SkillWorld | None = None
     orientation: OrientationDmp | None = None
     demo_force: np.ndarray | None = None
+    theta_kr: np.ndarray | None = None
+    theta_dr: np.ndarray | None = None
+    theta_vr: np.ndarray | None = None
 
     def __post_init__(self):
         o = self.orientation
         if o is not None and (o.settings != self.dmp.settings or o.tau != self.dmp.tau):
             raise ValueError("the orientation DMP must share the position DMP's settings and tau")
+        rotational = [getattr(self, key) for key in ROTATIONAL_FIELDS]
+        if any(theta is None for theta in rotational) and not all(
+            theta is None for theta in rotational
+        ):
+            raise ValueError("theta_kr, theta_dr and theta_vr go together: all three or none")
+        if rotational[0] is not None:
+            if o is None:
+                raise ValueError("rotational profiles need the orientation DMP they follow")
+            shape = (3, self.dmp.settings.n_basis)
+            if any(np.shape(theta) != shape for theta in rotational):
+                raise ValueError(f"theta_kr, theta_dr and theta_vr must each be {shape}")
+
+    @property
+    def six_d(self) -> bool:
+        """Whether it holds the rotational profiles (a 6-D Hl-CMP's skill)."""
+        return self.theta_kr is not None
+
+    @property
+    def theta(self) -> tuple[np.ndarray, ...]:
+        """The weights a learner starts from, in the order `RunResult.theta` holds them:
+        (theta_k, theta_d, theta_v), then (theta_kr, theta_dr, theta_vr) for a 6-D skill.
+
+        Returns
+        -------
+        tuple of three (M, N) arrays, and three (3, N) arrays for a 6-D skill
+        """
+        translational = (self.theta_k, self.theta_d, self.theta_v)
+        if not self.six_d:
+            return translational
+        return translational + tuple(getattr(self, key) for key in ROTATIONAL_FIELDS)
 
     @classmethod
     def untrained(
@@ -148,7 +201,8 @@ class Skill:
         orientation: OrientationDmp | None = None,
         demo_force: np.ndarray | None = None,
     ) -> Skill:
-        """theta_k = theta_d = theta_v = 0, the paper's theta(t0).
+        """theta_k = theta_d = theta_v = 0, the paper's theta(t0); with an orientation DMP a
+        6-D skill, theta_kr = theta_dr = theta_vr = 0 too.
 
         Parameters
         ----------
@@ -165,8 +219,17 @@ class Skill:
             The skill with zero compliant-profile weights.
         """
         zeros = np.zeros_like(dmp.theta_p)
+        rotational = None if orientation is None else np.zeros((3, dmp.settings.n_basis))
         return cls(
-            dmp, zeros, zeros.copy(), zeros.copy(), orientation=orientation, demo_force=demo_force
+            dmp,
+            zeros,
+            zeros.copy(),
+            zeros.copy(),
+            orientation=orientation,
+            demo_force=demo_force,
+            theta_kr=rotational,
+            theta_dr=None if rotational is None else rotational.copy(),
+            theta_vr=None if rotational is None else rotational.copy(),
         )
 
 
@@ -177,8 +240,8 @@ def save_skill(
 
     beta is stored by its value (alpha / 4 when the settings leave it at None); the world
     as three strings world_scenario, world_kind, world_digest (all empty when unknown); an
-    orientation DMP as the ORIENTATION_FIELDS, in format 3; `demo_force` only when the
-    skill has one.
+    orientation DMP as the ORIENTATION_FIELDS, in format 3, and with the rotational
+    profiles (ROTATIONAL_FIELDS) in format 4; `demo_force` only when the skill has one.
 
     Parameters
     ----------
@@ -201,7 +264,7 @@ def save_skill(
     d = skill.dmp
     o = skill.orientation
     arrays: dict[str, Any] = dict(
-        format_version=np.array(FORMAT_VERSION if o is None else POSE_FORMAT_VERSION),
+        format_version=np.array(_version_of(skill)),
         axis_names=np.array(d.axis_names),
         n_basis=np.array(d.settings.n_basis),
         alpha=np.array(d.settings.alpha),
@@ -232,6 +295,8 @@ def save_skill(
             orientation_amplitude=np.array(o.amplitude),
             orientation_goal_scaled=np.array(o.goal_scaled),
         )
+    if skill.six_d:
+        arrays.update({key: getattr(skill, key) for key in ROTATIONAL_FIELDS})
     clashes = sorted(set(extra or {}) & set(arrays))
     if clashes:
         raise ValueError(f"extra arrays may not replace the skill's own: {', '.join(clashes)}")
@@ -242,6 +307,13 @@ def save_skill(
             np.savez(stream, **arrays)
 
     return atomic_write(path, write)
+
+
+def _version_of(skill: Skill) -> int:
+    """The lowest format that holds the skill."""
+    if skill.six_d:
+        return SIX_D_FORMAT_VERSION
+    return FORMAT_VERSION if skill.orientation is None else POSE_FORMAT_VERSION
 
 
 def load_skill(path: str | Path) -> Skill:
@@ -340,6 +412,7 @@ def load_skill(path: str | Path) -> Skill:
         arrays["goal_scaled"].astype(bool),
         axes,
     )
+    rotational = _rotational(arrays, n, fail) if version >= SIX_D_FORMAT_VERSION else {}
     return Skill(
         dmp,
         arrays["theta_k"].astype(float),
@@ -348,7 +421,21 @@ def load_skill(path: str | Path) -> Skill:
         _world(arrays, fail) if version >= 2 else None,
         _orientation(arrays, dmp, fail) if version >= POSE_FORMAT_VERSION else None,
         arrays[DEMO_FORCE_FIELD].astype(float) if has_force else None,
+        **rotational,
     )
+
+
+def _rotational(arrays, n, fail):
+    """Format 4's rotational profiles' weights, each checked to be (3, N) and finite."""
+    missing = [key for key in ROTATIONAL_FIELDS if key not in arrays]
+    if missing:
+        raise fail(f"missing field(s): {', '.join(missing)}")
+    for key in ROTATIONAL_FIELDS:
+        if arrays[key].shape != (3, n):
+            raise fail(f"field '{key}' has shape {arrays[key].shape}, expected (3, {n})")
+        if arrays[key].dtype.kind not in "fi" or not np.all(np.isfinite(arrays[key])):
+            raise fail(f"field '{key}' must hold finite numbers")
+    return {key: arrays[key].astype(float) for key in ROTATIONAL_FIELDS}
 
 
 def _orientation(arrays, dmp, fail):

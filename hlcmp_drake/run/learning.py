@@ -2,8 +2,12 @@
 trials, save it, and reproduce it later (with or without further adaptation).
 
 Each trial is one reproduction of the demonstration in the scenario's world by the
-scenario's learning controller (its Hl-CMP, found by config kind), starting from the
-theta the previous trial ended with.
+scenario's learning controller (its first Hl-CMP, found by config kind, or the one named),
+starting from the theta the previous trial ended with. A 6-D Hl-CMP (`PoseHlcmpConfig`)
+learns from a pose demonstration and follows its orientation DMP; its skill holds both
+DMPs and the six profiles' weights (skill format 4), and a replay follows the skill's
+orientation DMP. A skill whose weights do not fit the learner (a translational skill for
+a 6-D Hl-CMP, or the other way round) is refused before anything is simulated.
 
 A trial lasts as long as the skill -- the demonstration's duration, the DMP's tau (or the
 scenario's `reference.duration_s` when that rescales it) -- plus SETTLE_S, whatever the
@@ -29,6 +33,7 @@ from hlcmp_drake.config.scenario import DemonstrationConfig, Scenario
 from hlcmp_drake.config.world import world_of_scenario
 from hlcmp_drake.core.demo_force import fit_feedforward_weights
 from hlcmp_drake.core.dmp import Dmp
+from hlcmp_drake.core.orientation_dmp import OrientationDmp
 from hlcmp_drake.experiments import experiment_of
 from hlcmp_drake.experiments.claims import learner
 from hlcmp_drake.experiments.plots import new_figure
@@ -37,12 +42,12 @@ from hlcmp_drake.io import outputs
 from hlcmp_drake.io.demos import read_demonstration
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.io.runs import RunResult, instability_record
-from hlcmp_drake.io.skill import Skill, SkillWorld, save_skill
+from hlcmp_drake.io.skill import ROTATIONAL_FIELDS, Skill, SkillWorld, save_skill
 from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.run.runner import run_one, write_results
-from hlcmp_drake.worlds.arm import fit_demonstration
+from hlcmp_drake.worlds.arm import fit_demonstration, fit_orientation_demonstration
 from hlcmp_drake.worlds.build import diagram_factory
-from hlcmp_drake.worlds.controllers import controller_kind
+from hlcmp_drake.worlds.controllers import controller_kind, learners
 
 # The simulated time after the skill's end (its tau) in every trial of `learn` and
 # `reproduce` [s]. It is the bundled scenarios' own (8.5 s + 1 s for the insertion, 8 s +
@@ -149,6 +154,7 @@ def learning_scenario(
     demo_path: str | Path | None = None,
     skill: Skill | None = None,
     freeze: bool = False,
+    controller: str | None = None,
 ) -> Scenario:
     """The scenario reduced to learning: only its Hl-CMP (learning rates 0 with `freeze`),
     reading `demo_path` as its demonstration, with a skill's DMP settings.
@@ -163,11 +169,14 @@ def learning_scenario(
         Whose DMP settings (basis, alpha, beta) replace the scenario's.
     freeze : bool
         Learning rates Q = 0: the profiles stay as they start.
+    controller : str, optional
+        The label of the learner to keep (default: the scenario's first).
 
     Raises
     ------
     InputError
-        Without a demonstration or an Hl-CMP, or when the skill's axes do not fit.
+        Without a demonstration or an Hl-CMP, when `controller` names no learner, or when
+        the skill does not fit (`check_skill_fits`).
     """
     if not isinstance(scenario.reference, DemonstrationConfig):
         raise InputError(
@@ -180,6 +189,13 @@ def learning_scenario(
             f"scenario '{scenario.name}' has no learning controller (e.g. !HlcmpConfig) to learn "
             "with"
         )
+    if controller is not None:
+        if controller not in learners(scenario):
+            raise InputError(
+                f"--controller {controller}: scenario '{scenario.name}' has no learning "
+                f"controller of that label (its learners: {', '.join(learners(scenario))})"
+            )
+        name = controller
     config = scenario.controllers[name]
     if freeze:
         frozen = controller_kind(scenario, name).frozen
@@ -190,25 +206,39 @@ def learning_scenario(
         reference = dc.replace(reference, file=str(demo_path))
     settings = scenario.dmp
     if skill is not None:
-        check_skill_fits(skill, scenario)
+        check_skill_fits(skill, scenario, name)
         # The skill's basis and transformation system; the scenario's smoothing for a new demo.
         settings = dc.replace(skill.dmp.settings, smoothing_s=scenario.dmp.smoothing_s)
     return dc.replace(scenario, controllers={name: config}, reference=reference, dmp=settings)
 
 
-def check_skill_fits(skill: Skill, scenario: Scenario) -> None:
-    """Raise InputError when the skill's axes are not the ones the scenario controls, or
-    when it is a pose skill (the scenarios control the translation only).
+def check_skill_fits(skill: Skill, scenario: Scenario, name: str | None = None) -> None:
+    """Raise InputError when the skill's weights do not fit the learner `name` -- a 6-D
+    Hl-CMP takes a 6-D skill (`Skill.six_d`), a translational one a skill of positions
+    only -- or when its axes are not the ones the scenario controls.
 
     Parameters
     ----------
     skill : Skill
     scenario : Scenario
+    name : str, optional
+        The learner's label (default: the scenario's first learner).
     """
-    if skill.orientation is not None:
+    name = name or learner(scenario)
+    six_d = name is not None and controller_kind(scenario, name).pose
+    if six_d and not skill.six_d:
+        has = "a pose skill of format 3" if skill.orientation else "a translational skill"
         raise InputError(
-            f"the skill has an orientation (a pose skill), and the scenario '{scenario.name}' "
-            "controls the translation only; hlcmp rollout rolls a pose skill out"
+            f"the skill holds no rotational profiles ({has}), and the controller '{name}' of "
+            f"'{scenario.name}' is a 6-D Hl-CMP: give it a skill learned by a 6-D Hl-CMP, or "
+            "one that hlcmp fit made of a pose demonstration"
+        )
+    if not six_d and skill.orientation is not None:
+        what = "a 6-D skill" if skill.six_d else "a pose skill"
+        raise InputError(
+            f"the skill has an orientation ({what}), and the controller '{name}' of "
+            f"'{scenario.name}' controls the translation only; a 6-D Hl-CMP "
+            "(!PoseHlcmpConfig) replays it, and hlcmp rollout rolls it out"
         )
     axes = ("x", "y", "z")[: scenario.n_axes]
     if skill.dmp.axis_names != axes:
@@ -233,13 +263,17 @@ def demonstration_force(scenario: Scenario) -> np.ndarray | None:
     (M, N) array or None
         theta_v [N] whose profile follows the demonstrated force.
     """
-    t, _, _, force = read_demonstration(scenario.reference.file, with_force=True)
+    # Its orientation, if any, is the orientation DMP's (fitted and checked elsewhere).
+    t, _, _, _, force = read_demonstration(
+        scenario.reference.file, with_orientation=True, with_force=True
+    )
     return None if force is None else fit_feedforward_weights(t, force, scenario.dmp)
 
 
 def demo_force_start(scenario: Scenario, demo_force: np.ndarray) -> tuple:
     """The first trial's weights when the feed-forward starts from the demonstration:
-    theta_k and theta_d as the learner's config sets them, theta_v = `demo_force`.
+    theta_k and theta_d as the learner's config sets them, theta_v = `demo_force` (and a
+    6-D learner's rotational weights as its config sets them).
 
     Parameters
     ----------
@@ -250,16 +284,21 @@ def demo_force_start(scenario: Scenario, demo_force: np.ndarray) -> tuple:
 
     Returns
     -------
-    tuple of three (M, N) arrays
-        (theta_k, theta_d, theta_v) at t0.
+    tuple of three (M, N) arrays (then three (3, N) arrays for a 6-D learner)
+        (theta_k, theta_d, theta_v) at t0 (then theta_kr, theta_dr, theta_vr).
     """
-    config = scenario.controllers[learner(scenario)]
+    name = learner(scenario)
+    config = scenario.controllers[name]
     shape = np.shape(demo_force)
-    return (
+    start = (
         np.full(shape, float(config.theta_k0)),
         np.full(shape, float(config.theta_d0)),
         np.array(demo_force, dtype=float),
     )
+    if not controller_kind(scenario, name).pose:
+        return start
+    rotational = (config.theta_kr0, config.theta_dr0, config.theta_vr0)
+    return start + tuple(np.full((3, shape[1]), float(value)) for value in rotational)
 
 
 def effort(run: RunResult) -> float:
@@ -281,6 +320,7 @@ def run_trials(
     *,
     theta0: tuple | None = None,
     reporter: Progress = SILENT,
+    orientation_dmp: OrientationDmp | None = None,
 ) -> list[RunResult]:
     """Reproductions of `dmp`, each starting from the theta the previous one ended with;
     stops after an unstable trial.
@@ -292,16 +332,19 @@ def run_trials(
     dmp : Dmp
         The reference motion.
     trials : int
-    theta0 : tuple of three (M, N) arrays, optional
-        The first trial's weights (default: the scenario's initial weights).
+    theta0 : tuple of arrays, optional
+        The first trial's weights (default: the scenario's initial weights): three (M, N)
+        arrays, and three (3, N) after them for a 6-D learner.
     reporter : Progress, optional
+    orientation_dmp : OrientationDmp, optional
+        A 6-D learner's reference orientation (default: fitted to the demonstration).
 
     Returns
     -------
     list of RunResult
         Named trial_1, trial_2, ...
     """
-    build = diagram_factory(scenario, dmp)
+    build = diagram_factory(scenario, dmp, orientation_dmp)
     name = learner(scenario)
     runs = []
     for k in range(trials):
@@ -315,9 +358,14 @@ def run_trials(
     return runs
 
 
+# Per-trial measures of the tool's orientation, kept where the experiment reports them
+# (peg_in_hole: per tool axis).
+ORIENTATION_TRIAL_MEASURES = ("mean_abs_orientation_error_rad", "max_abs_torque_Nm")
+
+
 def trial_metrics(runs: list[RunResult], scenario: Scenario) -> list[dict]:
     """Per trial: position error [m], mean force [N] and smoothness [N] per axis, and
-    effort [N].
+    effort [N]; and the ORIENTATION_TRIAL_MEASURES the experiment reports.
 
     Parameters
     ----------
@@ -338,6 +386,7 @@ def trial_metrics(runs: list[RunResult], scenario: Scenario) -> list[dict]:
                 "mean_abs_force_N": m["mean_abs_force_N"],
                 "force_smoothness_N": m["force_smoothness_N"],
                 "effort_N": effort(run),
+                **{key: m[key] for key in ORIENTATION_TRIAL_MEASURES if key in m},
             }
         )
     return rows
@@ -461,6 +510,7 @@ def learn(
     freeze: bool = False,
     any_scenario: bool = False,
     demo_force: bool = False,
+    controller: str | None = None,
     reporter: Progress = SILENT,
     overrides: Sequence[str] = (),
     warn: Callable[[str], None] | None = None,
@@ -492,6 +542,9 @@ def learn(
     demo_force : bool
         Start the first trial's feed-forward theta_v from the demonstration's force
         (`demo_force_start`) instead of the learner's theta_v0.
+    controller : str, optional
+        The label of the learner that learns (default: the scenario's first learner). A
+        6-D one (`PoseHlcmpConfig`) needs a pose demonstration (t,x,y,z,qw,qx,qy,qz).
     reporter : Progress, optional
     overrides : sequence of str
         ``dotted.key=value`` overrides of the scenario.
@@ -503,8 +556,9 @@ def learn(
     ------
     InputError
         Before anything is simulated: a bad scenario or demonstration, a skill that does
-        not fit the scenario's axes, or one learned in another world; with `demo_force`, a
-        demonstration without force columns, or a `skill` as well.
+        not fit the learner (`check_skill_fits`) or the scenario's axes, or one learned in
+        another world; a demonstration without orientations for a 6-D learner; with
+        `demo_force`, a demonstration without force columns, or a `skill` as well.
     """
     if demo_force and skill is not None:
         raise InputError(
@@ -522,6 +576,7 @@ def learn(
         freeze=freeze,
         any_scenario=any_scenario,
         demo_force=demo_force,
+        controller=controller,
         reporter=reporter,
         overrides=overrides,
         warn=warn,
@@ -536,11 +591,12 @@ def reproduce(
     skill_path: str | Path | None = None,
     freeze: bool = False,
     any_scenario: bool = False,
+    controller: str | None = None,
     reporter: Progress = SILENT,
     overrides: Sequence[str] = (),
     warn: Callable[[str], None] | None = None,
 ) -> LearningResult:
-    """Replay a skill once in a scenario: its DMP and profiles, adapting on (a skill.npz
+    """Replay a skill once in a scenario: its DMPs and profiles, adapting on (a skill.npz
     is saved) or off with `freeze`.
 
     The run lasts the skill's duration (`skill_duration`) plus SETTLE_S, unless the
@@ -561,6 +617,8 @@ def reproduce(
         No adaptation (learning rates 0): the skill's profiles as they are.
     any_scenario : bool
         Replay a skill learned in another world all the same (`check_skill_world`).
+    controller : str, optional
+        The label of the learner that replays it (default: the scenario's first learner).
     reporter : Progress, optional
     overrides : sequence of str
         ``dotted.key=value`` overrides of the scenario.
@@ -571,7 +629,8 @@ def reproduce(
     ------
     InputError
         Before anything is simulated: a bad scenario, a skill that does not fit the
-        scenario's axes, or one learned in another world.
+        learner (`check_skill_fits`) or the scenario's axes, or one learned in another
+        world.
     """
     return _learn_or_reproduce(
         "reproduce",
@@ -584,6 +643,7 @@ def reproduce(
         freeze=freeze,
         any_scenario=any_scenario,
         demo_force=False,
+        controller=controller,
         reporter=reporter,
         overrides=overrides,
         warn=warn,
@@ -602,6 +662,7 @@ def _learn_or_reproduce(
     freeze,
     any_scenario,
     demo_force,
+    controller,
     reporter,
     overrides,
     warn,
@@ -614,12 +675,20 @@ def _learn_or_reproduce(
         warning = check_skill_world(skill, base, any_scenario)
         if warning is not None:
             warnings.append(warning)
-    scenario = learning_scenario(base, demo, skill, freeze)
+    scenario = learning_scenario(base, demo, skill, freeze, controller)
+    six_d = controller_kind(scenario, learner(scenario)).pose
     # The skill keeps the force of the demonstration its DMP comes from.
     if demo is not None or skill is None:
         dmp, encoded_force = fit_demonstration(scenario), demonstration_force(scenario)
+        orientation = fit_orientation_demonstration(scenario) if six_d else None
+        if six_d and orientation is None:
+            raise InputError(
+                f"{scenario.reference.file}: no orientation columns (qw,qx,qy,qz): the "
+                f"controller '{learner(scenario)}' is a 6-D Hl-CMP, which learns along the "
+                "demonstrated orientation"
+            )
     else:
-        dmp, encoded_force = skill.dmp, skill.demo_force
+        dmp, encoded_force, orientation = skill.dmp, skill.demo_force, skill.orientation
     if demo_force and encoded_force is None:
         raise InputError(
             f"{scenario.reference.file}: no force columns (fx,fy,fz) to start the "
@@ -632,10 +701,12 @@ def _learn_or_reproduce(
         if warn is not None:
             warn(warning)
     world = world_of_scenario(base)
-    theta0 = (skill.theta_k, skill.theta_d, skill.theta_v) if skill else None
+    theta0 = skill.theta if skill else None
     if demo_force:
         theta0 = demo_force_start(scenario, encoded_force)
-    runs = run_trials(scenario, dmp, trials, theta0=theta0, reporter=reporter)
+    runs = run_trials(
+        scenario, dmp, trials, theta0=theta0, reporter=reporter, orientation_dmp=orientation
+    )
     rows = trial_metrics(runs, scenario)
     unstable = instability_record(runs)
     metrics = {
@@ -668,10 +739,26 @@ def _learn_or_reproduce(
         if not unstable and not freeze:
             saved = save_skill(
                 out_dir / "skill.npz",
-                Skill(dmp, *runs[-1].theta, world=world, demo_force=encoded_force),
+                _learned_skill(runs[-1], dmp, orientation, world, encoded_force),
             )
         write_results(out_dir, scenario, {run.controller: run for run in runs}, metrics, figures)
     return LearningResult(metrics, runs, out_dir, saved, warnings)
+
+
+def _learned_skill(run, dmp, orientation, world, demo_force) -> Skill:
+    """The skill a learner's last trial ended with: its DMPs and weights (a 6-D learner's
+    six), in the world it learned in."""
+    theta_k, theta_d, theta_v, *rotational = run.theta
+    return Skill(
+        dmp,
+        theta_k,
+        theta_d,
+        theta_v,
+        world=world,
+        orientation=orientation if rotational else None,
+        demo_force=demo_force,
+        **dict(zip(ROTATIONAL_FIELDS, rotational)),
+    )
 
 
 def _world_record(skill: Skill | None) -> dict | str | None:

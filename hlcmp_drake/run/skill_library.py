@@ -165,6 +165,12 @@ class SkillLibrary:
             if absent or "skill" not in entry:
                 raise InputError(f"{path}: skill '{entry.get('id')}' lacks its query or file")
         skills = [load_skill(folder / entry["skill"]) for entry in record["skills"]]
+        if any(skill.orientation is not None for skill in skills):
+            raise InputError(
+                f"{path}: its skills are pose skills (a 6-D learner's); generalising regresses "
+                "theta_k, theta_d, theta_v and the position DMP only, and would drop their "
+                "orientation DMP and rotational profiles"
+            )
         _check_same_dmp(skills, path)
         return cls(folder, record, skills)
 

@@ -15,6 +15,7 @@ from typing import Any, Callable
 
 from hlcmp_drake.config.scenario import ArmTask, Scenario, SliderTask
 from hlcmp_drake.core.dmp import Dmp
+from hlcmp_drake.core.orientation_dmp import OrientationDmp
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.worlds import arm, probe, slider
 from hlcmp_drake.worlds.common import BuiltDiagram
@@ -29,9 +30,9 @@ class World:
     ----------
     name : str
         How messages name it ("slider", "arm").
-    prepare : callable(scenario, dmp) -> setup
-        The work every controller's diagram shares (for an arm: the DMP fit, unless a DMP
-        is given, and the start posture); its result is `build`'s `setup`.
+    prepare : callable(scenario, dmp, orientation_dmp) -> setup
+        The work every controller's diagram shares (for an arm: the DMP fits, unless the
+        DMPs are given, and the start posture); its result is `build`'s `setup`.
     build : callable(scenario, controller_name, setup, theta0) -> BuiltDiagram
         One controller's diagram: the world, the controller and the harness.
     build_driven : callable(scenario, setup, *, add_driver=None) -> BuiltDiagram, optional
@@ -44,7 +45,7 @@ class World:
     """
 
     name: str
-    prepare: Callable[[Scenario, Dmp | None], Any]
+    prepare: Callable[[Scenario, Dmp | None, OrientationDmp | None], Any]
     build: Callable[[Scenario, str, Any, Theta | None], BuiltDiagram]
     build_driven: Callable[..., BuiltDiagram] | None = None
     build_probe: Callable[..., probe.ProbeWorld] | None = None
@@ -99,11 +100,13 @@ def driven_world_of(scenario: Scenario, who: str) -> World:
     return world
 
 
-def diagram_factory(scenario: Scenario, dmp: Dmp | None = None) -> Callable[..., BuiltDiagram]:
+def diagram_factory(
+    scenario: Scenario, dmp: Dmp | None = None, orientation_dmp: OrientationDmp | None = None
+) -> Callable[..., BuiltDiagram]:
     """A builder of the scenario's diagrams, one per controller.
 
-    The work all controllers share (for an arm: fitting the DMP unless `dmp` is given, and
-    the inverse kinematics of the start posture) is done once, here.
+    The work all controllers share (for an arm: fitting the DMPs unless they are given,
+    and the inverse kinematics of the start posture) is done once, here.
 
     Parameters
     ----------
@@ -112,12 +115,15 @@ def diagram_factory(scenario: Scenario, dmp: Dmp | None = None) -> Callable[...,
     dmp : Dmp, optional
         The arm's DMP (e.g. a saved skill's); None: fitted to the demonstration. The
         slider world ignores it.
+    orientation_dmp : OrientationDmp, optional
+        The arm's orientation DMP (a 6-D skill's); None: fitted to the demonstration when
+        it is a pose. The slider world ignores it.
 
     Returns
     -------
     callable(name, theta0=None) -> BuiltDiagram
         Builds a fresh diagram for the controller labelled `name`, a learner starting from
-        `theta0` (three (M, N) arrays) when given.
+        `theta0` (as `worlds.controllers.initial_theta` takes it) when given.
 
     Raises
     ------
@@ -125,5 +131,5 @@ def diagram_factory(scenario: Scenario, dmp: Dmp | None = None) -> Callable[...,
         From the world's preparation (the demonstration, the models, the inverse kinematics).
     """
     world = world_of(scenario)
-    setup = world.prepare(scenario, dmp)
+    setup = world.prepare(scenario, dmp, orientation_dmp)
     return lambda name, theta0=None: world.build(scenario, name, setup, theta0=theta0)

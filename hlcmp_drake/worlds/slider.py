@@ -27,9 +27,12 @@ from hlcmp_drake.worlds.models import add_plant
 
 if TYPE_CHECKING:
     from hlcmp_drake.core.dmp import Dmp
+    from hlcmp_drake.core.orientation_dmp import OrientationDmp
 
 
-def prepare(scenario: Scenario, dmp: Dmp | None = None) -> None:
+def prepare(
+    scenario: Scenario, dmp: Dmp | None = None, orientation_dmp: OrientationDmp | None = None
+) -> None:
     """Nothing is shared between the slider's diagrams (no DMP, no start posture).
 
     Parameters
@@ -37,6 +40,8 @@ def prepare(scenario: Scenario, dmp: Dmp | None = None) -> None:
     scenario : Scenario
         Unused (the same signature as the arm world's `prepare`).
     dmp : Dmp, optional
+        Unused.
+    orientation_dmp : OrientationDmp, optional
         Unused.
 
     Returns

@@ -157,22 +157,57 @@ def _names(node: dict) -> str:
     return ", ".join(node) or "nothing"
 
 
-def _walk(node: object, dotted: str) -> str | None:
-    """None when the dotted path names one value in `node` (a key may hold dots, as
-    `results._lookup` reads it); else what is wrong."""
-    parts, i, where = dotted.split("."), 0, []
-    while i < len(parts):
-        if not isinstance(node, dict):
-            return f"{'.'.join(where)} is a single value, it has no '{'.'.join(parts[i:])}'"
+def path_step(node: object, parts: list, i: int) -> tuple[object, int] | None:
+    """One step of a dotted path into metrics.json: below `node`, the value that
+    parts[i:] begins with and the index of the part after it; None when there is none.
+
+    A dict's key may hold dots (a label such as "vic_fd_0.5"): the longest key that
+    matches is taken. A list's element is named by its index from 0 (a per-axis list, e.g.
+    "max_abs_torque_Nm.2").
+
+    Parameters
+    ----------
+    node : object
+        A dict, a list or a single value of metrics.json.
+    parts : list of str
+        The path split at its dots.
+    i : int
+        The first part still to follow.
+
+    Returns
+    -------
+    (object, int) or None
+    """
+    if isinstance(node, dict):
         for j in range(len(parts), i, -1):
             if ".".join(parts[i:j]) in node:
-                where.append(".".join(parts[i:j]))
-                node, i = node[where[-1]], j
-                break
-        else:
-            return f"{'.'.join(where) or 'metrics.json'} has no '{parts[i]}' ({_names(node)})"
+                return node[".".join(parts[i:j])], j
+    elif isinstance(node, list) and parts[i].isdigit() and int(parts[i]) < len(node):
+        return node[int(parts[i])], i + 1
+    return None
+
+
+def _walk(node: object, dotted: str) -> str | None:
+    """None when the dotted path names one value in `node` (step by step as
+    `path_step` reads it, and `results._lookup`); else what is wrong."""
+    parts, i, where = dotted.split("."), 0, []
+    while i < len(parts):
+        step = path_step(node, parts, i)
+        here = ".".join(where) or "metrics.json"
+        if step is None and isinstance(node, dict):
+            return f"{here} has no '{parts[i]}' ({_names(node)})"
+        if step is None and isinstance(node, list):
+            last = len(node) - 1
+            return f"{here} is a list of {len(node)}: '{parts[i]}' is no index of it (0 to {last})"
+        if step is None:
+            return f"{here} is a single value, it has no '{'.'.join(parts[i:])}'"
+        node, j = step
+        where.append(".".join(parts[i:j]))
+        i = j
     if isinstance(node, dict):
         return f"{dotted} is a group ({_names(node)}), not one value"
+    if isinstance(node, list):
+        return f"{dotted} is a list of {len(node)} values: name one by its index ({dotted}.0)"
     return None
 
 

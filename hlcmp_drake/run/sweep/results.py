@@ -14,7 +14,7 @@ import numpy as np
 from hlcmp_drake.config.sweep import CASE, SweepMetric
 from hlcmp_drake.experiments.table import Table
 from hlcmp_drake.io import outputs
-from hlcmp_drake.run.sweep.planning import SweepPlan
+from hlcmp_drake.run.sweep.planning import SweepPlan, path_step
 
 FINISHED = ("ok", "unstable")
 
@@ -61,17 +61,13 @@ class SweepResult:
 
 
 def _lookup(data: object, dotted: str) -> tuple[bool, object]:
-    """(found, value) of a dotted path into nested dicts; a key may hold dots."""
+    """(found, value) of a dotted path into nested dicts and lists (`path_step`)."""
     parts, node, i = dotted.split("."), data, 0
     while i < len(parts):
-        if not isinstance(node, dict):
+        step = path_step(node, parts, i)
+        if step is None:
             return False, None
-        for j in range(len(parts), i, -1):
-            if ".".join(parts[i:j]) in node:
-                node, i = node[".".join(parts[i:j])], j
-                break
-        else:
-            return False, None
+        node, i = step
     return not isinstance(node, (dict, list)), node
 
 
