@@ -664,3 +664,27 @@ def test_served_6d_hlcmp_equals_its_simulated_run_through_the_contact(tmp_path):
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["status"] == "ok"
     assert_metrics_match(metrics["controllers"]["hlcmp_6d"], json.loads(json.dumps(expected)))
+
+
+def test_a_6d_skill_is_served_with_its_rotational_weights(tmp_path):
+    """A pose skill with the six weight arrays (as `hlcmp fit` makes of a pose
+    demonstration) serves peg_in_hole's 6-D learner; given to the translational learner it
+    is refused in one line."""
+    from hlcmp_drake.config.loading import load_scenario
+    from hlcmp_drake.io.errors import InputError
+    from hlcmp_drake.io.skill import Skill
+    from hlcmp_drake.worlds.arm import prepare
+
+    scenario, _ = load_scenario("peg_in_hole")
+    setup = prepare(scenario)
+    skill = Skill.untrained(setup.dmp, orientation=setup.orientation_dmp)
+    assert len(skill.theta) == 6
+    served = serve_scenario(
+        "peg_in_hole", "memq://", tmp_path / "six", skill=skill, overrides=["duration_s=0.2"]
+    )
+    assert served.run.status == "ok" and "Kr" in served.run.series
+    with pytest.raises(InputError) as refused:
+        serve_scenario(
+            "peg_in_hole", "memq://", tmp_path / "three", skill=skill, controller="hlcmp"
+        )
+    assert "\n" not in str(refused.value)

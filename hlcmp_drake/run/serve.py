@@ -82,7 +82,8 @@ def served_scenario(
     scenario : Scenario
         An arm scenario.
     controller : str, optional
-        Its label (default: the scenario's Hl-CMP, else its first controller).
+        Its label (default: the scenario's Hl-CMP, else its first controller; with a
+        skill, the learner to serve it with).
     skill : Skill, optional
         Serve the scenario's Hl-CMP with this skill's DMP settings and learned weights.
     freeze : bool
@@ -94,8 +95,8 @@ def served_scenario(
         As served (reduced to the Hl-CMP for a skill).
     controller : str
         The served controller's label.
-    theta0 : tuple of three (M, N) arrays or None
-        The skill's weights.
+    theta0 : tuple of arrays or None
+        The skill's weights (`Skill.theta`: three (M, N), then three (3, N) for a 6-D one).
 
     Raises
     ------
@@ -105,9 +106,9 @@ def served_scenario(
     """
     driven_world_of(scenario, "hlcmp serve drives an iiwa")
     if skill is not None:
-        scenario = learning_scenario(scenario, skill=skill, freeze=freeze)
+        scenario = learning_scenario(scenario, skill=skill, freeze=freeze, controller=controller)
         controller = next(iter(scenario.controllers))
-        return scenario, controller, (skill.theta_k, skill.theta_d, skill.theta_v)
+        return scenario, controller, skill.theta
     if freeze:
         raise InputError(
             "--freeze needs --skill: a frozen skill is served with the profiles it learned"
