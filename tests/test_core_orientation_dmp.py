@@ -117,3 +117,18 @@ def test_a_demonstration_that_comes_back_keeps_its_shape():
         start,
     )
     assert np.sqrt(np.mean(_degrees(q_r, truth) ** 2)) < 0.2
+
+
+def test_the_goal_is_the_settled_ends_mean_whatever_the_samples_signs():
+    from hlcmp_drake.core.orientation_dmp import settled_goal
+
+    rng = np.random.default_rng(3)
+    true_goal = quat.from_rotation_vector(np.array([0.3, -1.2, 2.0]))
+    t = np.linspace(0.0, 1.0, 201)  # 5 ms apart: 11 samples in the last 50 ms
+    noisy = quat.multiply(quat.from_rotation_vector(rng.normal(0.0, 0.01, (201, 3))), true_goal)
+    noisy *= rng.choice([-1.0, 1.0], 201)[:, None]
+    last_only = settled_goal(t, noisy, 0.0)
+    np.testing.assert_allclose(last_only, noisy[-1])
+    mean = settled_goal(t, noisy, 0.05)
+    assert np.isclose(np.linalg.norm(mean), 1.0) and mean @ noisy[-1] > 0
+    assert _degrees(mean, true_goal) < 0.6 * _degrees(last_only, true_goal)

@@ -45,6 +45,11 @@ reusing `core.dmp`'s functions, and adds:
   value: the goal turns the short way; a switch by exactly pi turns about the axis
   `quaternion.to_rotation_vector` returns.
 - **Temporal scaling**: another tau, as for the position DMP.
+- **The goal from the settled end.** A demonstration ends at rest at its goal (the DMP's
+  premise, as `core.dmp`'s settled tail), so the goal is the mean orientation of the
+  samples in the last `smoothing_s` seconds (`settled_goal`), not the last sample alone,
+  whose noise would be the rollout's end error: on the seeded demonstrations at 0.5 deg
+  noise per axis the end error was 0.85 deg with the last sample as the goal.
 
 The angular velocity is in the world frame: with R = Exp(-e) R_g,
 
@@ -167,6 +172,31 @@ def angular_acceleration(
     return own + quat.left_jacobian_rate(-error, -np.asarray(error_rate))
 
 
+def settled_goal(t: np.ndarray, quaternions: np.ndarray, window: float) -> np.ndarray:
+    """The goal of a demonstration that ends at rest: the chordal mean of the orientations
+    sampled in its last `window` seconds (each made hemisphere-consistent with the last
+    sample, summed and normalised), the last sample alone for `window` = 0.
+
+    Parameters
+    ----------
+    t : (T,) array
+        Sample times [s], increasing.
+    quaternions : (T, 4) array
+        Unit quaternions (w, x, y, z), either sign.
+    window : float
+        [s], >= 0.
+
+    Returns
+    -------
+    (4,) array
+        Unit quaternion, in the last sample's hemisphere.
+    """
+    tail = np.asarray(quaternions, float)[np.asarray(t) >= t[-1] - window]
+    signs = np.where(tail @ tail[-1] < 0.0, -1.0, 1.0)
+    mean = (signs[:, None] * tail).sum(axis=0)
+    return mean / np.linalg.norm(mean)
+
+
 def fit_trajectory_weights(
     t: np.ndarray, error: np.ndarray, amplitude: float, settings: DmpSettings
 ) -> np.ndarray:
@@ -254,7 +284,7 @@ class OrientationDmp:
     start : (4,) array
         q0, the first orientation (unit quaternion, w x y z).
     goal : (4,) array
-        q_g, the orientation aimed at (the last demonstrated; another after `with_goal`).
+        q_g, the orientation aimed at (the settled end of the demonstration; another after `with_goal`).
     demonstrated_rotation : (3,) array
         e0 = 2 Log(q_g q0*) of the demonstration, unwrapped [rad]: the rotation it makes
         from start to goal, |e0| possibly beyond pi. Kept under a new goal: it picks the
@@ -287,7 +317,7 @@ class OrientationDmp:
         cls, t: np.ndarray, quaternions: np.ndarray, settings: DmpSettings | None = None
     ) -> "OrientationDmp":
         """Fit to a demonstration: normalise, take e(t) relative
-        to the last sample unwrapped from the end, resample and smooth e as the position
+        to the settled end's mean (`settled_goal`) unwrapped from the end, resample and smooth e as the position
         DMP does (`core.dmp.resample_and_differentiate`), and regress the forcing weights
         on e (`fit_trajectory_weights`).
 
@@ -303,12 +333,12 @@ class OrientationDmp:
         Returns
         -------
         OrientationDmp
-            q0 = the first sample, q_g = the last.
+            q0 = the first sample, q_g = the mean of the settled end (`settled_goal`).
         """
         settings = dataclasses.replace(settings) if settings is not None else DmpSettings()
         q = np.asarray(quaternions, dtype=float)
         q = q / np.linalg.norm(q, axis=-1, keepdims=True)  # either sign: the log ignores it
-        goal = q[-1]
+        goal = settled_goal(t, q, settings.smoothing_s)
         error = quat.unwrap_rotation_vectors(goal_error(goal, q)[::-1], np.zeros(3))[::-1]
         t_u, e, _, _ = resample_and_differentiate(t, error, settings.smoothing_s)
         tau = float(t_u[-1])
