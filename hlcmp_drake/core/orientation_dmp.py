@@ -284,7 +284,8 @@ class OrientationDmp:
     start : (4,) array
         q0, the first orientation (unit quaternion, w x y z).
     goal : (4,) array
-        q_g, the orientation aimed at (the settled end of the demonstration; another after `with_goal`).
+        q_g, the orientation aimed at (the demonstration's settled end; another after
+        `with_goal`).
     demonstrated_rotation : (3,) array
         e0 = 2 Log(q_g q0*) of the demonstration, unwrapped [rad]: the rotation it makes
         from start to goal, |e0| possibly beyond pi. Kept under a new goal: it picks the
@@ -316,8 +317,8 @@ class OrientationDmp:
     def fit(
         cls, t: np.ndarray, quaternions: np.ndarray, settings: DmpSettings | None = None
     ) -> "OrientationDmp":
-        """Fit to a demonstration: normalise, take e(t) relative
-        to the settled end's mean (`settled_goal`) unwrapped from the end, resample and smooth e as the position
+        """Fit to a demonstration: normalise, take e(t) relative to the settled end's mean
+        (`settled_goal`) unwrapped from the end, resample and smooth e as the position
         DMP does (`core.dmp.resample_and_differentiate`), and regress the forcing weights
         on e (`fit_trajectory_weights`).
 
