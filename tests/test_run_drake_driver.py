@@ -132,8 +132,9 @@ def test_served_in_real_time_against_drakes_own_driver(tmp_path, period, duratio
     publisher) and hlcmp serve as two processes over udpm://, in real time: the period is
     measured, every status is answered or counted, the run is "degraded" (exit 5) exactly
     when more than 1 % of the ticks or 10 in a row were missed, and the metrics of an ok
-    run are those of the same run in lockstep within the jitter's tolerance above. The runs end before the foam: in contact, the
-    world behind Drake's driver does not keep real time on a 2-core machine (docs/iiwa.md)."""
+    run are those of the same run in lockstep within the jitter's tolerance above. The runs
+    end before the foam: in contact, the world behind Drake's driver does not keep real
+    time on a 2-core machine (docs/iiwa.md)."""
     client, record = _served_against_drakes_driver(tmp_path / "served", period, duration)
     statuses = round(duration / period) + 1
     assert record["ticks"] + record["missed_ticks"] == statuses

@@ -634,8 +634,10 @@ def test_served_6d_hlcmp_equals_its_simulated_run_through_the_contact(tmp_path):
     ends ok; for 4.2 s, through the peg's first contact with the chamfer (at 3.4 s), its
     series (R_d, the learned K_r, D_r, v_r, the wrist force and torque among them) and
     metrics are those of the simulated run, within the insertion test's tolerances."""
+    from types import SimpleNamespace
+
     from hlcmp_drake.cli import main
-    from hlcmp_drake.experiments import experiment_of
+    from hlcmp_drake.experiments import experiment_of, peg_in_hole
     from hlcmp_drake.run.simulate import simulate
     from hlcmp_drake.worlds.build import diagram_factory
 
@@ -664,6 +666,17 @@ def test_served_6d_hlcmp_equals_its_simulated_run_through_the_contact(tmp_path):
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["status"] == "ok"
     assert_metrics_match(metrics["controllers"]["hlcmp_6d"], json.loads(json.dumps(expected)))
+    # metrics.json is recomputed from timeseries.npz alone, and the tool's orientation from
+    # the logged plant state is the one the tick logged.
+    logged = SimpleNamespace(
+        t=served["t"], series={name: served[f"hlcmp_6d/{name}"] for name in simulated.series}
+    )
+    assert experiment_of(scenario).metrics_of(logged, config, scenario) == json.loads(
+        json.dumps(metrics["controllers"]["hlcmp_6d"])
+    )
+    measured = peg_in_hole.tool_orientations(logged, scenario)
+    same_sign = np.sign(np.sum(measured * logged.series["q_tool"], axis=1))[:, None]
+    np.testing.assert_allclose(same_sign * measured, logged.series["q_tool"], atol=1e-9)
 
 
 def test_a_6d_skill_is_served_with_its_rotational_weights(tmp_path):

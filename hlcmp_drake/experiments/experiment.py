@@ -41,6 +41,10 @@ class Experiment:
     task_done : callable(run, scenario) -> dict
         Whether the run did the experiment's task: {"done": bool, "evidence": str, ...};
         a claim about a run that did not is not judged.
+    from_paper : bool
+        Whether it is one of the paper's experiments (its claims the paper's, in the
+        README's claims summary); an experiment beyond the paper shows its own claims in
+        its section.
     """
 
     name: str
@@ -53,6 +57,7 @@ class Experiment:
     table: Callable[[dict[str, dict[str, Any]]], Table]
     figures: Callable[[dict[str, RunResult], Scenario], dict[str, Figure]]
     task_done: Callable[[RunResult, Scenario], dict[str, Any]]
+    from_paper: bool = True
 
     def metrics_of(
         self, run: RunResult, config: ControllerConfig, scenario: Scenario

@@ -410,4 +410,5 @@ EXPERIMENT = Experiment(
     table=table,
     figures=figures,
     task_done=inserted,
+    from_paper=False,
 )

@@ -95,8 +95,8 @@ def replace_block(text: str, name: str, body: str) -> str:
 
 
 def update_readme(readme_path: Path, run_dirs: dict) -> None:
-    """Rewrite the README's `<name> results` blocks, and the claims summary when every
-    registered experiment is given.
+    """Rewrite the README's `<name> results` blocks, and the claims summary (the paper's
+    claims) when every experiment of the paper is given.
 
     Parameters
     ----------
@@ -113,8 +113,9 @@ def update_readme(readme_path: Path, run_dirs: dict) -> None:
     for name, metrics in all_metrics.items():
         experiment = experiment_of(load_scenario(name)[0])
         text = replace_block(text, f"{name} results", results_markdown(metrics, experiment))
-    if set(all_metrics) == set(EXPERIMENTS):
-        ordered = {name: all_metrics[name] for name in EXPERIMENTS}
+    paper = [name for name, experiment in EXPERIMENTS.items() if experiment.from_paper]
+    if set(paper) <= set(all_metrics):
+        ordered = {name: all_metrics[name] for name in paper}
         text = replace_block(
             text,
             "claims summary",
