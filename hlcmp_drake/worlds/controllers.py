@@ -119,14 +119,15 @@ def hlcmp_gains(config: HlcmpConfig) -> HlcmpGains:
     -------
     HlcmpGains
     """
+    return _gains_per_second(config, (config.q_k, config.q_d, config.q_v), config.pi, config.gain_l)
+
+
+def _gains_per_second(config: HlcmpConfig, rates, pi: float, gain_l) -> HlcmpGains:
+    """HlcmpGains with the learning rates (Q_k, Q_d, Q_v) read as the config's `q_units`
+    say, per second."""
     scale = config.rate_scale()
-    return HlcmpGains(
-        np.asarray(config.q_k, float) * scale,
-        np.asarray(config.q_d, float) * scale,
-        np.asarray(config.q_v, float) * scale,
-        config.pi,
-        np.asarray(config.gain_l, float),
-    )
+    q_k, q_d, q_v = (np.asarray(q, float) * scale for q in rates)
+    return HlcmpGains(q_k, q_d, q_v, pi, np.asarray(gain_l, float))
 
 
 def hlcmp_law(config: HlcmpConfig, scenario: Scenario) -> HlcmpLaw:
@@ -202,13 +203,8 @@ def pose_hlcmp_law(config: PoseHlcmpConfig, scenario: Scenario) -> PoseLaw:
     PoseLaw
     """
     centers, widths = basis_centers_and_widths(scenario.dmp.n_basis, scenario.dmp.alpha_s)
-    scale = config.rate_scale()
-    rotational = HlcmpGains(
-        np.asarray(config.q_kr, float) * scale,
-        np.asarray(config.q_dr, float) * scale,
-        np.asarray(config.q_vr, float) * scale,
-        config.pi_r,
-        np.asarray(config.gain_l_r, float),
+    rotational = _gains_per_second(
+        config, (config.q_kr, config.q_dr, config.q_vr), config.pi_r, config.gain_l_r
     )
     return PoseLaw(hlcmp_law(config, scenario), RotationalHlcmp(centers, widths, rotational))
 
