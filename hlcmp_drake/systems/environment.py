@@ -1,7 +1,8 @@
 """Environments that are not contact geometry: the paper's 1-DOF elastic object."""
 
 import numpy as np
-from pydrake.systems.framework import BasicVector, LeafSystem
+from pydrake.systems.framework import Diagram, DiagramBuilder
+from pydrake.systems.primitives import AffineSystem, Gain, Saturation
 
 
 def unilateral_spring_force(x: float | np.ndarray, surface: float, stiffness: float) -> np.ndarray:
@@ -25,12 +26,11 @@ def unilateral_spring_force(x: float | np.ndarray, surface: float, stiffness: fl
     return np.where(x < surface, stiffness * (surface - x), 0.0)
 
 
-class UnilateralSpring(LeafSystem):
-    """The 1-DOF experiment's object as a generalized force on a single-joint plant.
-
-    Input `plant_state` [q, v]; outputs `generalized_force` (to the plant's
-    applied_generalized_force port) and `reaction_force` (what a force sensor between the
-    body and the object reads, logged as f_ext).
+class UnilateralSpring(Diagram):
+    """The 1-DOF experiment's object as a generalized force on a single-joint plant:
+    `unilateral_spring_force` built from Drake's C++ systems (the gap s - q, clamped at 0,
+    times k), so that the slider world calls no Python for it, twice a plant step
+    (tested equal to `unilateral_spring_force`).
 
     Input ports:
 
@@ -38,9 +38,10 @@ class UnilateralSpring(LeafSystem):
 
     Output ports:
 
-    - ``generalized_force`` (1): k (surface - q) while q < surface, else 0
-      (`unilateral_spring_force`), on the joint [N].
-    - ``reaction_force`` (1): the same value, the object's reaction on the body [N].
+    - ``generalized_force`` (1): k (surface - q) while q < surface, else 0, on the joint
+      [N] (to the plant's applied_generalized_force port).
+    - ``reaction_force`` (1): the same value, the object's reaction on the body [N] (what a
+      force sensor between the body and the object reads, logged as f_ext).
 
     Parameters
     ----------
@@ -53,12 +54,24 @@ class UnilateralSpring(LeafSystem):
 
     def __init__(self, surface, stiffness):
         super().__init__()
-        self._surface, self._stiffness = float(surface), float(stiffness)
-        self.plant_state = self.DeclareVectorInputPort("plant_state", BasicVector(2))
-        prereq = {self.all_input_ports_ticket()}
-        self.DeclareVectorOutputPort("generalized_force", 1, self._calc, prereq)
-        self.DeclareVectorOutputPort("reaction_force", 1, self._calc, prereq)
-
-    def _calc(self, context, output):
-        q = self.plant_state.Eval(context)[0]
-        output.SetFromVector([unilateral_spring_force(q, self._surface, self._stiffness)])
+        builder = DiagramBuilder()
+        gap = builder.AddNamedSystem(
+            "gap",  # y = surface - q, exactly (the velocity's coefficient is 0)
+            AffineSystem(
+                A=np.zeros((0, 0)),
+                B=np.zeros((0, 2)),
+                f0=np.zeros(0),
+                C=np.zeros((1, 0)),
+                D=[[-1.0, 0.0]],
+                y0=[float(surface)],
+            ),
+        )
+        inside = builder.AddNamedSystem("inside", Saturation([0.0], [np.inf]))
+        force = builder.AddNamedSystem("stiffness", Gain(float(stiffness), 1))
+        builder.Connect(gap.get_output_port(), inside.get_input_port())
+        builder.Connect(inside.get_output_port(), force.get_input_port())
+        state_input = builder.ExportInput(gap.get_input_port(), "plant_state")
+        builder.ExportOutput(force.get_output_port(), "generalized_force")
+        builder.ExportOutput(force.get_output_port(), "reaction_force")
+        builder.BuildInto(self)
+        self.plant_state = self.get_input_port(state_input)
