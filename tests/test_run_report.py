@@ -107,11 +107,11 @@ def test_a_report_shows_an_arm_on_the_real_arm_beside_the_perfect_one(tmp_path):
     assert "short_insertion_real_arm/metrics.json" in page
     # one row per controller and robot, in the comparison
     assert page.count("<td>real_arm</td>") == len(perfect["controllers"])
-    # without variants, only the runs and the probe
-    assert [task.variant for task in _report_work(str(own), out / "short_insertion", [])] == [
-        None,
-        None,
-    ]
+    # without variants, only the runs (a task per controller) and the probe
+    work = _report_work(str(own), out / "short_insertion", [])
+    assert [task.variant for task in work] == [None] * len(work)
+    assert [task.controller for task in work if not task.probe] == list(perfect["controllers"])
+    assert [task.probe for task in work] == [False] * len(perfect["controllers"]) + [True]
 
 
 def test_a_report_in_processes_writes_what_the_serial_one_writes(tmp_path):

@@ -6,7 +6,7 @@ import dataclasses as dc
 import os
 import time
 from pathlib import Path
-from typing import Sequence
+from typing import Callable, Sequence
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.scenario import ArmTask
@@ -17,9 +17,10 @@ from hlcmp_drake.io.paths import bundled_scenarios
 from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.present.report import ReportSection, report_page
 from hlcmp_drake.run.probe import run_probe
-from hlcmp_drake.run.runner import run_scenario
+from hlcmp_drake.run.runner import run_one, write_scenario
 from hlcmp_drake.run.sweep.engines import ENGINES, run_in_processes, run_on_ray
 from hlcmp_drake.run.sweep.tasks import quiet_drake, run_in_temporary_folder, store_files
+from hlcmp_drake.worlds.build import diagram_factory
 
 
 @dc.dataclass
@@ -86,49 +87,65 @@ def report_folders(out_dir: str | Path, scenarios: list[str] | None = None) -> d
 
 @dc.dataclass(frozen=True)
 class _ReportTask:
-    """One piece of a report's work: a scenario's runs (under a variant, when one is
-    named), or its world's probe."""
+    """One piece of a report's work: one controller's run of a scenario (under a variant,
+    when one is named), or the scenario world's probe."""
 
     entry: str
     run_dir: str
     probe: bool
     variant: str | None = None
+    controller: str | None = None
+
+    @property
+    def what(self) -> str:
+        """The piece in a progress line."""
+        if self.probe:
+            return f"{self.entry}'s probe"
+        return f"{self.entry}{f' ({self.variant})' if self.variant else ''} {self.controller}"
 
 
 def _report_work(entry: str, folder: Path, variants: Sequence[str]) -> list[_ReportTask]:
-    """A scenario's runs, then its world's probe (the world alone, no controller) where
-    the scenario has one, then an arm scenario's runs under each variant (each loaded,
-    and so checked, here), in out_dir/<name>_<variant>."""
+    """A scenario's runs, one task per controller, then its world's probe (the world alone,
+    no controller) where the scenario has one, then an arm scenario's runs under each
+    variant (each loaded, and so checked, here), in out_dir/<name>_<variant>."""
     scenario, _ = load_scenario(entry)
-    work = [_ReportTask(entry, str(folder), probe=False)]
+    work = [
+        _ReportTask(entry, str(folder), probe=False, controller=label)
+        for label in scenario.controllers
+    ]
     if scenario.probe.push_m:
         work.append(_ReportTask(entry, str(folder / "probe"), probe=True))
     if isinstance(scenario.task, ArmTask):
         for variant in variants:
-            name = load_scenario(entry, variant=variant)[0].name
-            work.append(_ReportTask(entry, str(folder.parent / name), False, variant))
+            varied = load_scenario(entry, variant=variant)[0]
+            work += [
+                _ReportTask(entry, str(folder.parent / varied.name), False, variant, label)
+                for label in varied.controllers
+            ]
     return work
 
 
 def _do(task: _ReportTask, reporter: Progress = SILENT) -> dict:
-    """Run one piece of a report in this process; what it wrote, its status and wall time."""
+    """Do one piece of a report in this process: a probe writes its folder; a run writes
+    nothing and returns its RunResult (`run`), which the report's own process evaluates
+    and writes with the scenario's other runs. Also its wall time and the files written."""
     quiet_drake()
     start, first = time.perf_counter(), len(WRITTEN)
+    run = None
     if task.probe:
         run_probe(task.entry, task.run_dir)
-        status = None
     else:
-        result = run_scenario(task.entry, task.run_dir, reporter=reporter, variant=task.variant)
-        status = result.metrics["status"]
+        scenario = load_scenario(task.entry, variant=task.variant)[0]
+        run = run_one(diagram_factory(scenario), scenario, task.controller, reporter=reporter)
     return {
-        "status": status,
+        "run": run,
         "wall_s": time.perf_counter() - start,
         "written": [str(path) for path in WRITTEN[first:]],
     }
 
 
 def _do_returning_files(task: _ReportTask) -> tuple[dict, dict]:
-    """Run one piece of a report in a temporary folder (a Ray worker's) and return what
+    """Do one piece of a report in a temporary folder (a Ray worker's) and return what
     `_do` returns and the folder's files, by path relative to it."""
     return run_in_temporary_folder(_do, task)
 
@@ -146,11 +163,15 @@ def run_report(
     out_dir/<its name>/probe; an arm scenario under each variant into
     out_dir/<its name>_<variant>) and write out_dir/index.html, a page that works offline.
 
-    The runs and the probes are tasks of a sweep engine, `jobs` at a time: the local one
-    (`run_in_processes`; with one job they run one after the other in this process) or
-    Ray (`run_on_ray`: each task in a temporary folder of its worker, its files written
-    here). The simulations do not depend on which process runs them: the runs' files are
-    the same either way, and so is the page but for each section's wall time.
+    Each controller's run and each probe is a task of a sweep engine, `jobs` at a time:
+    the local one (`run_in_processes`; with one job they run one after the other in this
+    process) or Ray (`run_on_ray`: each task in a temporary folder of its worker, a
+    probe's files written here). A run task returns its RunResult; as soon as a
+    scenario's last run is in, this process evaluates the runs and writes the scenario's
+    folder (`write_scenario`) while the other tasks go on, so that one long scenario
+    does not hold a process on its own. The simulations do not depend on which process
+    runs them: the runs' files are the same either way, and so is the page but for each
+    section's wall time (the sum of its tasks').
 
     Parameters
     ----------
@@ -181,57 +202,103 @@ def run_report(
     jobs = max(1, min(jobs or os.cpu_count() or 1, len(work)))
     start = time.perf_counter()
     with replacing_outputs(out_dir):  # a scenario left out this time leaves no old folder
-        done = _run_work(work, jobs, reporter, engine)
+        written = _ScenarioWriter(work, reporter)
+        _run_work(work, jobs, reporter, engine, written.take)
         sections, statuses = [], []
         for entry, folder in folders.items():
-            pieces = [(task, done[task]) for task in work if task.entry == entry]
-            probe = next((Path(task.run_dir) for task, _ in pieces if task.probe), None)
-            runs = [(task, result) for task, result in pieces if not task.probe]
+            pieces = [task for task in work if task.entry == entry]
+            probe = next((Path(task.run_dir) for task in pieces if task.probe), None)
             sections.append(
                 ReportSection(
                     folder.name,
                     folder,
-                    sum(result["wall_s"] for _, result in pieces),
+                    sum(written.wall_s[task] for task in pieces),
                     experiment_of(load_scenario(entry)[0]),
                     probe,
-                    {task.variant: Path(task.run_dir) for task, _ in runs if task.variant},
+                    {task.variant: Path(task.run_dir) for task in pieces if task.variant},
                 )
             )
-            statuses += [result["status"] for _, result in runs]
+            run_dirs = dict.fromkeys(task.run_dir for task in pieces if not task.probe)
+            statuses += [written.status[run_dir] for run_dir in run_dirs]
         page = write_text(out_dir / "index.html", report_page(out_dir, sections))
     return ReportResult(page, sections, statuses, time.perf_counter() - start)
 
 
-def _run_work(work: list[_ReportTask], jobs: int, reporter: Progress, engine: str) -> dict:
-    """Each task's result: run here one after the other (local, one job), in `jobs`
-    processes (local) or as Ray tasks."""
+class _ScenarioWriter:
+    """Collects a report's finished pieces and, as soon as a scenario's (or a variant's)
+    last run is in, evaluates and writes its folder in this process (`write_scenario`),
+    while the other pieces still run.
 
-    def what(task):
-        if task.variant:
-            return f"{task.entry} ({task.variant})"
-        return f"{task.entry}'s probe" if task.probe else task.entry
+    Parameters
+    ----------
+    work : list of _ReportTask
+    reporter : Progress
+    """
 
-    if engine == "local" and jobs == 1:
-        done = {}
+    def __init__(self, work: list[_ReportTask], reporter: Progress):
+        self._waiting: dict[str, list[_ReportTask]] = {}
         for task in work:
-            reporter.say(f"running {what(task)} ...")
-            done[task] = _do(task, reporter)
-        return done
+            if not task.probe:
+                self._waiting.setdefault(task.run_dir, []).append(task)
+        self._runs: dict[_ReportTask, object] = {}
+        self._reporter = reporter
+        self.wall_s: dict[_ReportTask, float] = {}
+        self.status: dict[str, str] = {}  # by run folder
+
+    def take(self, task: _ReportTask, result: dict) -> None:
+        """One finished piece: keep its run; write its folder when it was the last."""
+        self.wall_s[task] = result["wall_s"]
+        if task.probe:
+            return
+        self._runs[task] = result["run"]
+        tasks = self._waiting[task.run_dir]
+        if any(piece not in self._runs for piece in tasks):
+            return
+        scenario = load_scenario(task.entry, variant=task.variant)[0]
+        start = time.perf_counter()
+        written = write_scenario(
+            scenario,
+            {piece.controller: self._runs.pop(piece) for piece in tasks},
+            out_dir=task.run_dir,
+        )
+        self.status[task.run_dir] = written.metrics["status"]
+        self._reporter.say(
+            f"{Path(task.run_dir).name}: evaluated and written in "
+            f"{time.perf_counter() - start:.0f} s"
+        )
+
+
+def _run_work(
+    work: list[_ReportTask],
+    jobs: int,
+    reporter: Progress,
+    engine: str,
+    take: Callable[[_ReportTask, dict], None],
+) -> None:
+    """Do each piece, handing `take` its result as it finishes: one after the other here
+    (local, one job), in `jobs` processes (local) or as Ray tasks."""
+    if engine == "local" and jobs == 1:
+        for task in work:
+            reporter.say(f"running {task.what} ...")
+            take(task, _do(task, reporter))
+        return
     where = f"{jobs} processes" if engine == "local" else f"Ray tasks, {jobs} at a time"
-    reporter.say(f"running {', '.join(map(what, work))} in {where} ...")
-    done, failures = {}, []
+    reporter.say(f"running {len(work)} pieces in {where} ...")
+    failures = []
 
     def on_done(task, result, error):
         if error is not None:
-            failures.append(f"{what(task)}: {error}")
+            failures.append(f"{task.what}: {error}")
             return
         if engine == "local":
             WRITTEN.extend(Path(path) for path in result["written"])
         else:
             result, files = result
-            store_files(task.run_dir, files)
-        done[task] = result
-        reporter.say(f"{what(task)}: done in {result['wall_s']:.0f} s")
+            if task.probe:
+                store_files(task.run_dir, files)
+        reporter.say(f"{task.what}: done in {result['wall_s']:.0f} s")
+        if not failures:
+            take(task, result)
 
     if engine == "local":
         run_in_processes(_do, work, jobs, on_done)
@@ -239,4 +306,3 @@ def _run_work(work: list[_ReportTask], jobs: int, reporter: Progress, engine: st
         run_on_ray(_do_returning_files, work, jobs, on_done)
     if failures:
         raise RuntimeError("the report could not run " + "; ".join(failures))
-    return done

@@ -275,13 +275,47 @@ def run_loaded_scenario(
     -------
     ScenarioResult
     """
-    experiment = experiment_of(scenario, path)
+    experiment_of(scenario, path)  # an experiment that does not fit stops before any run
     if drake_models_iiwa:
         scenario = use_drake_models_iiwa(scenario)
-    out_dir = Path(out_dir or Path("out") / scenario.name)
     build = diagram_factory(scenario)
     live = LiveView(scenario, meshcat) if meshcat is not None else None
     runs = run_controllers(scenario, reporter=reporter, build=build, live=live)
+    return write_scenario(scenario, runs, path, out_dir, build=build, claims=claims)
+
+
+def write_scenario(
+    scenario: Scenario,
+    runs: dict[str, RunResult],
+    path: str | Path | None = None,
+    out_dir: str | Path | None = None,
+    *,
+    build: Callable | None = None,
+    claims: bool = True,
+) -> ScenarioResult:
+    """Evaluate a scenario's runs and write its results (`write_results`), replacing what
+    an earlier run left in out_dir: the second half of `run_loaded_scenario`, for runs
+    simulated elsewhere too (`hlcmp report`'s, one task per controller).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        As it ran.
+    runs : dict of str to RunResult
+        Every controller's run, by label, in the scenario's order.
+    path, out_dir, claims
+        As for `run_loaded_scenario`.
+    build : callable, optional
+        The scenario's `diagram_factory`, to draw the diagram's graph (made here when not
+        given).
+
+    Returns
+    -------
+    ScenarioResult
+    """
+    experiment = experiment_of(scenario, path)
+    out_dir = Path(out_dir or Path("out") / scenario.name)
+    build = build or diagram_factory(scenario)
     metrics = evaluate(runs, scenario, experiment if claims else without_claims(experiment))
     figures = experiment.figures(runs, scenario) if metrics["status"] == "ok" else {}
     with outputs.replacing_outputs(out_dir):  # a reused folder keeps no older run's files
