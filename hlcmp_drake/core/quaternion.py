@@ -1,5 +1,8 @@
 """Unit quaternions of rotations, scalar first: q = (w, x, y, z), Drake's `Quaternion(w, x, y,
 z)` order; q and -q are one rotation. Pure numpy, every function vectorized over leading axes.
+Those a controller tick needs are also `jitable` (`core.kernels`): written in numba's nopython
+subset, which compiles them for one quaternion or vector (1-D arrays); `cross`, `to_matrix` and
+`skew`, which branch on their argument's ndim, take float arrays only (not lists).
 
 Conventions, each formula once:
 
@@ -14,10 +17,30 @@ Conventions, each formula once:
 
 import numpy as np
 
+from hlcmp_drake.core.kernels import jitable
+
 # Below this angle [rad] Exp and Log use their Taylor limits (the axis is undefined at 0).
 SMALL_ANGLE = 1e-9
 
 
+@jitable
+def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a . b of (..., 3) arrays over their last axis, kept as (..., 1): np.sum's order of
+    the three products, so equal to it (and to np.linalg.norm's square) to the bit, without
+    its keepdims, which numba lacks.
+
+    Parameters
+    ----------
+    a, b : (..., 3) arrays
+
+    Returns
+    -------
+    (..., 1) array
+    """
+    return a[..., :1] * b[..., :1] + a[..., 1:2] * b[..., 1:2] + a[..., 2:] * b[..., 2:]
+
+
+@jitable
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a x b of (..., 3) arrays (leading axes broadcast): np.cross's products in its order,
     without its axis handling, which costs several µs per call on one 3-vector in a 1 kHz
@@ -31,15 +54,17 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     -------
     (..., 3) array
     """
-    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
     parts = (a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0)
-    if a.ndim == 1 and b.ndim == 1:
-        return np.array(parts)
+    # Two ifs: numba compiles only the branch an argument's ndim takes, not on a compound test.
+    if a.ndim == 1:
+        if b.ndim == 1:
+            return np.array(parts)
     return np.stack(parts, axis=-1)
 
 
+@jitable
 def multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """The Hamilton product a b.
 
@@ -53,14 +78,15 @@ def multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     (..., 4) array
         a b: the rotation b, then a (both in the world frame).
     """
-    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
     aw, av = a[..., :1], a[..., 1:]
     bw, bv = b[..., :1], b[..., 1:]
-    w = aw * bw - np.sum(av * bv, axis=-1, keepdims=True)
+    w = aw * bw - dot(av, bv)
     v = aw * bv + bw * av + cross(av, bv)
-    return np.concatenate([w, v], axis=-1)
+    return np.concatenate((w, v), axis=-1)
 
 
+@jitable
 def conjugate(q: np.ndarray) -> np.ndarray:
     """q* = (w, -x, -y, -z), the inverse rotation of a unit quaternion.
 
@@ -72,8 +98,8 @@ def conjugate(q: np.ndarray) -> np.ndarray:
     -------
     (..., 4) array
     """
-    q = np.asarray(q, dtype=float)
-    return np.concatenate([q[..., :1], -q[..., 1:]], axis=-1)
+    q = np.asarray(q, dtype=np.float64)
+    return np.concatenate((q[..., :1], -q[..., 1:]), axis=-1)
 
 
 def from_rotation_vector(v: np.ndarray) -> np.ndarray:
@@ -97,6 +123,7 @@ def from_rotation_vector(v: np.ndarray) -> np.ndarray:
     return np.concatenate([np.cos(theta / 2.0), half_sinc * v], axis=-1)
 
 
+@jitable
 def to_rotation_vector(q: np.ndarray) -> np.ndarray:
     """2 Log(q), the principal rotation vector of a unit quaternion: |v| <= pi.
 
@@ -113,10 +140,10 @@ def to_rotation_vector(q: np.ndarray) -> np.ndarray:
     (..., 3) array
         Rotation vector [rad], |v| in [0, pi].
     """
-    q = np.asarray(q, dtype=float)
+    q = np.asarray(q, dtype=np.float64)
     q = np.where(q[..., :1] < 0.0, -q, q)
     w, u = q[..., :1], q[..., 1:]
-    sin_half = np.linalg.norm(u, axis=-1, keepdims=True)
+    sin_half = np.sqrt(dot(u, u))
     theta = 2.0 * np.arctan2(sin_half, w)
     small = sin_half < SMALL_ANGLE
     scale = np.where(small, 2.0 / np.where(small, w, 1.0), theta / np.where(small, 1.0, sin_half))
@@ -143,6 +170,7 @@ def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
     return v + w * t + cross(u, t)
 
 
+@jitable
 def to_matrix(q: np.ndarray) -> np.ndarray:
     """R(q), the rotation matrix of a unit quaternion: R(q) v = `rotate`(q, v).
 
@@ -162,17 +190,18 @@ def to_matrix(q: np.ndarray) -> np.ndarray:
     -------
     (..., 3, 3) array
     """
-    w, x, y, z = np.moveaxis(np.asarray(q, dtype=float), -1, 0)
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
     rows = [
         [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)],
         [2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)],
         [2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)],
     ]
-    if np.ndim(w) == 0:  # one quaternion: no axes to move
+    if q.ndim == 1:  # one quaternion: no axes to move
         return np.array(rows)
     return np.moveaxis(np.array(rows), (0, 1), (-2, -1))
 
 
+@jitable
 def left_jacobian(v: np.ndarray) -> np.ndarray:
     """The left Jacobian of SO(3): the world-frame angular velocity of Exp(v) is J_l(v) v'.
 
@@ -191,8 +220,8 @@ def left_jacobian(v: np.ndarray) -> np.ndarray:
     -------
     (..., 3, 3) array
     """
-    v = np.asarray(v, dtype=float)
-    theta = np.linalg.norm(v, axis=-1)[..., None, None]
+    v = np.asarray(v, dtype=np.float64)
+    theta = np.sqrt(dot(v, v))[..., None]
     small = theta < 1e-4
     safe = np.where(small, 1.0, theta)
     # Taylor series below 1e-4 rad: (1 - cos)/theta^2 -> 1/2 - theta^2/24, (theta - sin)/theta^3
@@ -248,6 +277,7 @@ def left_jacobian_rate(v: np.ndarray, vdot: np.ndarray) -> np.ndarray:
     return a_rate * along * normal + b_rate * along * cross(v, normal) + b * cross(vdot, normal)
 
 
+@jitable
 def skew(v: np.ndarray) -> np.ndarray:
     """[v]x, the matrix of the cross product v x (.).
 
@@ -259,7 +289,6 @@ def skew(v: np.ndarray) -> np.ndarray:
     -------
     (..., 3, 3) array
     """
-    v = np.asarray(v, dtype=float)
     x, y, z = v[..., 0], v[..., 1], v[..., 2]
     if v.ndim == 1:
         return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
