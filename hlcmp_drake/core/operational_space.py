@@ -9,6 +9,8 @@ Sizes: M task-space axes, nv joint velocities; J is (M, nv).
 import numpy as np
 
 from hlcmp_drake.core.kernels import jitable
+from hlcmp_drake.core.quaternion import cross
+from hlcmp_drake.core.task_inertia import conditioned_task_inertia
 
 
 @jitable
@@ -40,9 +42,75 @@ def operational_space_terms(
     """
     minv_jt = np.linalg.solve(mass, jacobian.T)
     inertia = np.linalg.inv(jacobian @ minv_jt)
+    jbar, gravity, null_space = dynamically_consistent_terms(
+        minv_jt, inertia, jacobian, joint_gravity
+    )
+    return inertia, jbar, gravity, null_space
+
+
+@jitable
+def dynamically_consistent_terms(
+    minv_jt: np.ndarray, inertia: np.ndarray, jacobian: np.ndarray, joint_gravity: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """J̄ = M^-1 J^T Λ, G_x = J̄^T G(q) and N^T = I - J^T J̄^T, from M^-1 J^T and the task's
+    Λ (the exact inverse, or `core.task_inertia.conditioned_task_inertia`'s).
+
+    Parameters
+    ----------
+    minv_jt : (nv, M) array
+        M^-1 J^T.
+    inertia : (M, M) array
+        Λ [kg, or kg m^2 by block for a 6-D task].
+    jacobian : (M, nv) array
+        J.
+    joint_gravity : (nv,) array
+        G(q).
+
+    Returns
+    -------
+    jbar : (nv, M) array
+        J̄.
+    gravity : (M,) array
+        G_x.
+    null_space : (nv, nv) array
+        N^T [-].
+    """
     jbar = minv_jt @ inertia
-    null_space = np.eye(mass.shape[0]) - jacobian.T @ jbar.T
-    return inertia, jbar, jbar.T @ joint_gravity, null_space
+    null_space = np.eye(jacobian.shape[1]) - jacobian.T @ jbar.T
+    return jbar, jbar.T @ joint_gravity, null_space
+
+
+@jitable
+def spatial_operational_space_terms(
+    mass: np.ndarray, jacobian: np.ndarray, joint_gravity: np.ndarray, floor: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
+    """`operational_space_terms` of a 6-D task ([rotation; translation] rows), its Λ kept
+    bounded near a singularity (`core.task_inertia.conditioned_task_inertia`, two blocks).
+
+    Parameters
+    ----------
+    mass : (nv, nv) array
+        M(q).
+    jacobian : (6, nv) array
+        J, the spatial Jacobian, angular rows first.
+    joint_gravity : (nv,) array
+        G(q) [N m].
+    floor : float
+        The eigenvalue floor of the conditioning [-].
+
+    Returns
+    -------
+    inertia, jbar, gravity, null_space
+        As `operational_space_terms` (Λ and p = J̄^T G(q) by block [N m; N]).
+    floored : int
+        The eigenvalues raised to the floor.
+    """
+    minv_jt = np.linalg.solve(mass, jacobian.T)
+    inertia, floored = conditioned_task_inertia(jacobian @ minv_jt, 2, floor)
+    jbar, gravity, null_space = dynamically_consistent_terms(
+        minv_jt, inertia, jacobian, joint_gravity
+    )
+    return inertia, jbar, gravity, null_space, floored
 
 
 @jitable
@@ -75,6 +143,52 @@ def polarized_coriolis(
         C_x w [N].
     """
     return (jbar.T @ (bias_plus - bias_minus) - inertia @ (accel_plus - accel_minus)) / 4.0
+
+
+@jitable
+def spatial_polarized_coriolis(
+    jbar: np.ndarray,
+    inertia: np.ndarray,
+    jacobian: np.ndarray,
+    velocities: np.ndarray,
+    joint_velocity: np.ndarray,
+    bias_plus: np.ndarray,
+    bias_minus: np.ndarray,
+    accel_plus: np.ndarray,
+    accel_minus: np.ndarray,
+) -> np.ndarray:
+    """C_x w of a 6-D task (angular rows first), u = J̄ w: `polarized_coriolis` less
+    Λ [(J_w v) x (J_w u) / 2; 0], since the polarization gives only the symmetric part of the
+    angular rows' J'(v) u (`systems.spatial_task_space.SpatialCoriolisProduct`).
+
+    Parameters
+    ----------
+    jbar : (nv, 6) array
+        J̄.
+    inertia : (6, 6) array
+        Λ.
+    jacobian : (6, nv) array
+        J, angular rows first.
+    velocities : (nv,) array
+        v, the plant's velocities.
+    joint_velocity : (nv,) array
+        u = J̄ w.
+    bias_plus, bias_minus : (nv,) arrays
+        b(v + u) and b(v - u) [N m].
+    accel_plus, accel_minus : (6,) arrays
+        a(v + u) and a(v - u), the spatial bias accelerations [rad/s^2; m/s^2].
+
+    Returns
+    -------
+    (6,) array
+        C_x w [N m; N].
+    """
+    angular_jacobian = np.ascontiguousarray(jacobian[:3])
+    antisymmetric = 0.5 * cross(angular_jacobian @ velocities, angular_jacobian @ joint_velocity)
+    return (
+        polarized_coriolis(jbar, inertia, bias_plus, bias_minus, accel_plus, accel_minus)
+        - np.ascontiguousarray(inertia[:, :3]) @ antisymmetric
+    )
 
 
 def prismatic_task_dynamics(

@@ -1,13 +1,16 @@
 """The task-space inertia Lambda = (J M^-1 J^T)^-1 of an operational-space task, kept
-bounded near a singularity. Pure numpy."""
+bounded near a singularity. Pure numpy, `jitable` (`core.kernels`)."""
 
 import numpy as np
+
+from hlcmp_drake.core.kernels import jitable
 
 # The floor on the eigenvalues of the block-scaled J M^-1 J^T (mean eigenvalue 1): an
 # eigenvalue below it is raised to it. See `conditioned_task_inertia`.
 EIGENVALUE_FLOOR = 1e-3
 
 
+@jitable
 def conditioned_task_inertia(
     inverse_inertia: np.ndarray, blocks: int = 2, floor: float = EIGENVALUE_FLOOR
 ) -> tuple[np.ndarray, int]:
@@ -61,23 +64,17 @@ def conditioned_task_inertia(
     ValueError
         If a block of Phi is zero (no joint moves the task in those directions at all).
     """
-    phi = np.asarray(inverse_inertia, dtype=float)
+    phi = np.asarray(inverse_inertia, dtype=np.float64)
     size = len(phi) // blocks
-    block_means = (
-        np.array(
-            [
-                np.trace(phi[b * size : (b + 1) * size, b * size : (b + 1) * size])
-                for b in range(blocks)
-            ]
-        )
-        / size
-    )
-    if np.any(block_means <= 0.0):
-        raise ValueError(f"J M^-1 J^T has a zero block (mean eigenvalues {block_means})")
+    block_means = np.empty(blocks)
+    for b in range(blocks):
+        block_means[b] = np.trace(phi[b * size : (b + 1) * size, b * size : (b + 1) * size]) / size
+    if np.any(block_means <= 0.0):  # a constant message: numba raises no formatted one
+        raise ValueError("J M^-1 J^T has a zero block: no joint moves the task along it")
     scale = np.repeat(1.0 / np.sqrt(block_means), size)
     sigma, u = np.linalg.eigh(scale[:, None] * phi * scale[None, :])
     floored = int(np.count_nonzero(sigma < floor))
-    if floored == 0:
-        return np.linalg.inv(phi), 0
+    if floored == 0:  # C order, as the floored branch's: one array type when compiled
+        return np.ascontiguousarray(np.linalg.inv(phi)), 0
     scaled_inverse = (u / np.maximum(sigma, floor)) @ u.T
     return scale[:, None] * scaled_inverse * scale[None, :], floored
