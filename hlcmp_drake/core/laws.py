@@ -529,15 +529,51 @@ class HlcmpLaw:
                 gains.q_d,
                 gains.q_v,
             )
-            return LawOutput(out[:m], self._logs(out), lambda: out[6 * m :])
+            return LawOutput(out[:m], self._logs(out), self._learning(lambda: out[6 * m :], theta))
         motion = self._motion(now.x, now.xdot, now.xd, now.xd_dot, now.xd_ddot, gains.pi)
+        return self.command_from_motion(
+            motion, now.inertia, now.coriolis @ motion[3 * m : 4 * m], now.gravity, now.phase, theta
+        )
+
+    def command_from_motion(
+        self,
+        motion: np.ndarray,
+        inertia: np.ndarray,
+        coriolis_term: np.ndarray,
+        gravity: np.ndarray,
+        phase: float,
+        theta: np.ndarray,
+    ) -> LawOutput:
+        """`command` after `impedance_motion` and C_x x_e' are formed (as the 6-D
+        `core.rotation_law.PoseLaw` forms them, with the rotation's coupling).
+
+        Parameters
+        ----------
+        motion : (5 M,) array
+            From `impedance_motion`.
+        inertia : (M, M) array
+            Λ [kg], contiguous.
+        coriolis_term : (M,) array
+            C_x x_e' [N].
+        gravity : (M,) array
+            G_x [N].
+        phase : float
+            s [-].
+        theta : (3 M N,) array
+
+        Returns
+        -------
+        LawOutput
+            As `command`'s; θ' when first read.
+        """
+        gains, m = self.gains, self.n_axes
         out = self._force(
             motion,
-            now.inertia,
-            now.coriolis @ motion[3 * m : 4 * m],
-            now.gravity,
+            inertia,
+            coriolis_term,
+            gravity,
             gains.gain_l,
-            now.phase,
+            phase,
             theta,
             self.centers,
             self.widths,
@@ -546,7 +582,13 @@ class HlcmpLaw:
         def rates():
             return self._rates(motion, out[6 * m :], gains.q_k, gains.q_d, gains.q_v)
 
-        return LawOutput(out[:m], self._logs(out), rates)
+        return LawOutput(out[:m], self._logs(out), self._learning(rates, theta))
+
+    def _learning(
+        self, paper_rates: Callable[[], np.ndarray], theta: np.ndarray
+    ) -> Callable[[], np.ndarray]:
+        """θ' as this law learns, from Eq. 31's: the paper's own here."""
+        return paper_rates
 
     def _logs(self, out: np.ndarray) -> dict[str, np.ndarray]:
         """The series in `hlcmp_force`'s layout: f_c, K_s, K_d, v, u, ε."""
@@ -580,26 +622,15 @@ class HlcmpForgettingLaw(HlcmpLaw):
         super().__init__(centers, widths, gains)
         self.forgetting_per_s = float(forgetting_per_s)
 
-    def command(self, now: TaskSpaceInstant, theta: np.ndarray) -> LawOutput:
-        """As `HlcmpLaw.command`, with the forgetting term in θ'.
-
-        Parameters
-        ----------
-        now : TaskSpaceInstant
-        theta : (3 M N,) array
-
-        Returns
-        -------
-        LawOutput
-        """
-        paper = super().command(now, theta)
-        paper_rates = paper.rates_of
-        assert paper_rates is not None
+    def _learning(
+        self, paper_rates: Callable[[], np.ndarray], theta: np.ndarray
+    ) -> Callable[[], np.ndarray]:
+        """θ' = Eq. 31 - γ θ, from Eq. 31's."""
 
         def rates() -> np.ndarray:
             return forgetting_rates(paper_rates(), theta, self.forgetting_per_s)
 
-        return LawOutput(paper.force, paper.logs, rates)
+        return rates
 
 
 class ConstantImpedanceLaw:
@@ -657,14 +688,39 @@ class ConstantImpedanceLaw:
         """
         motion = self._motion(now.x, now.xdot, now.xd, now.xd_dot, now.xd_ddot, self.pi)
         m = self.n_axes
+        return self.command_from_motion(
+            motion, now.inertia, now.coriolis @ motion[3 * m : 4 * m], now.gravity, now.phase
+        )
+
+    def command_from_motion(
+        self,
+        motion: np.ndarray,
+        inertia: np.ndarray,
+        coriolis_term: np.ndarray,
+        gravity: np.ndarray,
+        phase: float,
+        theta: np.ndarray | None = None,
+    ) -> LawOutput:
+        """`command` after `impedance_motion` and C_x x_e' are formed, as for
+        `HlcmpLaw.command_from_motion`.
+
+        Parameters
+        ----------
+        motion : (5 M,) array
+        inertia : (M, M) array
+        coriolis_term, gravity : (M,) arrays
+        phase : float
+            Unused.
+        theta : None
+            Unused.
+
+        Returns
+        -------
+        LawOutput
+            force f_c [N], no logs, no rates.
+        """
         force = self._command(
-            motion,
-            now.inertia,
-            now.coriolis @ motion[3 * m : 4 * m],
-            now.gravity,
-            self.gain_l,
-            self.k_s,
-            self.k_d,
+            motion, inertia, coriolis_term, gravity, self.gain_l, self.k_s, self.k_d
         )
         return LawOutput(force, {})
 
