@@ -7,8 +7,10 @@ import numpy as np
 import pytest
 
 from hlcmp_drake.core import quaternion as quat
+from hlcmp_drake.core.kernels import kernel_chosen
+from hlcmp_drake.core.operational_space import task_joint_torque
 from hlcmp_drake.core.task_inertia import EIGENVALUE_FLOOR, conditioned_task_inertia
-from hlcmp_drake.systems.spatial_task_space import SpatialTaskSpaceModel, wrench_to_joint_torque
+from hlcmp_drake.systems.spatial_task_space import SpatialTaskSpaceModel
 
 MOVING = np.array([0.4, -0.7, 0.5, 0.3, -0.2, 0.6, -0.9])  # a joint velocity [rad/s]
 
@@ -53,7 +55,11 @@ def test_the_jacobian_is_the_derivative_of_the_tool_pose(arm, model):
     np.testing.assert_allclose(terms.spatial_velocity, jac @ MOVING)
 
 
-def test_lambda_is_the_inverse_of_the_inverse_task_inertia_at_a_working_pose(arm, model):
+def test_lambda_is_the_inverse_of_the_inverse_task_inertia_at_a_working_pose(arm):
+    # numpy's inverse to the bit on the numpy path (the compiled one agrees with it to
+    # 1e-12: tests/test_systems_pose_control.py)
+    with kernel_chosen("numpy"):
+        model = SpatialTaskSpaceModel(arm.plant, arm.tip)
     terms = _at_rest(arm, model)
     jac, mass = terms.jacobian, _mass(arm, model)
     phi = jac @ np.linalg.solve(mass, jac.T)
@@ -164,14 +170,15 @@ def test_the_null_space_is_the_seventh_joints_and_moves_no_part_of_the_pose(arm,
 
 
 def test_the_wrench_map_adds_the_torque_below_the_task_and_saturates(arm, model):
+    """The 6-D tick's map: `task_joint_torque` with the spatial Jacobian."""
     terms = _at_rest(arm, model)
     limits = np.array([320.0, 320, 176, 176, 110, 40, 40])
     below = terms.null_space @ terms.joint_gravity
     wrench = np.array([0.5, -1.0, 2.0, 5.0, -3.0, 10.0])
-    torque, saturated = wrench_to_joint_torque(terms, wrench, below, limits)
+    torque, saturated = task_joint_torque(terms.jacobian, wrench, below, limits)
     np.testing.assert_allclose(torque, terms.jacobian.T @ wrench + below)
     assert saturated == 0
-    torque, saturated = wrench_to_joint_torque(terms, np.full(6, 1e4), below, limits)
+    torque, saturated = task_joint_torque(terms.jacobian, np.full(6, 1e4), below, limits)
     assert saturated > 0 and np.all(np.abs(torque) <= limits)
 
 

@@ -73,29 +73,25 @@ arXiv:1812.01537, 2018 (right Jacobian, body rates).
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
-from typing import cast
 
 import numpy as np
 
 from hlcmp_drake.core import quaternion as quat
-from hlcmp_drake.core.adaptation import adaptation_rates, compliant_profiles
-from hlcmp_drake.core.control_law import (
-    impedance_force,
-    reference_motion,
-    sliding_error,
-    tracking_errors,
-)
+from hlcmp_drake.core.adaptation import compliant_profiles
+from hlcmp_drake.core.control_law import impedance_force, sliding_error
 from hlcmp_drake.core.dmp import normalized_basis
+from hlcmp_drake.core.kernels import implementation, jitable, kernel_path
 from hlcmp_drake.core.laws import (
     ConstantImpedanceLaw,
     HlcmpGains,
     LawOutput,
-    TaskSpaceInstant,
+    hlcmp_rates,
+    impedance_motion,
 )
 
 
+@jitable
 def rotation_errors(
     q: np.ndarray, omega: np.ndarray, q_d: np.ndarray, omega_d: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -118,10 +114,11 @@ def rotation_errors(
         The angular velocity error [rad/s], the measured tool frame.
     """
     e_r = quat.to_rotation_vector(quat.multiply(quat.conjugate(q_d), q))
-    omega_e = quat.to_matrix(q).T @ (np.asarray(omega, float) - omega_d)
+    omega_e = quat.to_matrix(q).T @ (omega - omega_d)
     return e_r, omega_e
 
 
+@jitable
 def rotational_reference(
     rotation: np.ndarray,
     omega: np.ndarray,
@@ -160,12 +157,13 @@ def rotational_reference(
         World frame [rad/s], [rad/s^2].
     """
     error_world = rotation @ e_r
-    error_rate = np.linalg.solve(quat.left_jacobian(-np.asarray(e_r, float)), omega_e)
+    error_rate = np.linalg.solve(quat.left_jacobian(-e_r), omega_e)
     omega_ref = omega_d - pi * error_world
     omega_ref_dot = omega_d_dot - pi * (quat.cross(omega, error_world) + rotation @ error_rate)
     return omega_ref, omega_ref_dot
 
 
+@jitable
 def rotational_torque(
     torque_nominal: np.ndarray,
     rotation: np.ndarray,
@@ -248,43 +246,228 @@ class PoseInstant:
     gravity: np.ndarray
 
 
-class CoriolisWithRotationFixed:
-    """The translational rows of C_x [omega_ref; w] as an operator on w: how the 6-D
-    Coriolis term looks to the translational law, whose own reference velocity is w = x_e'.
-    Keeps the whole 6-D product of its last use, whose rotational rows the rotational
-    torque needs (one product per tick, as the 3-D law has).
+@jitable
+def rotational_motion(
+    q: np.ndarray,
+    omega: np.ndarray,
+    q_d: np.ndarray,
+    omega_d: np.ndarray,
+    omega_d_dot: np.ndarray,
+    pi: float,
+) -> np.ndarray:
+    """The rotational analogue of `laws.impedance_motion` in one array: `rotation_errors`,
+    eps_r (Eq. 29, `control_law.sliding_error`) and `rotational_reference`, then R.
 
-    For a (6, 6) matrix the rows are C_vv w + C_vw omega_ref, so that with no coupling
-    (C_vw = 0) the translational law sees exactly C_vv w.
+    Parameters
+    ----------
+    q, q_d : (4,) arrays
+        Measured and desired tool orientations, world, unit quaternions (w, x, y, z).
+    omega, omega_d : (3,) arrays
+        Measured and desired angular velocities, world [rad/s].
+    omega_d_dot : (3,) array
+        Desired angular acceleration, world [rad/s^2].
+    pi : float
+        pi_r [1/s].
+
+    Returns
+    -------
+    (24,) array
+        e_r [rad], omega_e [rad/s], eps_r [rad/s] (tool frame), omega_ref [rad/s],
+        omega_ref' [rad/s^2] (world): the layout of `impedance_motion` with M = 3, which
+        `laws.hlcmp_rates` reads; then R (`quaternion.to_matrix`), row-major.
+    """
+    e_r, omega_e = rotation_errors(q, omega, q_d, omega_d)
+    rotation = quat.to_matrix(q)
+    omega_ref, omega_ref_dot = rotational_reference(
+        rotation, omega, e_r, omega_e, omega_d, omega_d_dot, pi
+    )
+    return np.concatenate(
+        (e_r, omega_e, sliding_error(e_r, omega_e, pi), omega_ref, omega_ref_dot, rotation.ravel())
+    )
+
+
+@jitable
+def pose_motion(
+    x: np.ndarray,
+    xdot: np.ndarray,
+    xd: np.ndarray,
+    xd_dot: np.ndarray,
+    xd_ddot: np.ndarray,
+    q: np.ndarray,
+    omega: np.ndarray,
+    q_d: np.ndarray,
+    omega_d: np.ndarray,
+    omega_d_dot: np.ndarray,
+    pi: float,
+    pi_r: float,
+) -> np.ndarray:
+    """What a 6-D law computes before C_x V_e: `laws.impedance_motion` (15,), then
+    `rotational_motion` (24,).
+
+    Parameters
+    ----------
+    x, xdot, xd, xd_dot, xd_ddot : (3,) arrays
+        Measured and desired translation [m], [m/s], [m/s^2], world.
+    q, omega, q_d, omega_d, omega_d_dot
+        As for `rotational_motion`.
+    pi, pi_r : float
+        The translational and rotational slopes [1/s].
+
+    Returns
+    -------
+    (39,) array
+    """
+    return np.concatenate(
+        (
+            impedance_motion(x, xdot, xd, xd_dot, xd_ddot, pi),
+            rotational_motion(q, omega, q_d, omega_d, omega_d_dot, pi_r),
+        )
+    )
+
+
+@jitable
+def pose_nominal_split(
+    motion: np.ndarray, inertia: np.ndarray, coriolis_term: np.ndarray, gravity: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Lambda V_e' + C_x V_e + p by rows (`PoseLaw`): what the translational law takes in
+    place of its Lambda and G_x, and the rotational rows tau_0.
+
+    Parameters
+    ----------
+    motion : (39,) array
+        From `pose_motion`.
+    inertia : (6, 6) array
+        Lambda.
+    coriolis_term : (6,) array
+        C_x V_e [N m; N].
+    gravity : (6,) array
+        p [N m; N].
+
+    Returns
+    -------
+    translational_inertia : (3, 3) array
+        Lambda_vv, contiguous.
+    translational_gravity : (3,) array
+        p_v + Lambda_vw omega_ref' [N].
+    torque_nominal : (3,) array
+        tau_0 = Lambda_ww omega_ref' + Lambda_wv x_e'' + (C_x V_e)_w + p_w [N m].
+    """
+    xe_ddot, omega_ref_dot = motion[12:15], motion[27:30]
+    return (
+        np.ascontiguousarray(inertia[3:, 3:]),
+        gravity[3:] + np.ascontiguousarray(inertia[3:, :3]) @ omega_ref_dot,
+        np.ascontiguousarray(inertia[:3, :3]) @ omega_ref_dot
+        + np.ascontiguousarray(inertia[:3, 3:]) @ xe_ddot
+        + coriolis_term[:3]
+        + gravity[:3],
+    )
+
+
+@jitable
+def rotational_hlcmp_torque(
+    motion: np.ndarray,
+    torque_nominal: np.ndarray,
+    gain_l: np.ndarray,
+    phase: float,
+    theta: np.ndarray,
+    centers: np.ndarray,
+    widths: np.ndarray,
+) -> np.ndarray:
+    """The rotational Hl-CMP's command after `rotational_motion`: g(s) (Eq. 16), K_r, D_r,
+    v_r (Eq. 14), u_r (Eq. 4) and tau_c (`rotational_torque`).
+
+    Parameters
+    ----------
+    motion : (24,) array
+        From `rotational_motion`.
+    torque_nominal : (3,) array
+        tau_0 [N m], world (`pose_nominal_split`).
+    gain_l : (3,) array
+        Diagonal of L_r [N m s/rad].
+    phase : float
+        s [-].
+    theta : (9 N,) array
+        [θ_kr, θ_dr, θ_vr], each (3, N) row-major.
+    centers, widths : (N,) arrays
+        The phase basis.
+
+    Returns
+    -------
+    (18 + N,) array
+        tau_c [N m] (world), K_r [N m/rad], D_r [N m s/rad], v_r [N m], u_r [N m], eps_r
+        [rad/s] (tool frame), then g(s).
+    """
+    e_r, omega_e, eps_r = motion[:3], motion[3:6], motion[6:9]
+    g = normalized_basis(np.array([phase]), centers, widths)[0]
+    weights = theta.reshape(3, 3, centers.shape[0])
+    k_r, d_r, v_r = compliant_profiles(weights[0], weights[1], weights[2], g)
+    u_r = impedance_force(k_r, d_r, e_r, omega_e)
+    rotation = motion[15:].reshape(3, 3)
+    torque = rotational_torque(torque_nominal, rotation, gain_l, eps_r, u_r, v_r)
+    return np.concatenate((torque, k_r, d_r, v_r, u_r, eps_r, g))
+
+
+@jitable
+def rotational_impedance_torque(
+    motion: np.ndarray,
+    torque_nominal: np.ndarray,
+    gain_l: np.ndarray,
+    stiffness: np.ndarray,
+    damping: np.ndarray,
+) -> np.ndarray:
+    """The constant rotational impedance's command after `rotational_motion`: u_r = K_r e_r +
+    D_r omega_e (Eq. 4), v_r = 0, tau_c (`rotational_torque`).
+
+    Parameters
+    ----------
+    motion, torque_nominal, gain_l
+        As for `rotational_hlcmp_torque`.
+    stiffness, damping : (3,) arrays
+        Diagonals of K_r [N m/rad] and D_r [N m s/rad].
+
+    Returns
+    -------
+    (3,) array
+        tau_c [N m], world.
+    """
+    e_r, omega_e, eps_r = motion[:3], motion[3:6], motion[6:9]
+    u_r = impedance_force(stiffness, damping, e_r, omega_e)
+    rotation = motion[15:].reshape(3, 3)
+    return rotational_torque(torque_nominal, rotation, gain_l, eps_r, u_r, np.zeros(3))
+
+
+def spatial_coriolis_term(coriolis, omega_ref: np.ndarray, xe_dot: np.ndarray) -> np.ndarray:
+    """C_x V_e with V_e = [omega_ref; x_e']: the one product of Drake's operator; of a (6, 6)
+    matrix by blocks, so that with no coupling (C_vw = 0) the translational rows are
+    exactly C_vv x_e', as the 3-D law forms them.
 
     Parameters
     ----------
     coriolis : (6, 6) array or operator with `@`
         C_x, angular rows and columns first.
-    omega_ref : (3,) array
-        The rotational reference velocity [rad/s], world.
+    omega_ref, xe_dot : (3,) arrays
+        The reference velocities [rad/s], [m/s], world.
+
+    Returns
+    -------
+    (6,) array
+        [N m; N].
     """
-
-    def __init__(self, coriolis, omega_ref: np.ndarray):
-        self._coriolis, self._omega_ref = coriolis, omega_ref
-        self.product: np.ndarray | None = None
-
-    def __matmul__(self, w: np.ndarray) -> np.ndarray:
-        c, omega = self._coriolis, self._omega_ref
-        if isinstance(c, np.ndarray):
-            self.product = np.concatenate(
-                [c[:3, :3] @ omega + c[:3, 3:] @ w, c[3:, 3:] @ w + c[3:, :3] @ omega]
-            )
-        else:
-            self.product = c @ np.concatenate([omega, w])
-        return self.product[3:]
+    if isinstance(coriolis, np.ndarray):
+        c = coriolis
+        return np.concatenate(
+            [c[:3, :3] @ omega_ref + c[:3, 3:] @ xe_dot, c[3:, 3:] @ xe_dot + c[3:, :3] @ omega_ref]
+        )
+    return coriolis @ np.concatenate([omega_ref, xe_dot])
 
 
 class RotationalHlcmp:
     """K_r [N m/rad], D_r [N m s/rad] and v_r [N m] per tool axis on the phase basis
     (Eqs. 14, 16: `adaptation.compliant_profiles`), u_r = K_r e_r + D_r omega_e (Eq. 4:
-    `control_law.impedance_force`), learned by Eq. 31 (`adaptation.adaptation_rates`) with
-    (e_r, omega_e, eps_r) in place of (e, e', eps).
+    `control_law.impedance_force`), learned by Eq. 31 (`adaptation.adaptation_rates`, by way
+    of `laws.hlcmp_rates`) with (e_r, omega_e, eps_r) in place of (e, e', eps); its
+    arithmetic `rotational_hlcmp_torque`, compiled or numpy as `core.kernels.kernel_path`
+    says when it is made.
 
     Parameters
     ----------
@@ -306,64 +489,61 @@ class RotationalHlcmp:
     def __init__(self, centers: np.ndarray, widths: np.ndarray, gains: HlcmpGains):
         self.centers, self.widths = np.asarray(centers, float), np.asarray(widths, float)
         self.gains, self.n_basis = gains, len(self.centers)
+        path = kernel_path()
+        self._torque = implementation(rotational_hlcmp_torque, path)
+        self._rates = implementation(hlcmp_rates, path)
 
     @property
     def theta_size(self) -> int:
         """9 N: θ_kr, θ_dr, θ_vr, each (3, N) row-major."""
         return 9 * self.n_basis
 
-    def feedback(
-        self,
-        phase: float,
-        e_r: np.ndarray,
-        omega_e: np.ndarray,
-        eps_r: np.ndarray,
-        theta: np.ndarray,
-    ) -> tuple[np.ndarray, np.ndarray, dict, Callable[[], np.ndarray] | None]:
-        """u_r, v_r, the series and θ_r' at this instant.
+    def command(
+        self, motion: np.ndarray, torque_nominal: np.ndarray, phase: float, theta: np.ndarray
+    ) -> LawOutput:
+        """tau_c, the series and θ_r' at this instant.
 
         Parameters
         ----------
+        motion : (24,) array
+            From `rotational_motion`.
+        torque_nominal : (3,) array
+            tau_0 [N m], world.
         phase : float
             s [-].
-        e_r, omega_e, eps_r : (3,) arrays
-            The rotational errors [rad], [rad/s], [rad/s], tool frame.
         theta : (9 N,) array
             θ_kr, θ_dr, θ_vr flattened.
 
         Returns
         -------
-        u_r, v_r : (3,) arrays
-            [N m], tool frame.
-        logs : dict
-            By `log_fields`.
-        rates_of : callable
-            θ_r' [per second], flattened as θ.
+        LawOutput
+            force: tau_c [N m], world; logs by `log_fields` (tool frame); rates θ_r'
+            [per second], flattened as θ, when first read.
         """
         gains = self.gains
-        g = normalized_basis(phase, self.centers, self.widths)
-        theta_kr, theta_dr, theta_vr = np.asarray(theta).reshape(3, 3, self.n_basis)
-        k_r, d_r, v_r = compliant_profiles(theta_kr, theta_dr, theta_vr, g)
-        u_r = impedance_force(k_r, d_r, e_r, omega_e)
+        out = self._torque(
+            motion, torque_nominal, gains.gain_l, phase, theta, self.centers, self.widths
+        )
+        logs = dict(
+            rotational_stiffness=out[3:6],
+            rotational_damping=out[6:9],
+            rotational_feedforward=out[9:12],
+            impedance_torque=out[12:15],
+            rotational_sliding_error=out[15:18],
+        )
 
         def rates() -> np.ndarray:
-            parts = adaptation_rates(eps_r, e_r, omega_e, g, gains.q_k, gains.q_d, gains.q_v)
-            return np.concatenate([r.ravel() for r in parts])
+            return self._rates(motion[:15], out[18:], gains.q_k, gains.q_d, gains.q_v)
 
-        logs = dict(
-            rotational_stiffness=k_r,
-            rotational_damping=d_r,
-            rotational_feedforward=v_r,
-            impedance_torque=u_r,
-            rotational_sliding_error=eps_r,
-        )
-        return u_r, v_r, logs, rates
+        return LawOutput(out[:3], logs, rates)
 
 
 class RotationalImpedance:
     """A constant rotational impedance u_r = K_r e_r + D_r omega_e with diagonal K_r
     [N m/rad], D_r [N m s/rad] per tool axis, v_r = 0, and its pi_r [1/s] and L_r
-    [N m s/rad]: the rotational half of the constant 6-D impedance baselines.
+    [N m s/rad]: the rotational half of the constant 6-D impedance baselines
+    (`rotational_impedance_torque`, compiled or numpy as `core.kernels.kernel_path` says
+    when it is made).
 
     Parameters
     ----------
@@ -384,37 +564,33 @@ class RotationalImpedance:
         self.gains = HlcmpGains(
             np.zeros(3), np.zeros(3), np.zeros(3), float(pi), np.asarray(gain_l, float)
         )
+        self._torque = implementation(rotational_impedance_torque, kernel_path())
 
-    def feedback(
-        self,
-        phase: float,
-        e_r: np.ndarray,
-        omega_e: np.ndarray,
-        eps_r: np.ndarray,
-        theta: np.ndarray,
-    ) -> tuple[np.ndarray, np.ndarray, dict, Callable[[], np.ndarray] | None]:
-        """u_r = K_r e_r + D_r omega_e, v_r = 0, no series and no rates.
+    def command(
+        self, motion: np.ndarray, torque_nominal: np.ndarray, phase: float, theta: np.ndarray
+    ) -> LawOutput:
+        """tau_c with u_r = K_r e_r + D_r omega_e and v_r = 0; no series and no rates.
 
         Parameters
         ----------
+        motion : (24,) array
+            From `rotational_motion`.
+        torque_nominal : (3,) array
+            tau_0 [N m], world.
         phase : float
             Unused (the impedance is constant).
-        e_r, omega_e : (3,) arrays
-            [rad], [rad/s], tool frame.
-        eps_r : (3,) array
-            Unused (L_r eps_r is `rotational_torque`'s).
         theta : (0,) array
             Unused.
 
         Returns
         -------
-        u_r, v_r : (3,) arrays
-            [N m], tool frame.
-        logs : dict
-            Empty.
-        rates_of : None
+        LawOutput
+            force: tau_c [N m], world; no logs, no rates.
         """
-        return impedance_force(self.stiffness, self.damping, e_r, omega_e), np.zeros(3), {}, None
+        torque = self._torque(
+            motion, torque_nominal, self.gains.gain_l, self.stiffness, self.damping
+        )
+        return LawOutput(torque, {})
 
 
 class PoseLaw:
@@ -422,19 +598,22 @@ class PoseLaw:
     unchanged) and a rotational part, on one phase basis: the wrench [tau_c; f_c] of the
     module's equations, by linearity split in two so that each half is its own law.
 
-    The 6-D nominal wrench Lambda V_e' + C_x V_e + p splits by rows: the translational law
-    is called exactly as in the 3-D world, with the translational blocks Lambda_vv and
-    (through `CoriolisWithRotationFixed`) C_x's rows, and the coupling Lambda_vw omega_ref'
-    added to its gravity p_v; so its errors, profiles, u, v, θ' are its own computations,
-    and with no coupling (Lambda_vw = 0, C_vw = 0) its force is the 3-D law's to the bit.
-    The rotational rows give tau_0 = Lambda_ww omega_ref' + Lambda_wv x_e'' + (C_x V_e)_w +
-    p_w, and `rotational_torque` the command.
+    The 6-D nominal wrench Lambda V_e' + C_x V_e + p splits by rows (`pose_nominal_split`):
+    the translational law is given exactly what the 3-D world gives it, with the
+    translational blocks Lambda_vv and C_x V_e's rows, and the coupling Lambda_vw
+    omega_ref' added to its gravity p_v; so its errors, profiles, u, v, θ' are its own
+    computations, and with no coupling (Lambda_vw = 0, C_vw = 0) its force is the 3-D law's
+    to the bit. The rotational rows give tau_0 = Lambda_ww omega_ref' + Lambda_wv x_e'' +
+    (C_x V_e)_w + p_w, and the rotational part the command (`rotational_torque`).
+
+    The arithmetic between the one Coriolis product (Drake's, on the fast path) is a few
+    compiled calls (`pose_motion`, `pose_nominal_split`, each half's own), or numpy, as
+    `core.kernels.kernel_path` says when the law and its halves are made.
 
     Parameters
     ----------
-    translational : ControlLaw
-        A `core.laws` law that does not read the external force (`HlcmpLaw`,
-        `HlcmpForgettingLaw`, `ConstantImpedanceLaw`), M = 3; its `gains.pi` or `pi` is the
+    translational : HlcmpLaw, HlcmpForgettingLaw or ConstantImpedanceLaw
+        A `core.laws` law with `command_from_motion`, M = 3; its `gains.pi` or `pi` is the
         translational slope of Eq. 29.
     rotational : RotationalHlcmp or RotationalImpedance
     """
@@ -449,6 +628,9 @@ class PoseLaw:
         self.log_fields = {**translational.log_fields, **rotational.log_fields}
         gains = getattr(translational, "gains", None)
         self.pi = gains.pi if gains is not None else translational.pi
+        path = kernel_path()
+        self._motion = implementation(pose_motion, path)
+        self._split = implementation(pose_nominal_split, path)
 
     @property
     def theta_size(self) -> int:
@@ -484,53 +666,37 @@ class PoseLaw:
         """
         theta = np.zeros(0) if theta is None else np.asarray(theta, float)
         split = self.translational.theta_size
-        rot = self.rotational.gains
-        e, edot = tracking_errors(now.x, now.xdot, now.xd, now.xd_dot)
-        xe_dot, xe_ddot = reference_motion(now.xd_dot, now.xd_ddot, e, edot, self.pi)
-        e_r, omega_e = rotation_errors(
-            now.orientation, now.omega, now.desired_orientation, now.omega_d
+        motion = self._motion(
+            now.x,
+            now.xdot,
+            now.xd,
+            now.xd_dot,
+            now.xd_ddot,
+            now.orientation,
+            now.omega,
+            now.desired_orientation,
+            now.omega_d,
+            now.omega_d_dot,
+            self.pi,
+            self.rotational.gains.pi,
         )
-        eps_r = sliding_error(e_r, omega_e, rot.pi)
-        rotation = quat.to_matrix(now.orientation)
-        omega_ref, omega_ref_dot = rotational_reference(
-            rotation, now.omega, e_r, omega_e, now.omega_d, now.omega_d_dot, rot.pi
+        # [e, e', eps, x_e', x_e''] (15), then [e_r, omega_e, eps_r, omega_ref, omega_ref', R]
+        translational_motion, rotational_motion = motion[:15], motion[15:]
+        coriolis_term = spatial_coriolis_term(now.coriolis, motion[24:27], motion[9:12])
+        inertia, gravity, torque_nominal = self._split(
+            motion, now.inertia, coriolis_term, now.gravity
         )
-        inertia = now.inertia
-        coriolis = CoriolisWithRotationFixed(now.coriolis, omega_ref)
-        translational = self.translational.command(
-            TaskSpaceInstant(
-                now.x,
-                now.xdot,
-                now.xd,
-                now.xd_dot,
-                now.xd_ddot,
-                now.phase,
-                np.ascontiguousarray(inertia[3:, 3:]),  # the compiled law's matmul wants it
-                # an operator with `@`, as TaskSpaceInstant.coriolis may be
-                cast(np.ndarray, coriolis),
-                now.gravity[3:] + inertia[3:, :3] @ omega_ref_dot,
-            ),
-            theta[:split],
+        translational = self.translational.command_from_motion(
+            translational_motion, inertia, coriolis_term[3:], gravity, now.phase, theta[:split]
         )
-        assert coriolis.product is not None, "the translational law forms C_x x_e'"
-        torque_nominal = (
-            inertia[:3, :3] @ omega_ref_dot
-            + inertia[:3, 3:] @ xe_ddot
-            + coriolis.product[:3]
-            + now.gravity[:3]
+        rotational = self.rotational.command(
+            rotational_motion, torque_nominal, now.phase, theta[split:]
         )
-        u_r, v_r, rotational_logs, rotational_rates = self.rotational.feedback(
-            now.phase, e_r, omega_e, eps_r, theta[split:]
-        )
-        wrench = np.concatenate(
-            [
-                rotational_torque(torque_nominal, rotation, rot.gain_l, eps_r, u_r, v_r),
-                translational.force,
-            ]
-        )
-        translational_rates = translational.rates_of
+        wrench = np.concatenate((rotational.force, translational.force))
+        logs = {**translational.logs, **rotational.logs}
+        translational_rates, rotational_rates = translational.rates_of, rotational.rates_of
         if translational_rates is None and rotational_rates is None:
-            return LawOutput(wrench, {**translational.logs, **rotational_logs})
+            return LawOutput(wrench, logs)
 
         def rates() -> np.ndarray:
             return np.concatenate(
@@ -540,7 +706,7 @@ class PoseLaw:
                 ]
             )
 
-        return LawOutput(wrench, {**translational.logs, **rotational_logs}, rates)
+        return LawOutput(wrench, logs, rates)
 
 
 @dataclass(frozen=True)

@@ -5,6 +5,10 @@ saturation -- the 6-D counterpart of `systems.control_loop.ControlTick`:
     plant state --SpatialTaskSpaceModel--> x, R, V, J, Λ, C_x, p, N^T, G(q)
     + reference (x_d, x_d', x_d'', R_d, ω_d, ω_d', s) + θ  --PoseLaw.command--> F, θ'
     τ = sat(J^T F + BelowTaskImpedance(orientation gains 0))
+
+Between the plant queries, the arithmetic is `core`'s functions, compiled by numba or plain
+numpy, as for the translational tick (`core.kernels.kernel_path` when the model, the law,
+the torque below the task and the tick are made).
 """
 
 from __future__ import annotations
@@ -13,15 +17,13 @@ import dataclasses as dc
 
 import numpy as np
 
+from hlcmp_drake.core.kernels import implementation, kernel_path
 from hlcmp_drake.core.laws import LawOutput
+from hlcmp_drake.core.operational_space import task_joint_torque
 from hlcmp_drake.core.rotation_law import PoseInstant, PoseLaw
 from hlcmp_drake.systems.arm import BelowTaskImpedance
 from hlcmp_drake.systems.ports import REFERENCE_PORTS
-from hlcmp_drake.systems.spatial_task_space import (
-    SpatialTaskSpaceModel,
-    SpatialTerms,
-    wrench_to_joint_torque,
-)
+from hlcmp_drake.systems.spatial_task_space import SpatialTaskSpaceModel, SpatialTerms
 
 
 @dc.dataclass
@@ -87,14 +89,18 @@ class PoseControlTick:
     model : SpatialTaskSpaceModel
         The tool frame's 6-D terms.
     below_task : BelowTaskImpedance
-        The posture held below the task; its orientation gains should be 0 (the
-        orientation is the task's).
+        The posture held below the task, of the model's tool frame (it reads that frame's
+        orientation and J_w from the model's terms); its orientation gains should be 0 (the
+        orientation is the task's). It must carry the null-space share N^T G(q) of the
+        gravity compensation (the task's share J^T Jbar^T G is in F's p).
     law : PoseLaw
     effort_limits : (nv,) array
         [N m].
 
     Attributes
     ----------
+    kernel : str
+        ``compiled`` or ``numpy``: the path of the tick's arithmetic.
     reference_ports : tuple of (str, int)
         x_d, x_d', x_d'' (3 each), s (1), then `ORIENTATION_REFERENCE_PORTS`.
     n_axes : int
@@ -102,6 +108,11 @@ class PoseControlTick:
     extra_series : dict of str to str
         The commanded torque tau_c (3, world [N m]) as "tau_c" and the tool's orientation
         (4, w x y z, world) as "q_tool".
+
+    Raises
+    ------
+    ValueError
+        When `below_task` holds another frame than the model's.
     """
 
     n_axes = 3
@@ -114,8 +125,16 @@ class PoseControlTick:
         law: PoseLaw,
         effort_limits: np.ndarray,
     ):
+        if below_task.frame.index() != model.frame.index():
+            raise ValueError(
+                f"the torque below the task holds {below_task.frame.name()!r}, the task "
+                f"model's frame is {model.frame.name()!r}: the tick reads the orientation "
+                "and J_w from the model's terms, so they must be one frame"
+            )
         self.model, self.below_task, self.law = model, below_task, law
         self.effort_limits = np.asarray(effort_limits, dtype=float)
+        self.kernel = kernel_path()
+        self._task_joint_torque = implementation(task_joint_torque, self.kernel)
         self.reference_ports = (
             *((name, 1 if name == "phase" else 3) for name in REFERENCE_PORTS),
             *ORIENTATION_REFERENCE_PORTS,
@@ -176,10 +195,12 @@ class PoseControlTick:
             terms.gravity,
         )
         out = self.law.command(now, theta)
-        below = self.below_task.torque(
-            state, terms.null_space, terms.joint_gravity, self.model.context
+        below = self.below_task.torque_at(
+            state, terms.null_space, terms.joint_gravity, terms.rotation, terms.angular_jacobian
         )
-        torque, saturated = wrench_to_joint_torque(terms, out.force, below, self.effort_limits)
+        torque, saturated = self._task_joint_torque(
+            terms.jacobian, out.force, below, self.effort_limits
+        )
         return PoseTickResult(terms, out, torque, saturated)
 
     def log_row(self, result: PoseTickResult) -> np.ndarray:

@@ -1,7 +1,8 @@
 """The 6-D task-space view of a MultibodyPlant, for control of the tool's pose: the tool
 frame's pose and spatial velocity, its spatial Jacobian, the 6-D task-space inertia,
 Coriolis and gravity terms of Eq. 2 and the null space left to a redundant arm, all from a
-control-side plant; and the map from a commanded wrench to saturated joint torques.
+control-side plant. The algebra on what Drake returns is `core.operational_space`'s, compiled
+or numpy as `core.kernels.kernel_path` says when the model is made.
 
 Spatial vectors are in Drake's order, angular first: V = [omega; v] (SpatialVelocity), F =
 [tau; f] (SpatialForce), world frame (measured and expressed), for the point P fixed on the
@@ -13,12 +14,15 @@ angular velocity Jacobian and rows 3-5 P's translational Jacobian (the 3-D
 from dataclasses import dataclass
 
 import numpy as np
-from pydrake.multibody.tree import JacobianWrtVariable
+from pydrake.multibody.tree import Frame, JacobianWrtVariable
 from pydrake.systems.framework import Context
 
-from hlcmp_drake.core import quaternion as quat
-from hlcmp_drake.core.task_inertia import EIGENVALUE_FLOOR, conditioned_task_inertia
-from hlcmp_drake.systems.task_space import saturate
+from hlcmp_drake.core.kernels import implementation, kernel_path
+from hlcmp_drake.core.operational_space import (
+    spatial_operational_space_terms,
+    spatial_polarized_coriolis,
+)
+from hlcmp_drake.core.task_inertia import EIGENVALUE_FLOOR
 
 
 @dataclass
@@ -48,6 +52,11 @@ class SpatialTerms:
     floored : int
         The eigenvalues of the scaled J M^-1 J^T raised to the floor (0 away from
         singularities).
+    rotation : (3, 3) array
+        R, the tool frame's orientation, world.
+    angular_jacobian : (3, nv) array
+        J_w, J's angular rows (contiguous), what `systems.arm.BelowTaskImpedance.torque_at`
+        reads.
     """
 
     position: np.ndarray
@@ -60,6 +69,8 @@ class SpatialTerms:
     null_space: np.ndarray
     joint_gravity: np.ndarray
     floored: int
+    rotation: np.ndarray
+    angular_jacobian: np.ndarray
 
 
 class SpatialTaskSpaceModel:
@@ -105,7 +116,9 @@ class SpatialTaskSpaceModel:
         self._context = plant.CreateDefaultContext()
         self.nq, self.nv = plant.num_positions(), plant.num_velocities()
         self._world = plant.world_frame()
-        self._identity = np.eye(self.nv)
+        path = kernel_path()
+        self._operational_space_terms = implementation(spatial_operational_space_terms, path)
+        self._polarized_coriolis = implementation(spatial_polarized_coriolis, path)
 
     @property
     def context(self) -> Context:
@@ -113,38 +126,51 @@ class SpatialTaskSpaceModel:
         (its velocities are changed by a `SpatialCoriolisProduct`)."""
         return self._context
 
-    def bias_pair(self, v: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The symmetric bilinear forms of the quadratic maps v -> C(q, v) v (CalcBiasTerm)
-        and v -> Jdot v (CalcBiasSpatialAcceleration), by polarization: (f(v + u) -
-        f(v - u)) / 4, at the positions of the last `terms` call. The first is C(q, v) u
-        (Christoffel symbols are symmetric); the second is Jdot(v) u for the translational
-        rows (a Hessian) but only the symmetric part of the angular rows' (see
+    @property
+    def frame(self) -> Frame:
+        """The tool frame."""
+        return self._frame
+
+    def coriolis_product(
+        self, v: np.ndarray, jacobian: np.ndarray, jbar: np.ndarray, inertia: np.ndarray, w
+    ) -> np.ndarray:
+        """C_x w at velocity v, from the quadratic maps v -> C(q, v) v (CalcBiasTerm) and
+        v -> Jdot v (CalcBiasSpatialAcceleration) at v + u and v - u, u = Jbar w, at the
+        positions of the last `terms` call (`core.operational_space.
+        spatial_polarized_coriolis`): the polarization (f(v + u) - f(v - u)) / 4 gives
+        C(q, v) u (Christoffel symbols are symmetric) and Jdot(v) u for the translational
+        rows (a Hessian), but only the symmetric part of the angular rows' (see
         `SpatialCoriolisProduct`).
 
         Parameters
         ----------
-        v, u : (nv,) arrays
-            The plant's velocities and the joint velocity to apply the forms to.
+        v : (nv,) array
+            The plant's velocities.
+        jacobian, jbar, inertia
+            J, Jbar and Lambda at this state.
+        w : (6,) array
+            A spatial velocity [rad/s; m/s].
 
         Returns
         -------
-        (nv,) array, (6,) array
-            C(q, v) u [N m], sym(Jdot)(v, u) [rad/s^2; m/s^2] (angular first).
+        (6,) array
+            C_x w [N m; N].
         """
         plant, ctx, world = self.plant, self._context, self._world
+        u = jbar @ w
         values = []
         for sign in (1.0, -1.0):
             plant.SetVelocities(ctx, v + sign * u)
+            values.append(plant.CalcBiasTerm(ctx))
             values.append(
-                (
-                    plant.CalcBiasTerm(ctx),
-                    plant.CalcBiasSpatialAcceleration(
-                        ctx, JacobianWrtVariable.kV, self._frame, self._point, world, world
-                    ).get_coeffs(),
-                )
+                plant.CalcBiasSpatialAcceleration(
+                    ctx, JacobianWrtVariable.kV, self._frame, self._point, world, world
+                ).get_coeffs()
             )
-        (bias_plus, accel_plus), (bias_minus, accel_minus) = values
-        return (bias_plus - bias_minus) / 4.0, (accel_plus - accel_minus) / 4.0
+        bias_plus, accel_plus, bias_minus, accel_minus = values
+        return self._polarized_coriolis(
+            jbar, inertia, jacobian, v, u, bias_plus, bias_minus, accel_plus, accel_minus
+        )
 
     def terms(self, state: np.ndarray, coriolis_matrix: bool = True) -> SpatialTerms:
         """All 6-D task-space terms at the plant state `state`.
@@ -171,10 +197,10 @@ class SpatialTaskSpaceModel:
         jac = plant.CalcJacobianSpatialVelocity(
             ctx, JacobianWrtVariable.kV, self._frame, self._point, world, world
         )
-        minv_jt = np.linalg.solve(plant.CalcMassMatrix(ctx), jac.T)
-        inertia, floored = conditioned_task_inertia(jac @ minv_jt, floor=self._floor)
-        jbar = minv_jt @ inertia
         joint_gravity = -plant.CalcGravityGeneralizedForces(ctx)
+        inertia, jbar, gravity, null_space, floored = self._operational_space_terms(
+            plant.CalcMassMatrix(ctx), jac, joint_gravity, self._floor
+        )
         coriolis = SpatialCoriolisProduct(self, v, jac, jbar, inertia)
         return SpatialTerms(
             position=pose @ self._point[:, 0],
@@ -183,17 +209,19 @@ class SpatialTaskSpaceModel:
             jacobian=jac,
             inertia=inertia,
             coriolis=coriolis @ np.eye(6) if coriolis_matrix else coriolis,
-            gravity=jbar.T @ joint_gravity,
-            null_space=self._identity - jac.T @ jbar.T,
+            gravity=gravity,
+            null_space=null_space,
             joint_gravity=joint_gravity,
             floored=floored,
+            rotation=pose.rotation().matrix(),
+            angular_jacobian=np.ascontiguousarray(jac[:3]),
         )
 
 
 class SpatialCoriolisProduct:
     """C_x = Jbar^T C(q, v) Jbar - Lambda Jdot Jbar at one state, as an operator: `C_x @ w`
     for a spatial vector w (6,) or the columns of a (6, K) matrix, each from two plant
-    evaluations at v + Jbar w and v - Jbar w (`SpatialTaskSpaceModel.bias_pair`).
+    evaluations at v + Jbar w and v - Jbar w (`SpatialTaskSpaceModel.coriolis_product`).
 
     With u = Jbar w, the angular rows of Jdot(v) u are the polarization's symmetric form
     plus (J_w v) x (J_w u) / 2: the angular velocity Jacobian's columns are joint axes
@@ -225,52 +253,11 @@ class SpatialCoriolisProduct:
     ):
         self._model, self._v, self._jac = model, v, jacobian
         self._jbar, self._inertia = jbar, inertia
-        self._omega = jacobian[:3] @ v
 
     def __matmul__(self, w: np.ndarray) -> np.ndarray:
-        columns = np.asarray(w, dtype=float).reshape(6, -1)
-        products = []
-        for column in columns.T:
-            u = self._jbar @ column
-            joint_coriolis, jdot_u = self._model.bias_pair(self._v, u)
-            # The angular rows of Jdot are not symmetric in (v, u) as the polarization's
-            # form is: Jdot_w(v) u = sym(v, u) + (J_w v) x (J_w u) / 2.
-            jdot_u[:3] += 0.5 * quat.cross(self._omega, self._jac[:3] @ u)
-            products.append(self._jbar.T @ joint_coriolis - self._inertia @ jdot_u)
-        product = np.column_stack(products)
-        return product if np.ndim(w) == 2 else product[:, 0]
-
-
-def wrench_to_joint_torque(
-    terms: SpatialTerms,
-    wrench: np.ndarray,
-    below_task: np.ndarray,
-    effort_limits: np.ndarray,
-) -> tuple[np.ndarray, int]:
-    """tau = sat(J^T F + tau_0): the commanded wrench through the spatial Jacobian plus the
-    torque below the task, saturated at the effort limits (`systems.task_space.saturate`).
-
-    tau_0 must lie in the task's null space and carry the null-space share N^T G(q) of the
-    gravity compensation (the task's share J^T Jbar^T G is in F's p): e.g.
-    `systems.arm.BelowTaskImpedance.torque` with N^T = `terms.null_space` and its
-    orientation gains 0 (the orientation is the task's now), which holds the posture.
-
-    Parameters
-    ----------
-    terms : SpatialTerms
-        At the tick's state.
-    wrench : (6,) array
-        F = [tau_c; f_c] [N m; N], world.
-    below_task : (nv,) array
-        tau_0 [N m].
-    effort_limits : (nv,) array
-        [N m], > 0.
-
-    Returns
-    -------
-    torque : (nv,) array
-        The applied joint torque [N m].
-    saturated : int
-        The number of joints at their limit.
-    """
-    return saturate(terms.jacobian.T @ wrench + below_task, effort_limits)
+        product = self._model.coriolis_product
+        if np.ndim(w) == 1:
+            return product(self._v, self._jac, self._jbar, self._inertia, w)
+        return np.column_stack(
+            [product(self._v, self._jac, self._jbar, self._inertia, column) for column in w.T]
+        )
