@@ -436,7 +436,9 @@ def rotational_impedance_torque(
     return rotational_torque(torque_nominal, rotation, gain_l, eps_r, u_r, np.zeros(3))
 
 
-def spatial_coriolis_term(coriolis, omega_ref: np.ndarray, xe_dot: np.ndarray) -> np.ndarray:
+def spatial_coriolis_term(
+    coriolis: object, omega_ref: np.ndarray, xe_dot: np.ndarray
+) -> np.ndarray:
     """C_x V_e with V_e = [omega_ref; x_e']: the one product of Drake's operator; of a (6, 6)
     matrix by blocks, so that with no coupling (C_vw = 0) the translational rows are
     exactly C_vv x_e', as the 3-D law forms them.

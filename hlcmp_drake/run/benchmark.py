@@ -231,9 +231,8 @@ def pose_tick_cost(duration: float, repetitions: int) -> dict:
     state logged (every 4 ms) by a short run of the translational one (the cheaper run)
     and at the 6-D reference there (the translational tick reads its position part), each
     from its configured initial θ, alternating (`_tick_times`); both on the numpy
-    path and, with numba, on the compiled one. On the compiled path only the 6-D tick's
-    translational law is compiled: its rotational law, 6-D task-space terms and wrench
-    map are numpy on both.
+    path and, with numba, on the compiled one (each tick's whole arithmetic between its
+    plant queries).
 
     Parameters
     ----------

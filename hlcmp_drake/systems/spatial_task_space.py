@@ -132,7 +132,12 @@ class SpatialTaskSpaceModel:
         return self._frame
 
     def coriolis_product(
-        self, v: np.ndarray, jacobian: np.ndarray, jbar: np.ndarray, inertia: np.ndarray, w
+        self,
+        v: np.ndarray,
+        jacobian: np.ndarray,
+        jbar: np.ndarray,
+        inertia: np.ndarray,
+        w: np.ndarray,
     ) -> np.ndarray:
         """C_x w at velocity v, from the quadratic maps v -> C(q, v) v (CalcBiasTerm) and
         v -> Jdot v (CalcBiasSpatialAcceleration) at v + u and v - u, u = Jbar w, at the
