@@ -1,4 +1,5 @@
-"""The rotational Hl-CMP and the 6-D (pose) task-space laws. Pure numpy.
+"""The rotational Hl-CMP and the 6-D (pose) task-space laws. Pure numpy; the equations and
+their compositions are `jitable` (`core.kernels`), compiled or numpy as `PoseLaw` says.
 
 The paper's law (Eqs. 4-5, 14, 29, 31, 33-34) is written for the tool point's translation.
 Its rotational analogue, on the same phase basis, uses
