@@ -5,6 +5,7 @@ package runs the numpy path and says what the compiled one needs."""
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -226,3 +227,44 @@ print(" ".join(sorted(f.__name__ for f, compiled in kernels._compiled.items()
         "polarized_coriolis",
         "task_joint_torque",
     ]
+
+
+def test_every_jitable_function_is_in_core():
+    """The kernels' cache folder is named by core's sources (`kernel_cache_folder`): that
+    covers a kernel only if every function it may inline is defined there."""
+    import hlcmp_drake
+    from hlcmp_drake.core.kernels import CORE_DIR
+
+    package = Path(hlcmp_drake.__file__).parent
+    marked = {
+        path.relative_to(package)
+        for path in package.rglob("*.py")
+        if "@jitable" in path.read_text(encoding="utf-8") and path.name != "kernels.py"
+    }
+    assert marked and all(path.parent == CORE_DIR.relative_to(package) for path in marked)
+
+
+def test_an_edited_equation_gets_a_cache_folder_of_its_own(tmp_path):
+    """numba checks only the compiled function's own file; an edit of any core file (e.g.
+    an equation inlined from control_law.py) must name another folder."""
+    import shutil
+
+    from hlcmp_drake.core.kernels import CORE_DIR, kernel_cache_folder
+
+    sources = tmp_path / "core"
+    shutil.copytree(CORE_DIR, sources, ignore=shutil.ignore_patterns("__pycache__"))
+    first = kernel_cache_folder(tmp_path / "cache", sources)
+    assert first == kernel_cache_folder(tmp_path / "cache", sources)  # stable
+    assert first.parent == tmp_path / "cache"
+    law = sources / "control_law.py"
+    law.write_text(law.read_text(encoding="utf-8").replace("pi * e", "pi * (e)", 1))
+    assert kernel_cache_folder(tmp_path / "cache", sources) != first
+
+
+@needs_numba
+def test_numba_keeps_the_kernels_in_the_folder_of_these_sources():
+    import numba
+
+    from hlcmp_drake.core.kernels import kernel_cache_folder
+
+    assert Path(numba.config.CACHE_DIR).name == kernel_cache_folder().name

@@ -14,17 +14,27 @@ Which path: `kernel_path` -- the one asked for, else the environment variable
 ``HLCMP_KERNEL`` (``compiled`` or ``numpy``), else compiled when numba imports. numba is
 imported only when a path is chosen (its import takes about a second): a command that
 makes no tick does not pay for it.
+
+Where the machine code is kept: `kernel_cache_folder`, one folder per version of `core`'s
+sources. numba's own cache checks only the file of the function it compiles, not the files
+of the jitable functions inlined into it, so an equation edited in `control_law` would
+otherwise still run its old machine code inside `laws`' kernels.
 """
 
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import os
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any, Callable, TypeVar
 
 KERNEL_VARIABLE = "HLCMP_KERNEL"
 PATHS = ("compiled", "numpy")
+# Every jitable function is defined in this package (`core`), so its sources are all a
+# kernel's machine code depends on (tests/test_core_kernels.py checks it).
+CORE_DIR = Path(__file__).parent
 
 F = TypeVar("F", bound=Callable)
 _compiled: dict[Callable, Callable] = {}
@@ -67,9 +77,35 @@ def numba_available() -> bool:
         except ImportError:  # numba is optional: the numpy path
             _numba.append(None)
         else:
+            numba.config.CACHE_DIR = str(kernel_cache_folder(numba.config.CACHE_DIR or None))
             _numba.append(numba)
             _register_marked()
     return _numba[0] is not None
+
+
+def kernel_cache_folder(base: str | Path | None = None, sources: Path = CORE_DIR) -> Path:
+    """The folder numba keeps the kernels' machine code in: under `base` (default the
+    user's cache, ``$XDG_CACHE_HOME`` or ~/.cache, then hlcmp_drake), named by a hash of
+    every Python file of `sources`, so that an edit of any equation gets newly compiled
+    kernels (older folders stay until removed; each is a few MB).
+
+    Parameters
+    ----------
+    base : str or Path, optional
+        Where the folders go (``NUMBA_CACHE_DIR`` when the user set it).
+    sources : Path
+        The package of the jitable functions.
+
+    Returns
+    -------
+    Path
+    """
+    digest = hashlib.sha256()
+    for path in sorted(sources.glob("*.py")):
+        digest.update(path.name.encode() + b"\0" + path.read_bytes())
+    if base is None:
+        base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "hlcmp_drake"
+    return Path(base) / f"numba-{digest.hexdigest()[:16]}"
 
 
 def kernel_path(requested: str | None = None) -> str:
@@ -126,7 +162,7 @@ def kernel_chosen(path: str) -> Iterator[None]:
 
 def implementation(func: F, path: str) -> F:
     """A composed function on the given path: itself (numpy), or compiled by numba in
-    nopython mode (once per process, its machine code cached on disk).
+    nopython mode (once per process, its machine code cached in `kernel_cache_folder`).
 
     Parameters
     ----------
