@@ -77,7 +77,9 @@ def numba_available() -> bool:
         except ImportError:  # numba is optional: the numpy path
             _numba.append(None)
         else:
-            numba.config.CACHE_DIR = str(kernel_cache_folder(numba.config.CACHE_DIR or None))
+            # numba's config module sets its attributes at run time (no stub knows them)
+            user_folder = getattr(numba.config, "CACHE_DIR", "") or None
+            setattr(numba.config, "CACHE_DIR", str(kernel_cache_folder(user_folder)))  # noqa: B010
             _numba.append(numba)
             _register_marked()
     return _numba[0] is not None
