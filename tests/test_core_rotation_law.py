@@ -162,9 +162,12 @@ def test_the_translational_part_equals_the_3d_hlcmp_to_the_bit():
     for coupled in (False, True):
         now = _pose_instant(rng, coupled)
         theta = rng.normal(size=law6.theta_size) * 50
+        # the blocks copied contiguous, as the ticks pass them (a strided view would make
+        # numba compile the 3-D law once more, for that layout)
+        block = np.ascontiguousarray
         same = TaskSpaceInstant(
             now.x, now.xdot, now.xd, now.xd_dot, now.xd_ddot, now.phase,
-            now.inertia[3:, 3:], now.coriolis[3:, 3:], now.gravity[3:],
+            block(now.inertia[3:, 3:]), block(now.coriolis[3:, 3:]), now.gravity[3:],
         )  # fmt: skip
         three, six = law3.command(same, theta[: law3.theta_size]), law6.command(now, theta)
         for name in law3.log_fields:
