@@ -185,6 +185,42 @@ def impedance_motion(
 
 
 @jitable
+def learned_impedance(
+    phase: float,
+    theta: np.ndarray,
+    centers: np.ndarray,
+    widths: np.ndarray,
+    error: np.ndarray,
+    error_rate: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The learned impedance at the phase s: g(s) (Eq. 16), the profiles K, D, v of the
+    weights (Eq. 14) and u = K e + D e' (Eq. 4); for the translation (e, e') and, with
+    (e_r, omega_e), for the rotation (`rotation_law.rotational_hlcmp_torque`).
+
+    Parameters
+    ----------
+    phase : float
+        s [-].
+    theta : (3 M N,) array
+        [θ_k, θ_d, θ_v], each (M, N) row-major.
+    centers, widths : (N,) arrays
+        The phase basis.
+    error, error_rate : (M,) arrays
+        The tracking error and its rate.
+
+    Returns
+    -------
+    g : (N,) array
+    stiffness, damping, feedforward, impedance : (M,) arrays
+    """
+    g = normalized_basis(np.array([phase]), centers, widths)[0]
+    weights = theta.reshape(3, error.shape[0], centers.shape[0])
+    stiffness, damping, feedforward = compliant_profiles(weights[0], weights[1], weights[2], g)
+    impedance = impedance_force(stiffness, damping, error, error_rate)
+    return g, stiffness, damping, feedforward, impedance
+
+
+@jitable
 def hlcmp_force(
     motion: np.ndarray,
     inertia: np.ndarray,
@@ -225,10 +261,7 @@ def hlcmp_force(
     """
     m = motion.shape[0] // 5
     e, edot, eps, xe_ddot = motion[:m], motion[m : 2 * m], motion[2 * m : 3 * m], motion[4 * m :]
-    g = normalized_basis(np.array([phase]), centers, widths)[0]
-    weights = theta.reshape(3, m, centers.shape[0])
-    k_s, k_d, v = compliant_profiles(weights[0], weights[1], weights[2], g)
-    u = impedance_force(k_s, k_d, e, edot)
+    g, k_s, k_d, v, u = learned_impedance(phase, theta, centers, widths, e, edot)
     f0 = nominal_force(inertia, coriolis_term, gravity, xe_ddot, gain_l, eps)
     return np.concatenate((commanded_force(f0, u, v), k_s, k_d, v, u, eps, g))
 

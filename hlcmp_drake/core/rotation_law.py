@@ -79,9 +79,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hlcmp_drake.core import quaternion as quat
-from hlcmp_drake.core.adaptation import compliant_profiles
 from hlcmp_drake.core.control_law import impedance_force, sliding_error
-from hlcmp_drake.core.dmp import normalized_basis
 from hlcmp_drake.core.kernels import implementation, jitable, kernel_path
 from hlcmp_drake.core.laws import (
     ConstantImpedanceLaw,
@@ -89,6 +87,7 @@ from hlcmp_drake.core.laws import (
     LawOutput,
     hlcmp_rates,
     impedance_motion,
+    learned_impedance,
 )
 
 
@@ -399,10 +398,7 @@ def rotational_hlcmp_torque(
         [rad/s] (tool frame), then g(s).
     """
     e_r, omega_e, eps_r = motion[:3], motion[3:6], motion[6:9]
-    g = normalized_basis(np.array([phase]), centers, widths)[0]
-    weights = theta.reshape(3, 3, centers.shape[0])
-    k_r, d_r, v_r = compliant_profiles(weights[0], weights[1], weights[2], g)
-    u_r = impedance_force(k_r, d_r, e_r, omega_e)
+    g, k_r, d_r, v_r, u_r = learned_impedance(phase, theta, centers, widths, e_r, omega_e)
     rotation = motion[15:].reshape(3, 3)
     torque = rotational_torque(torque_nominal, rotation, gain_l, eps_r, u_r, v_r)
     return np.concatenate((torque, k_r, d_r, v_r, u_r, eps_r, g))
