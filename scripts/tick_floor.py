@@ -1,17 +1,16 @@
-"""What the arm's translational tick is made of: the whole tick (`ControlTick.evaluate`, the
-insertion's Hl-CMP, compiled), its plant queries alone, and its compiled calls alone, each
-timed in a loop at one state of a short insertion run (docs/performance.md, "Where the
-floor is").
+"""What the arm's translational tick is made of: the whole tick (`FusedArmTick.evaluate`,
+the insertion's Hl-CMP, compiled), the same tick through the laws' shared interface
+(`ControlTick.evaluate`, about six compiled calls), its plant queries alone, and its two
+compiled calls alone, each timed in a loop at one state of a short insertion run
+(docs/performance.md, "Where the floor is").
 
     python scripts/tick_floor.py [--calls 3000] [--rounds 3]
 
 - the plant queries: the positions set once, the tool point's position, the spatial
   Jacobian, gravity, the mass matrix, the tool's orientation, and the two velocity
-  settings with a bias term and a bias acceleration each (C_x x_e' by polarization): the
-  calls the tick makes, in its order;
-- the compiled calls: the six numba functions the tick calls (the operational-space
-  terms, the sliding motion, the polarized Coriolis product, the Hl-CMP's force, the
-  torque below the task and the saturated joint torque), with arrays of the tick's sizes.
+  settings with a bias term and a bias acceleration each (C_x x_e' by polarization);
+- the compiled calls: `core.arm_tick.arm_tick_start` and `hlcmp_arm_tick_finish` on the
+  arguments the tick gives them.
 
 What is left of the whole tick beyond the two is the Python between them. Prints µs per
 call, the median of the rounds, and the load average.
@@ -25,11 +24,10 @@ import statistics
 import time
 
 import numpy as np
-from pydrake.multibody.tree import JacobianWrtVariable
 
 from hlcmp_drake.config.loading import load_scenario
-from hlcmp_drake.core.laws import HlcmpLaw
 from hlcmp_drake.run.simulate import simulate
+from hlcmp_drake.systems.arm_tick import FusedArmTick
 from hlcmp_drake.systems.control_loop import ControlTick
 from hlcmp_drake.worlds import arm
 
@@ -47,7 +45,7 @@ def per_call_us(function, calls: int, rounds: int) -> float:
     return statistics.median(means)
 
 
-def a_running_tick() -> tuple[ControlTick, np.ndarray, tuple, np.ndarray]:
+def a_running_tick() -> tuple[FusedArmTick, np.ndarray, tuple, np.ndarray]:
     """The insertion's Hl-CMP tick, its plant state 1.5 s into its run, a reference and θ."""
     scenario, _ = load_scenario("insertion", ["duration_s=1.5", "task.control_path=fast"])
     setup = arm.prepare(scenario)
@@ -55,7 +53,7 @@ def a_running_tick() -> tuple[ControlTick, np.ndarray, tuple, np.ndarray]:
     run = simulate(built, scenario, "hlcmp")
     loop = built.controller.system
     tick = loop._tick_of
-    assert isinstance(tick.law, HlcmpLaw), "the insertion's hlcmp is the Hl-CMP"
+    assert isinstance(tick, FusedArmTick), "the insertion's Hl-CMP tick is the fused one"
     context = loop.GetMyContextFromRoot(built.diagram.CreateDefaultContext())
     state = np.array(run.series["plant_state"][-1])
     reference = tuple(np.array(port.Eval(context)) for port in loop._reference)
@@ -64,59 +62,49 @@ def a_running_tick() -> tuple[ControlTick, np.ndarray, tuple, np.ndarray]:
     return tick, state, reference, theta
 
 
-def plant_queries(tick: ControlTick, state: np.ndarray):
-    """The tick's plant queries in its order, at `state`, with a small velocity offset."""
+def plant_queries(tick: FusedArmTick, state: np.ndarray):
+    """The tick's plant queries, at `state`, with a small velocity offset: the position
+    queries (`TaskSpaceModel.plant_queries`) and the two evaluations of the polarization
+    (`TaskSpaceModel.biases`)."""
     model = tick.model
-    plant, context, frame = model.plant, model.context, model.frame
-    world, point = plant.world_frame(), model._point
-    nq, kv = model.nq, JacobianWrtVariable.kV
-    offset = np.full(model.nv, 0.01)
+    velocities, offset = state[model.nq :], np.full(model.nv, 0.01)
 
     def queries():
-        plant.SetPositions(context, state[:nq])
-        plant.CalcPointsPositions(context, frame, point, world)
-        plant.CalcJacobianSpatialVelocity(context, kv, frame, point, world, world)
-        plant.CalcGravityGeneralizedForces(context)
-        plant.CalcMassMatrix(context)
-        frame.CalcRotationMatrixInWorld(context).matrix()
-        for sign in (1.0, -1.0):
-            plant.SetVelocities(context, state[nq:] + sign * offset)
-            plant.CalcBiasTerm(context)
-            plant.CalcBiasTranslationalAcceleration(context, kv, frame, point, world, world)
+        model.plant_queries(state)
+        model.biases(velocities, offset)
 
     return queries
 
 
-def compiled_calls(tick: ControlTick, state: np.ndarray, theta: np.ndarray):
-    """The tick's six compiled calls on arrays of its sizes (values that keep them finite)."""
-    model, law, below = tick.model, tick.law, tick.below_task
-    nv, m = model.nv, model.n_axes
-    q, v = state[:nv], state[nv:]
-    mass, jacobian = np.eye(nv), np.ascontiguousarray(np.eye(nv)[:m])
-    vector, gains = np.full(m, 0.1), law.gains
+def compiled_calls(tick: FusedArmTick, state: np.ndarray, reference: tuple, theta: np.ndarray):
+    """The tick's two compiled calls (`core.arm_tick`), on the arguments the tick gives them
+    at `state`."""
+    model = tick.model
+    position, spatial, joint_gravity, mass, rotation = model.plant_queries(state)
+    q, v = state[: model.nq], state[model.nq :]
+    xd, xd_dot, xd_ddot, phase = reference
+    row = tick._first_row
+    start = tick._start(
+        mass, spatial, row, joint_gravity, position, v, xd, xd_dot, xd_ddot, tick._pi
+    )
+    biases = model.biases(v, start[: model.nv])
+    parameters = (*tick._law_parameters, *tick._held)
 
     def calls():
-        inertia, jbar, gravity, null_space = model._operational_space_terms(mass, jacobian, q)
-        motion = law._motion(vector, vector, vector, vector, vector, gains.pi)
-        coriolis = model._polarized_coriolis(jbar, inertia, v, v, vector, vector)
-        out = law._force(
-            motion, inertia, coriolis, gravity, gains.gain_l, 0.5, theta, law.centers, law.widths
-        )
-        held = below._below_task_torque(
-            null_space,
-            q,
-            np.ascontiguousarray(np.eye(nv)[3:6]),
-            np.eye(3),
-            below._R_desired_inverse,
+        tick._start(mass, spatial, row, joint_gravity, position, v, xd, xd_dot, xd_ddot, tick._pi)
+        tick._finish(
+            start,
+            *biases,
+            spatial,
+            row,
+            rotation,
             q,
             v,
-            below._q0,
-            below._k_o,
-            below._d_o,
-            below._k_p,
-            below._d_p,
+            joint_gravity,
+            phase[0],
+            theta,
+            *parameters,
         )
-        tick._task_joint_torque(jacobian, out[:m], held, tick.effort_limits)
 
     return calls
 
@@ -127,11 +115,13 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=3)
     args = parser.parse_args()
     tick, state, reference, theta = a_running_tick()
+    shared = ControlTick(tick.model, tick.below_task, tick.law, tick.effort_limits)
     print(f"load average {os.getloadavg()[0]:.2f}; the tick's kernel path: {tick.kernel}")
     lines = {
-        "the whole tick": lambda: tick.evaluate(state, reference, theta),
+        "the whole tick": lambda: tick.evaluate(state, reference, theta).law.rates,
+        "through the shared interface": lambda: shared.evaluate(state, reference, theta).law.rates,
         "its plant queries alone": plant_queries(tick, state),
-        "its six compiled calls alone": compiled_calls(tick, state, theta),
+        "its two compiled calls alone": compiled_calls(tick, state, reference, theta),
     }
     for what, function in lines.items():
         print(f"{what:32s} {per_call_us(function, args.calls, args.rounds):7.1f} µs")

@@ -379,3 +379,19 @@ def write_sweep(folder, text, name="sweep.yaml"):
 
 def tiny(folder, duration=0.1, values="[1.0, 5.0]", name="sweep.yaml"):
     return write_sweep(folder, TINY.format(duration=duration, values=values), name)
+
+
+def arm_tick_inputs(setup, law, seed):
+    """Inputs of an arm's tick near the insertion's start: a plant state near the start
+    posture, moving, a reference a little below the DMP's start, and θ: (state, (x_d, x_d',
+    x_d'', s), θ or None)."""
+    rng = np.random.default_rng(seed)
+    state = np.concatenate([setup.q0 + rng.normal(0, 0.02, 7), rng.normal(0, 0.2, 7)])
+    reference = (
+        setup.dmp.start + rng.normal(0, 0.01, 3),
+        rng.normal(0, 0.03, 3),
+        rng.normal(0, 0.02, 3),
+        np.array([rng.uniform(0.2, 0.8)]),
+    )
+    theta = rng.uniform(0, 300, law.theta_size) if law.learns else None
+    return state, reference, theta

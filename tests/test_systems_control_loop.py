@@ -4,6 +4,7 @@ per plant step: one tick against the modular systems, its documented ports, and 
 
 import numpy as np
 import pytest
+from conftest import arm_tick_inputs
 from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import DiagramBuilder
 
@@ -115,21 +116,6 @@ def arm_ticks(insertion):
     }
 
 
-def _inputs(setup, law, seed):
-    """A plant state near the start posture, moving, a reference a little below the DMP's
-    start, and θ: (state, (x_d, x_d', x_d'', s), θ or None)."""
-    rng = np.random.default_rng(seed)
-    state = np.concatenate([setup.q0 + rng.normal(0, 0.02, 7), rng.normal(0, 0.2, 7)])
-    reference = (
-        setup.dmp.start + rng.normal(0, 0.01, 3),
-        rng.normal(0, 0.03, 3),
-        rng.normal(0, 0.02, 3),
-        np.array([rng.uniform(0.2, 0.8)]),
-    )
-    theta = rng.uniform(0, 300, law.theta_size) if law.learns else None
-    return state, reference, theta
-
-
 def _fix(loop, context, state, reference, theta):
     loop.plant_state.FixValue(context, state)
     for name, value in zip(REFERENCE_PORTS, reference):
@@ -176,8 +162,8 @@ def test_a_tick_is_arm_tick_evaluate_held_until_the_next(arm_ticks, insertion, n
     tick, by_hand = ticks[name]
     loop = ControlLoop(tick, plant.time_step())
     context = loop.CreateDefaultContext()
-    first = _inputs(insertion[1], tick.law, seed=3)
-    second = _inputs(insertion[1], tick.law, seed=4)
+    first = arm_tick_inputs(insertion[1], tick.law, seed=3)
+    second = arm_tick_inputs(insertion[1], tick.law, seed=4)
     expected = [by_hand.evaluate(*inputs) for inputs in (first, second)]
     assert np.abs(expected[0].law.force).max() > 1.0  # a state that asks for a real command
     assert np.abs(expected[0].torque - expected[1].torque).max() > 1e-3  # tells them apart
@@ -215,7 +201,7 @@ def test_the_torque_is_saturated_at_the_effort_limits(arm_ticks, insertion):
     """θ far too large: the tick's torque sits at the actuators' limits, as evaluate says."""
     plant, ticks = arm_ticks
     tick, by_hand = ticks["hlcmp"]
-    state, reference, theta = _inputs(insertion[1], tick.law, seed=5)
+    state, reference, theta = arm_tick_inputs(insertion[1], tick.law, seed=5)
     theta = theta * 1e4
     result = by_hand.evaluate(state, reference, theta)
     limits = np.array(
@@ -274,7 +260,7 @@ def test_compiled_arm_tick_agrees_with_numpy_at_random_states(monkeypatch, inser
     compiled, numpy_path = _ticks_on_both_paths(
         monkeypatch, lambda: arm_tick(scenario, name, plant=plant, setup=setup)
     )
-    inputs = [(*_inputs(setup, numpy_path.law, seed), {}) for seed in range(20)]
+    inputs = [(*arm_tick_inputs(setup, numpy_path.law, seed), {}) for seed in range(20)]
     _assert_ticks_agree(compiled, numpy_path, inputs)
 
 
@@ -363,7 +349,7 @@ def test_the_tick_reads_the_orientation_and_j_w_from_the_terms(arm_ticks, insert
     tick, _ = ticks["hlcmp"]
     scenario, setup = insertion
     for seed in range(5):
-        state, reference, theta = _inputs(setup, tick.law, seed)
+        state, reference, theta = arm_tick_inputs(setup, tick.law, seed)
         result = tick.evaluate(state, reference, theta)
         by_itself = tick.below_task.torque(
             state, result.terms.null_space, result.terms.joint_gravity

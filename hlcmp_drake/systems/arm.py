@@ -61,6 +61,13 @@ class BelowTaskImpedance:
         self._world = plant.world_frame()
         self._below_task_torque = implementation(below_task_torque, kernel_path())
 
+    @property
+    def held(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """What `below_task_torque` holds, as a compiled tick takes it: R_d^T (3, 3), q_0
+        (nq,) and the gains [K_o, D_o, K_p, D_p] (4,)."""
+        gains = np.array([self._k_o, self._d_o, self._k_p, self._d_p])
+        return self._R_desired_inverse, self._q0, gains
+
     def torque(
         self,
         state: np.ndarray,

@@ -117,12 +117,68 @@ class TaskSpaceModel:
         """The frame P is fixed on."""
         return self._frame
 
-    def _polarized_product(self, v, jbar, inertia, w):
-        """C_x w at velocity v: b(v ± u) = C(q, v ± u)(v ± u) and a(v ± u) = J'(v ± u) with
-        u = Jbar w, read on the context of the last `terms` call, whose positions (and so
-        their kinematics) stay; only its velocities change (`polarized_coriolis`). Two
-        velocities are the fewest: b(v + t u) = b(v) + 2 t C(q, v) u + t^2 b(u) has the
-        unknowns b(v) and b(u) besides the product, and the tick reads neither."""
+    @property
+    def first_translational_row(self) -> int | None:
+        """The row of the first task axis in a spatial-velocity Jacobian (angular rows
+        first), where the axes are consecutive and ascending; None otherwise."""
+        rows = self._translational_rows
+        return rows.start if isinstance(rows, slice) else None
+
+    def plant_queries(
+        self, state: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """What the tick reads from Drake at `state`'s positions, which it sets in the
+        context (its velocities are left to `biases`): every query depends on the positions
+        alone, so Drake computes their kinematics once.
+
+        Parameters
+        ----------
+        state : (nq + nv,) array
+            The plant's positions [rad, m] and velocities.
+
+        Returns
+        -------
+        position : (M,) array
+            x [m].
+        spatial_jacobian : (6, nv) array
+            P's spatial-velocity Jacobian, world: J_w's rows, then the translational ones.
+        joint_gravity : (nv,) array
+            G(q).
+        mass : (nv, nv) array
+            M(q).
+        rotation : (3, 3) array
+            The frame's orientation R_WF.
+        """
+        plant, ctx, world, frame = self.plant, self._context, self._world, self._frame
+        plant.SetPositions(ctx, state[: self.nq])
+        position = plant.CalcPointsPositions(ctx, frame, self._point, world)[self._rows, 0]
+        spatial = plant.CalcJacobianSpatialVelocity(
+            ctx, JacobianWrtVariable.kV, frame, self._point, world, world
+        )
+        joint_gravity = -plant.CalcGravityGeneralizedForces(ctx)
+        mass = plant.CalcMassMatrix(ctx)
+        return position, spatial, joint_gravity, mass, frame.CalcRotationMatrixInWorld(ctx).matrix()
+
+    def biases(
+        self, v: np.ndarray, u: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """b(v ± u) = C(q, v ± u)(v ± u) and a(v ± u) = J'(v ± u)(v ± u) (task rows), the
+        two evaluations of the polarization (`polarized_coriolis`), at the positions of the
+        last `terms` or `plant_queries` call, which stay (and so their kinematics); only
+        the velocities change. Two velocities are the fewest: b(v + t u) = b(v) +
+        2 t C(q, v) u + t^2 b(u) has the unknowns b(v) and b(u) besides the product, and
+        the tick reads neither.
+
+        Parameters
+        ----------
+        v, u : (nv,) arrays
+            The plant's velocities and the offset J̄ w.
+
+        Returns
+        -------
+        bias_plus, bias_minus : (nv,) arrays
+        accel_plus, accel_minus : (M,) arrays
+        """
         plant, ctx, world, frame, point = (
             self.plant,
             self._context,
@@ -130,7 +186,6 @@ class TaskSpaceModel:
             self._frame,
             self._point,
         )
-        u = jbar @ w
         plant.SetVelocities(ctx, v + u)
         bias_plus = plant.CalcBiasTerm(ctx)
         accel_plus = plant.CalcBiasTranslationalAcceleration(
@@ -141,9 +196,11 @@ class TaskSpaceModel:
         accel_minus = plant.CalcBiasTranslationalAcceleration(
             ctx, JacobianWrtVariable.kV, frame, point, world, world
         )[self._rows, 0]
-        return self._polarized_coriolis(
-            jbar, inertia, bias_plus, bias_minus, accel_plus, accel_minus
-        )
+        return bias_plus, bias_minus, accel_plus, accel_minus
+
+    def _polarized_product(self, v, jbar, inertia, w):
+        """C_x w at velocity v, from `biases` at u = Jbar w."""
+        return self._polarized_coriolis(jbar, inertia, *self.biases(v, jbar @ w))
 
     def terms(self, state: np.ndarray, coriolis_matrix: bool = True) -> TaskSpaceTerms:
         """All task-space terms at the plant state `state`.
@@ -168,20 +225,12 @@ class TaskSpaceModel:
             joint gravity G(q) (nv,) in the joints' units; the frame's orientation (3, 3)
             and its angular-velocity Jacobian (3, nv), world.
         """
-        plant, ctx, world, frame = self.plant, self._context, self._world, self._frame
-        plant.SetPositions(ctx, state[: self.nq])
+        position, spatial, joint_gravity, mass, rotation = self.plant_queries(state)
         v = state[self.nq :]
-        position = plant.CalcPointsPositions(ctx, frame, self._point, world)[self._rows, 0]
         # One Jacobian for both: its angular rows are J_w, its translational rows J (each
         # copied contiguous: the kernels' matrix products need it).
-        spatial = plant.CalcJacobianSpatialVelocity(
-            ctx, JacobianWrtVariable.kV, frame, self._point, world, world
-        )
         jac = np.ascontiguousarray(spatial[self._translational_rows])
-        joint_gravity = -plant.CalcGravityGeneralizedForces(ctx)
-        inertia, jbar, gravity, null_space = self._operational_space_terms(
-            plant.CalcMassMatrix(ctx), jac, joint_gravity
-        )
+        inertia, jbar, gravity, null_space = self._operational_space_terms(mass, jac, joint_gravity)
         coriolis = CoriolisProduct(self, v, jbar, inertia)
         if coriolis_matrix:
             coriolis = coriolis @ np.eye(self.n_axes)
@@ -194,7 +243,7 @@ class TaskSpaceModel:
             gravity,
             null_space,
             joint_gravity,
-            frame.CalcRotationMatrixInWorld(ctx).matrix(),
+            rotation,
             np.ascontiguousarray(spatial[:3]),
         )
 

@@ -20,6 +20,7 @@ from hlcmp_drake.core.dmp import Dmp
 from hlcmp_drake.core.orientation_dmp import OrientationDmp
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.systems.arm import BelowTaskImpedance, NullSpaceImpedance, ToolContactForce
+from hlcmp_drake.systems.arm_tick import arm_control_tick
 from hlcmp_drake.systems.control_loop import ControlTick
 from hlcmp_drake.systems.pose_control import PoseControlTick
 from hlcmp_drake.systems.robot import (
@@ -615,9 +616,10 @@ def fast_tick(
 def arm_tick(
     scenario: Scenario, controller_name: str, *, plant: MultibodyPlant, setup: ArmSetup
 ) -> ControlTick:
-    """The arm's whole controller at one instant (`ControlTick`): the controller's law, the tool
-    point's task-space terms, the orientation and posture held below the task, and the
-    actuators' effort limits.
+    """The arm's whole controller at one instant (`systems.arm_tick.arm_control_tick`: the
+    compiled two-call tick for the laws it fuses, else `ControlTick`): the controller's law,
+    the tool point's task-space terms, the orientation and posture held below the task, and
+    the actuators' effort limits.
 
     Parameters
     ----------
@@ -641,7 +643,7 @@ def arm_tick(
         scenario.controllers[controller_name], scenario
     )
     effort = [plant.get_joint_actuator(i).effort_limit() for i in plant.GetJointActuatorIndices()]
-    return ControlTick(
+    return arm_control_tick(
         TaskSpaceModel(plant, tool_frame, axes=task.axes),
         BelowTaskImpedance(
             plant, tool_frame, setup.tool_orientation, setup.q0, *_below_task_gains(task)
