@@ -182,7 +182,7 @@ def insertion_runs(duration: float, repetitions: int) -> dict:
 
 
 def tick_paths(scenario: Scenario, setup: arm.ArmSetup, run: RunResult, repetitions: int) -> dict:
-    """One Hl-CMP tick of the insertion (`ControlTick.evaluate`, θ' included) at every logged
+    """One Hl-CMP tick of the insertion (`FusedArmTick.evaluate`, θ' included) at every logged
     state of `run` and its reference there, on the numpy path and on the compiled one
     (`core.kernels`), the two alternating (`_tick_times`); empty without numba.
 
@@ -227,7 +227,7 @@ def tick_paths(scenario: Scenario, setup: arm.ArmSetup, run: RunResult, repetiti
 
 def pose_tick_cost(duration: float, repetitions: int) -> dict:
     """The 6-D Hl-CMP's tick (`PoseControlTick.evaluate`, θ' included) beside the
-    translational Hl-CMP's (`ControlTick.evaluate`) in the peg-in-hole world, both at every
+    translational Hl-CMP's (`FusedArmTick.evaluate`) in the peg-in-hole world, both at every
     state logged (every 4 ms) by a short run of the translational one (the cheaper run)
     and at the 6-D reference there (the translational tick reads its position part), each
     from its configured initial θ, alternating (`_tick_times`); both on the numpy
@@ -920,7 +920,7 @@ def _pose_tick_rows(results):
     rows = [
         (
             "pose_over_translational_tick: one 6-D Hl-CMP tick (PoseControlTick) / one "
-            "translational Hl-CMP tick (ControlTick), peg-in-hole world, at "
+            "translational Hl-CMP tick (FusedArmTick), peg-in-hole world, at "
             f"{results['pose_tick_states']} states of a short run, alternating rounds "
             f"({kernel}; 6-D {ticks('pose', kernel)}, translational "
             f"{ticks('translational', kernel)}, p50 / p99)",
