@@ -6,8 +6,6 @@ everywhere else."""
 
 from __future__ import annotations
 
-from functools import cached_property
-
 import numpy as np
 
 from hlcmp_drake.core.arm_tick import (
@@ -19,7 +17,7 @@ from hlcmp_drake.core.arm_tick import (
 from hlcmp_drake.core.kernels import implementation
 from hlcmp_drake.core.laws import ConstantImpedanceLaw, ControlLaw, HlcmpLaw, LawOutput
 from hlcmp_drake.systems.arm import BelowTaskImpedance
-from hlcmp_drake.systems.control_loop import ControlTick, TickResult
+from hlcmp_drake.systems.control_loop import ControlTick, DeferredTermsResult, TickResult
 from hlcmp_drake.systems.task_space import (
     CoriolisProduct,
     PrismaticTaskModel,
@@ -167,8 +165,9 @@ class FusedArmTick(ControlTick):
         else:
             out = self._finish(start, *common, *self._law_parameters, *self._held)
             law_output = LawOutput(out[nv + 1 :], {})
-        return FusedTickResult(
-            (self, start, position, spatial, joint_gravity, rotation, v),
+        return DeferredTermsResult(
+            self.terms_of,
+            (start, position, spatial, joint_gravity, rotation, v),
             law_output,
             out[:nv],
             int(out[nv]),
@@ -214,25 +213,3 @@ class FusedArmTick(ControlTick):
             rotation,
             spatial[:3],
         )
-
-
-class FusedTickResult(TickResult):
-    """`TickResult` whose `terms` are formed from the tick's parts when first read (a
-    torque loop reads only the torque and θ'; the loggers read the terms at 100 Hz).
-
-    Parameters
-    ----------
-    parts : tuple
-        The tick and the arguments of its `terms_of`.
-    law, torque, saturated
-        As for `TickResult`.
-    """
-
-    def __init__(self, parts: tuple, law: LawOutput, torque: np.ndarray, saturated: int):
-        self._parts, self.law, self.torque, self.saturated = parts, law, torque, saturated
-
-    @cached_property
-    def terms(self) -> TaskSpaceTerms:  # type: ignore[override]
-        """The task-space terms at the tick's plant state."""
-        tick, *arguments = self._parts
-        return tick.terms_of(*arguments)

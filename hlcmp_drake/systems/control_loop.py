@@ -31,6 +31,8 @@ from __future__ import annotations
 
 import dataclasses as dc
 import time
+from collections.abc import Callable
+from functools import cached_property
 
 import numpy as np
 from pydrake.common.value import AbstractValue
@@ -64,6 +66,37 @@ class TickResult:
     law: LawOutput
     torque: np.ndarray
     saturated: int
+
+
+class DeferredTermsResult(TickResult):
+    """`TickResult` whose `terms` are formed when first read, as `terms_of(*arguments)`: a
+    torque loop reads only the torque and θ', the loggers read the terms at 100 Hz.
+
+    Parameters
+    ----------
+    terms_of : callable
+        Returns the tick's `TaskSpaceTerms` from `arguments`.
+    arguments : tuple
+        What the tick computed on the way.
+    law, torque, saturated
+        As for `TickResult`.
+    """
+
+    def __init__(
+        self,
+        terms_of: Callable,
+        arguments: tuple,
+        law: LawOutput,
+        torque: np.ndarray,
+        saturated: int,
+    ):
+        self._terms_of, self._arguments = terms_of, arguments
+        self.law, self.torque, self.saturated = law, torque, saturated
+
+    @cached_property
+    def terms(self) -> object:  # type: ignore[override]
+        """The task-space terms at the tick's plant state."""
+        return self._terms_of(*self._arguments)
 
 
 class ControlTick:

@@ -343,6 +343,12 @@ class PrismaticTaskModel:
         self._coriolis = np.zeros((self.n_axes, self.n_axes))
         self._null_space = np.zeros((self.nv, self.nv))
 
+    @property
+    def constants(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """What every tick reads: x(0) (M,) [m], J (M, nv), Λ (M, M) [kg], C_x = 0 (M, M)
+        and G_x (M,) [N], as a compiled tick takes them (`core.slider_tick`)."""
+        return self._position_at_zero, self._jacobian, self._inertia, self._coriolis, self._gravity
+
     def _position(self) -> np.ndarray:
         return self.plant.CalcPointsPositions(
             self._context, self._frame, self._origin, self._world

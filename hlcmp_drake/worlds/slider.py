@@ -12,6 +12,7 @@ from pydrake.systems.framework import DiagramBuilder
 from hlcmp_drake.config.scenario import Scenario, SliderTask
 from hlcmp_drake.systems.control_loop import ControlTick
 from hlcmp_drake.systems.environment import UnilateralSpring
+from hlcmp_drake.systems.slider_tick import slider_control_tick
 from hlcmp_drake.systems.task_space import PrismaticTaskModel, TaskSpaceDynamics
 from hlcmp_drake.worlds.common import (
     BuiltDiagram,
@@ -114,7 +115,8 @@ def build(
 
 
 def slider_tick(scenario: Scenario, controller_name: str, *, plant: MultibodyPlant) -> ControlTick:
-    """The slider's whole controller at one instant (`ControlTick`): the controller's law
+    """The slider's whole controller at one instant (`systems.slider_tick.slider_control_tick`:
+    one compiled call for the laws it fuses, else `ControlTick`): the controller's law
     on the body's task-space terms (`PrismaticTaskModel`), nothing below the task, the
     actuator's effort limit.
 
@@ -137,7 +139,7 @@ def slider_tick(scenario: Scenario, controller_name: str, *, plant: MultibodyPla
     law = controller_kind(scenario, controller_name).law(
         scenario.controllers[controller_name], scenario
     )
-    return ControlTick(PrismaticTaskModel(plant, frame, axes=[task.axis]), None, law, effort)
+    return slider_control_tick(PrismaticTaskModel(plant, frame, axes=[task.axis]), law, effort)
 
 
 def _add_modular_controller(builder, scenario, name, plant, frame, reaction, start, theta0):

@@ -1,0 +1,177 @@
+"""The slider's tick in one compiled call (`core.slider_tick`), for every law of the 1-DOF
+world: the Hl-CMP (with or without forgetting), the constant impedance and the variable
+impedance. It gives what `ControlTick` gives, the same numbers
+(tests/test_systems_slider_tick.py); `slider_control_tick` picks it where it applies and
+`ControlTick` everywhere else."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from hlcmp_drake.core.kernels import implementation
+from hlcmp_drake.core.laws import (
+    ConstantImpedanceLaw,
+    ControlLaw,
+    HlcmpLaw,
+    LawOutput,
+    VariableImpedanceLaw,
+)
+from hlcmp_drake.core.slider_tick import (
+    hlcmp_slider_tick,
+    impedance_slider_tick,
+    variable_impedance_slider_tick,
+)
+from hlcmp_drake.systems.control_loop import ControlTick, DeferredTermsResult, TickResult
+from hlcmp_drake.systems.task_space import PrismaticTaskModel
+
+FUSED_LAWS = (HlcmpLaw, ConstantImpedanceLaw, VariableImpedanceLaw)
+
+
+def slider_control_tick(
+    model: PrismaticTaskModel, law: ControlLaw, effort_limits: np.ndarray
+) -> ControlTick:
+    """The slider's tick: `FusedSliderTick` for the laws it knows, else `ControlTick`.
+
+    Parameters
+    ----------
+    model : PrismaticTaskModel
+    law : ControlLaw
+    effort_limits : (nv,) array
+        As for `ControlTick`.
+
+    Returns
+    -------
+    ControlTick
+    """
+    if isinstance(law, FUSED_LAWS):
+        return FusedSliderTick(model, law, effort_limits)
+    return ControlTick(model, None, law, effort_limits)
+
+
+class FusedSliderTick(ControlTick):
+    """`ControlTick` for the slider (`PrismaticTaskModel`, nothing below the task): the law's
+    `core.slider_tick` function, one compiled call (or numpy, as `core.kernels.kernel_path`
+    says when it is made).
+
+    Parameters
+    ----------
+    model : PrismaticTaskModel
+    law : HlcmpLaw, ConstantImpedanceLaw or VariableImpedanceLaw
+    effort_limits : (nv,) array
+        The actuators' effort limits [N].
+
+    Raises
+    ------
+    ValueError
+        For another law.
+    """
+
+    def __init__(self, model: PrismaticTaskModel, law, effort_limits):
+        if not isinstance(law, FUSED_LAWS):
+            raise ValueError(
+                f"FusedSliderTick takes an Hl-CMP, a constant or a variable impedance, not "
+                f"{type(law).__name__}"
+            )
+        super().__init__(model, None, law, effort_limits)
+        self._constants = model.constants
+        if isinstance(law, HlcmpLaw):
+            self._kind = "hlcmp"
+            self._run = implementation(hlcmp_slider_tick, self.kernel)
+        elif isinstance(law, ConstantImpedanceLaw):
+            self._kind = "impedance"
+            self._run = implementation(impedance_slider_tick, self.kernel)
+        else:
+            self._kind = "variable"
+            self._run = implementation(variable_impedance_slider_tick, self.kernel)
+
+    def evaluate(
+        self,
+        state: np.ndarray,
+        reference: tuple,
+        theta: np.ndarray | None,
+        *,
+        time: float = 0.0,
+        external_force: np.ndarray | None = None,
+    ) -> TickResult:
+        """As `ControlTick.evaluate`; the result's `terms` are formed when first read.
+
+        Parameters
+        ----------
+        state : (nq + nv,) array
+            The joints' positions [m] and velocities [m/s].
+        reference : tuple of (M,), (M,), (M,), (1,) arrays
+            x_d [m], x_d' [m/s], x_d'' [m/s^2] and the phase s.
+        theta : (P,) array or None
+            The law's integrated state.
+        time : float
+            The instant [s] (the variable impedance's f_d(t)).
+        external_force : (M,) array, optional
+            The measured environment force [N] (the variable impedance reads it).
+
+        Returns
+        -------
+        TickResult
+        """
+        law, nv, m = self.law, self.model.nv, self.n_axes
+        xd, xd_dot, xd_ddot, phase = reference
+        at = nv + 1 + m  # where the law's output starts
+        if self._kind == "hlcmp":
+            g = law.gains
+            out = self._run(
+                state,
+                *self._constants,
+                xd,
+                xd_dot,
+                xd_ddot,
+                phase[0],
+                g.pi,
+                g.gain_l,
+                theta,
+                law.centers,
+                law.widths,
+                g.q_k,
+                g.q_d,
+                g.q_v,
+                self.effort_limits,
+            )
+            after = out[at:]
+            law_output = LawOutput(
+                after[:m], law._logs(after), law._learning(lambda: after[6 * m :], theta)
+            )
+        elif self._kind == "impedance":
+            out = self._run(
+                state,
+                *self._constants,
+                xd,
+                xd_dot,
+                xd_ddot,
+                law.pi,
+                law.gain_l,
+                law.k_s,
+                law.k_d,
+                self.effort_limits,
+            )
+            law_output = LawOutput(out[at:], {})
+        else:
+            assert external_force is not None, "the variable impedance reads the force"
+            out = self._run(
+                state,
+                *self._constants,
+                theta,
+                xd,
+                xd_dot,
+                xd_ddot,
+                np.asarray(law.desired_force(time), float),
+                external_force,
+                law.mass,
+                law.damping,
+                law.free_stiffness,
+                law.kp,
+                law.kv,
+                law.sigma,
+                law.sample_period,
+                self.effort_limits,
+            )
+            after = out[at:]
+            law_output = LawOutput(after[:m], {}, lambda: after[m:])
+        return DeferredTermsResult(self.model.terms, (state,), law_output, out[:nv], int(out[nv]))
