@@ -402,7 +402,7 @@ class TorqueClient:
         result = self.tick.evaluate(
             state, tuple(values[k] for values in self._reference), self.theta
         )
-        command = result.torque - result.terms.joint_gravity  # the driver adds G(q) itself
+        command = result.torque - result.joint_gravity  # the driver adds G(q) itself
         # A non-finite command or a joint past its limit withholds this tick's command.
         if (
             not np.all(np.isfinite(command))

@@ -171,6 +171,7 @@ class FusedArmTick(ControlTick):
             law_output,
             out[:nv],
             int(out[nv]),
+            joint_gravity,
         )
 
     def terms_of(

@@ -67,6 +67,12 @@ class TickResult:
     torque: np.ndarray
     saturated: int
 
+    @property
+    def joint_gravity(self) -> np.ndarray:
+        """G(q) at the tick's state [N m] (`terms.joint_gravity`): what a driver that
+        compensates gravity itself takes off the torque."""
+        return self.terms.joint_gravity  # type: ignore[attr-defined]
+
 
 class DeferredTermsResult(TickResult):
     """`TickResult` whose `terms` are formed when first read, as `terms_of(*arguments)`: a
@@ -80,6 +86,9 @@ class DeferredTermsResult(TickResult):
         What the tick computed on the way.
     law, torque, saturated
         As for `TickResult`.
+    joint_gravity : (nv,) array, optional
+        G(q), where the tick has it: read without forming the terms (a served tick reads
+        it every status).
     """
 
     def __init__(
@@ -89,9 +98,18 @@ class DeferredTermsResult(TickResult):
         law: LawOutput,
         torque: np.ndarray,
         saturated: int,
+        joint_gravity: np.ndarray | None = None,
     ):
         self._terms_of, self._arguments = terms_of, arguments
         self.law, self.torque, self.saturated = law, torque, saturated
+        self._joint_gravity = joint_gravity
+
+    @property
+    def joint_gravity(self) -> np.ndarray:
+        """G(q) at the tick's state [N m]."""
+        if self._joint_gravity is None:
+            return self.terms.joint_gravity  # type: ignore[attr-defined]
+        return self._joint_gravity
 
     @cached_property
     def terms(self) -> object:  # type: ignore[override]

@@ -71,6 +71,11 @@ class PoseTickResult:
     torque: np.ndarray
     saturated: int
 
+    @property
+    def joint_gravity(self) -> np.ndarray:
+        """G(q) at the tick's state [N m] (`terms.joint_gravity`), as `TickResult`'s."""
+        return self.terms.joint_gravity
+
 
 # The 6-D tick's reference inputs beyond the translational ones, and their sizes.
 ORIENTATION_REFERENCE_PORTS = (
