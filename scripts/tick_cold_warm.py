@@ -1,4 +1,4 @@
-"""Time one tick of the insertion's Hl-CMP (`ControlTick.evaluate`, at a fixed state) back to
+"""Time one tick of the insertion's Hl-CMP (`FusedArmTick.evaluate`, at a fixed state) back to
 back, and after what a served tick follows in practice: a sleep (waiting for a status), a
 busy wait, one step of the world's simulation, or a pass over 32 MB (caches flushed).
 
