@@ -6,8 +6,9 @@ joint force. Each composes the `jitable` functions that hold the equations (`law
 `systems.control_loop.ControlTick` evaluates the same equations through the laws' shared
 interface.
 
-Each returns one array: [the joint force (nv), the number of saturated joints, x (M), then
-the law's own output].
+Each takes what changes every tick first (the state, the reference, θ, the measured force)
+and the constants after them, and returns one array: [the joint force (nv), the number of
+saturated joints, x (M), then the law's own output].
 """
 
 from __future__ import annotations
@@ -46,18 +47,18 @@ def _slider_output(
 @jitable
 def hlcmp_slider_tick(
     state: np.ndarray,
+    xd: np.ndarray,
+    xd_dot: np.ndarray,
+    xd_ddot: np.ndarray,
+    phase: float,
+    theta: np.ndarray,
     position_at_zero: np.ndarray,
     jacobian: np.ndarray,
     inertia: np.ndarray,
     coriolis: np.ndarray,
     gravity: np.ndarray,
-    xd: np.ndarray,
-    xd_dot: np.ndarray,
-    xd_ddot: np.ndarray,
-    phase: float,
     pi: float,
     gain_l: np.ndarray,
-    theta: np.ndarray,
     centers: np.ndarray,
     widths: np.ndarray,
     q_k: np.ndarray,
@@ -72,13 +73,15 @@ def hlcmp_slider_tick(
     ----------
     state : (nq + nv,) array
         [q, v] [m], [m/s].
-    position_at_zero, jacobian, inertia, coriolis, gravity
-        x(0) (M,), J (M, nv), Λ, C_x (M, M) and G_x (M,) (`PrismaticTaskModel.constants`).
     xd, xd_dot, xd_ddot : (M,) arrays
         The reference.
     phase : float
         s [-].
-    pi, gain_l, theta, centers, widths, q_k, q_d, q_v
+    theta : (3 M N,) array
+        As for `hlcmp_command`.
+    position_at_zero, jacobian, inertia, coriolis, gravity
+        x(0) (M,), J (M, nv), Λ, C_x (M, M) and G_x (M,) (`PrismaticTaskModel.constants`).
+    pi, gain_l, centers, widths, q_k, q_d, q_v
         As for `hlcmp_command`.
     limits : (nv,) array
         The effort limits [N].
@@ -116,14 +119,14 @@ def hlcmp_slider_tick(
 @jitable
 def impedance_slider_tick(
     state: np.ndarray,
+    xd: np.ndarray,
+    xd_dot: np.ndarray,
+    xd_ddot: np.ndarray,
     position_at_zero: np.ndarray,
     jacobian: np.ndarray,
     inertia: np.ndarray,
     coriolis: np.ndarray,
     gravity: np.ndarray,
-    xd: np.ndarray,
-    xd_dot: np.ndarray,
-    xd_ddot: np.ndarray,
     pi: float,
     gain_l: np.ndarray,
     stiffness: np.ndarray,
@@ -135,7 +138,7 @@ def impedance_slider_tick(
 
     Parameters
     ----------
-    state, position_at_zero, jacobian, inertia, coriolis, gravity, xd, xd_dot, xd_ddot
+    state, xd, xd_dot, xd_ddot, position_at_zero, jacobian, inertia, coriolis, gravity
         As for `hlcmp_slider_tick`.
     pi, gain_l, stiffness, damping
         As for `impedance_motion` and `impedance_command`.
@@ -159,17 +162,17 @@ def impedance_slider_tick(
 @jitable
 def variable_impedance_slider_tick(
     state: np.ndarray,
+    xd: np.ndarray,
+    xd_dot: np.ndarray,
+    xd_ddot: np.ndarray,
+    theta: np.ndarray,
+    desired_force: np.ndarray,
+    external_force: np.ndarray,
     position_at_zero: np.ndarray,
     jacobian: np.ndarray,
     inertia: np.ndarray,
     coriolis: np.ndarray,
     gravity: np.ndarray,
-    theta: np.ndarray,
-    xd: np.ndarray,
-    xd_dot: np.ndarray,
-    xd_ddot: np.ndarray,
-    desired_force: np.ndarray,
-    external_force: np.ndarray,
     mass: np.ndarray,
     damping: np.ndarray,
     free_stiffness: np.ndarray,
@@ -184,10 +187,13 @@ def variable_impedance_slider_tick(
 
     Parameters
     ----------
-    state, position_at_zero, jacobian, inertia, coriolis, gravity
+    state, xd, xd_dot, xd_ddot
         As for `hlcmp_slider_tick`.
-    theta, xd, xd_dot, xd_ddot, desired_force, external_force, mass, damping,
-    free_stiffness, kp, kv, sigma, sample_period
+    theta, desired_force, external_force
+        As for `variable_impedance_command`.
+    position_at_zero, jacobian, inertia, coriolis, gravity
+        As for `hlcmp_slider_tick`.
+    mass, damping, free_stiffness, kp, kv, sigma, sample_period
         As for `variable_impedance_command`.
     limits : (nv,) array
         The effort limits [N].

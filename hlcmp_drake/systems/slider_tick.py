@@ -73,16 +73,30 @@ class FusedSliderTick(ControlTick):
                 f"{type(law).__name__}"
             )
         super().__init__(model, None, law, effort_limits)
-        self._constants = model.constants
+        # What does not change from tick to tick, in the order the kernels take it after
+        # the state, the reference, θ and the measured force.
         if isinstance(law, HlcmpLaw):
             self._kind = "hlcmp"
             self._run = implementation(hlcmp_slider_tick, self.kernel)
+            g = law.gains
+            law_parameters: tuple = (g.pi, g.gain_l, law.centers, law.widths, g.q_k, g.q_d, g.q_v)
         elif isinstance(law, ConstantImpedanceLaw):
             self._kind = "impedance"
             self._run = implementation(impedance_slider_tick, self.kernel)
+            law_parameters = (law.pi, law.gain_l, law.k_s, law.k_d)
         else:
             self._kind = "variable"
             self._run = implementation(variable_impedance_slider_tick, self.kernel)
+            law_parameters = (
+                law.mass,
+                law.damping,
+                law.free_stiffness,
+                law.kp,
+                law.kv,
+                law.sigma,
+                law.sample_period,
+            )
+        self._parameters = (*model.constants, *law_parameters, self.effort_limits)
 
     def evaluate(
         self,
@@ -116,61 +130,19 @@ class FusedSliderTick(ControlTick):
         xd, xd_dot, xd_ddot, phase = reference
         at = nv + 1 + m  # where the law's output starts
         if self._kind == "hlcmp":
-            g = law.gains
-            out = self._run(
-                state,
-                *self._constants,
-                xd,
-                xd_dot,
-                xd_ddot,
-                phase[0],
-                g.pi,
-                g.gain_l,
-                theta,
-                law.centers,
-                law.widths,
-                g.q_k,
-                g.q_d,
-                g.q_v,
-                self.effort_limits,
-            )
+            out = self._run(state, xd, xd_dot, xd_ddot, phase[0], theta, *self._parameters)
             after = out[at:]
             law_output = LawOutput(
                 after[:m], law._logs(after), law._learning(lambda: after[6 * m :], theta)
             )
         elif self._kind == "impedance":
-            out = self._run(
-                state,
-                *self._constants,
-                xd,
-                xd_dot,
-                xd_ddot,
-                law.pi,
-                law.gain_l,
-                law.k_s,
-                law.k_d,
-                self.effort_limits,
-            )
+            out = self._run(state, xd, xd_dot, xd_ddot, *self._parameters)
             law_output = LawOutput(out[at:], {})
         else:
             assert external_force is not None, "the variable impedance reads the force"
+            desired = np.asarray(law.desired_force(time), float)
             out = self._run(
-                state,
-                *self._constants,
-                theta,
-                xd,
-                xd_dot,
-                xd_ddot,
-                np.asarray(law.desired_force(time), float),
-                external_force,
-                law.mass,
-                law.damping,
-                law.free_stiffness,
-                law.kp,
-                law.kv,
-                law.sigma,
-                law.sample_period,
-                self.effort_limits,
+                state, xd, xd_dot, xd_ddot, theta, desired, external_force, *self._parameters
             )
             after = out[at:]
             law_output = LawOutput(after[:m], {}, lambda: after[m:])
