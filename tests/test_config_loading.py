@@ -31,7 +31,8 @@ def test_bundled_one_dof_loads_into_typed_configs():
     assert isinstance(scenario.controllers["vic_fd_5.0"], VariableImpedanceConfig)
     assert scenario.controllers["vic_fd_5.0"].desired_force_N == [5.0]
     assert scenario.plant_config.time_step == 0.001
-    assert scenario.simulator_config.integration_scheme == "runge_kutta3"
+    assert scenario.simulator_config.integration_scheme == "runge_kutta2"
+    assert not scenario.simulator_config.use_error_control
 
 
 def _line_of(text, needle):
