@@ -395,3 +395,13 @@ def arm_tick_inputs(setup, law, seed):
     )
     theta = rng.uniform(0, 300, law.theta_size) if law.learns else None
     return state, reference, theta
+
+
+def assert_held_command_is_evaluates(tick, result, state, reference, theta, **keywords):
+    """`tick.held_command` at these inputs gives `result`'s (its `evaluate`'s) torque and
+    θ' to the bit: what `ControlLoop` holds is what the tick evaluates."""
+    torque, rates = tick.held_command(state, reference, theta, **keywords)
+    np.testing.assert_array_equal(torque, result.torque)
+    assert (rates is None) == (result.law.rates is None)
+    if rates is not None:
+        np.testing.assert_array_equal(rates, result.law.rates)

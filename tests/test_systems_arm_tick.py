@@ -6,7 +6,7 @@ import dataclasses as dc
 
 import numpy as np
 import pytest
-from conftest import arm_tick_inputs
+from conftest import arm_tick_inputs, assert_held_command_is_evaluates
 from pydrake.systems.framework import DiagramBuilder
 
 from hlcmp_drake.config.scenario import HlcmpForgettingConfig
@@ -94,6 +94,8 @@ def test_the_fused_tick_gives_the_shared_interfaces_numbers(insertion, plant, na
         a = fused.evaluate(state, reference, theta)
         b = shared.evaluate(state, reference, theta)
         _assert_agree(a, b)
+        assert_held_command_is_evaluates(fused, a, state, reference, theta)
+        assert_held_command_is_evaluates(shared, b, state, reference, theta)
         row = shared.log_row(b)
         scale = max(1.0, float(np.max(np.abs(row))))
         np.testing.assert_allclose(fused.log_row(a), row, rtol=0, atol=1e-12 * scale)

@@ -6,6 +6,7 @@ from functools import partial
 
 import numpy as np
 import pytest
+from conftest import assert_held_command_is_evaluates
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.core.kernels import kernel_chosen, numba_available
@@ -96,6 +97,7 @@ def test_compiled_pose_tick_agrees_with_numpy_along_a_peg_run(peg, name):
         assert (a.law.rates is None) == (b.law.rates is None) == (name != "hlcmp_6d")
         assert a.law.logs.keys() == b.law.logs.keys()
         _assert_agree(_pairs(a, b))
+        assert_held_command_is_evaluates(compiled, a, state, reference, theta)
 
 
 @needs_numba

@@ -7,6 +7,7 @@ import dataclasses as dc
 
 import numpy as np
 import pytest
+from conftest import assert_held_command_is_evaluates
 from pydrake.systems.framework import DiagramBuilder
 
 from hlcmp_drake.config.loading import load_scenario
@@ -94,12 +95,11 @@ def test_the_fused_slider_tick_gives_the_shared_interfaces_numbers(one_dof, name
     assert isinstance(fused, FusedSliderTick) and fused.kernel == shared.kernel == path
     for seed in range(20):
         state, reference, theta, extra = _inputs(shared.law, seed)
-        _assert_agree(
-            fused,
-            shared,
-            fused.evaluate(state, reference, theta, **extra),
-            shared.evaluate(state, reference, theta, **extra),
-        )
+        a = fused.evaluate(state, reference, theta, **extra)
+        b = shared.evaluate(state, reference, theta, **extra)
+        _assert_agree(fused, shared, a, b)
+        assert_held_command_is_evaluates(fused, a, state, reference, theta, **extra)
+        assert_held_command_is_evaluates(shared, b, state, reference, theta, **extra)
 
 
 def test_the_comparison_sees_a_changed_input(one_dof):

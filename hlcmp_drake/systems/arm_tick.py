@@ -145,25 +145,15 @@ class FusedArmTick(ControlTick):
         -------
         TickResult
         """
-        model, nv, m = self.model, self.model.nv, self.n_axes
-        position, spatial, joint_gravity, mass, rotation = model.plant_queries(state)
-        q, v = state[: model.nq], state[model.nq :]
-        xd, xd_dot, xd_ddot, phase = reference
-        first_row = self._first_row
-        start = self._start(
-            mass, spatial, first_row, joint_gravity, position, v, xd, xd_dot, xd_ddot, self._pi
-        )
-        biases = model.biases(v, start[:nv])
-        law = self.law
-        common = (*biases, spatial, first_row, rotation, q, v, joint_gravity)
+        computed = self._compute(state, reference, theta)
+        start, position, spatial, joint_gravity, rotation, v, out = computed
+        nv, m, law = self.model.nv, self.n_axes, self.law
         if self._learns:
-            out = self._finish(start, *common, phase[0], theta, *self._law_parameters, *self._held)
             after = out[nv + 1 :]  # hlcmp_force's layout, then θ'
             law_output = LawOutput(
                 after[:m], law._logs(after), law._learning(lambda: after[6 * m :], theta)
             )
         else:
-            out = self._finish(start, *common, *self._law_parameters, *self._held)
             law_output = LawOutput(out[nv + 1 :], {})
         return DeferredTermsResult(
             self.terms_of,
@@ -173,6 +163,34 @@ class FusedArmTick(ControlTick):
             int(out[nv]),
             joint_gravity,
         )
+
+    def _torque_and_rates(self, state, reference, theta, time, external_force):
+        """The torque and θ' sliced from the finish's output, nothing else formed."""
+        out = self._compute(state, reference, theta)[-1]
+        nv = self.model.nv
+        if not self._learns:
+            return out[:nv], None
+        paper_rates = out[nv + 1 + 6 * self.n_axes :]
+        return out[:nv], self.law._learning(lambda: paper_rates, theta)()
+
+    def _compute(self, state: np.ndarray, reference: tuple, theta: np.ndarray | None) -> tuple:
+        """Drake's queries and the two compiled calls: (the start's output, x, the spatial
+        Jacobian, G(q), R, v, the finish's output)."""
+        model, nv = self.model, self.model.nv
+        position, spatial, joint_gravity, mass, rotation = model.plant_queries(state)
+        q, v = state[: model.nq], state[model.nq :]
+        xd, xd_dot, xd_ddot, phase = reference
+        first_row = self._first_row
+        start = self._start(
+            mass, spatial, first_row, joint_gravity, position, v, xd, xd_dot, xd_ddot, self._pi
+        )
+        biases = model.biases(v, start[:nv])
+        common = (*biases, spatial, first_row, rotation, q, v, joint_gravity)
+        if self._learns:
+            out = self._finish(start, *common, phase[0], theta, *self._law_parameters, *self._held)
+        else:
+            out = self._finish(start, *common, *self._law_parameters, *self._held)
+        return start, position, spatial, joint_gravity, rotation, v, out
 
     def terms_of(
         self,

@@ -255,6 +255,38 @@ class ControlTick:
         )
         return TickResult(terms, out, torque, saturated)
 
+    def held_command(
+        self,
+        state: np.ndarray,
+        reference: tuple,
+        theta: np.ndarray | None,
+        *,
+        time: float = 0.0,
+        external_force: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, np.ndarray | None]:
+        """What `ControlLoop` holds until the next tick: `evaluate`'s torque and θ' alone
+        (a fused tick forms them without the rest of the result).
+
+        Parameters
+        ----------
+        state, reference, theta, time, external_force
+            As for `evaluate`.
+
+        Returns
+        -------
+        torque : (nv,) array
+            The saturated joint torque [N m].
+        rates : (P,) array or None
+            θ', None for a law without θ.
+        """
+        return self._torque_and_rates(state, reference, theta, time, external_force)
+
+    def _torque_and_rates(self, state, reference, theta, time, external_force):
+        """`held_command`'s work: from `evaluate` here; a fused tick slices its kernel's
+        output instead."""
+        result = self.evaluate(state, reference, theta, time=time, external_force=external_force)
+        return result.torque, result.law.rates
+
     def log_row(self, result: TickResult) -> np.ndarray:
         """The tick's loggable values in the layout of `log_columns`: x, f_c, the number of
         saturated joints and the law's logged series.
@@ -377,25 +409,31 @@ class ControlLoop(LeafSystem):
         self.tick_seconds = []
         return self.tick_seconds
 
-    def _evaluate(self, context) -> TickResult:
-        return self._tick_of.evaluate(
+    def _inputs(self, context) -> tuple[tuple, dict]:
+        """The tick's arguments at `context`, positional and by keyword."""
+        return (
             self.plant_state.Eval(context),
             tuple(port.Eval(context) for port in self._reference),
             self.theta.Eval(context) if self.theta is not None else None,
-            time=context.get_time(),
-            external_force=(
+        ), {
+            "time": context.get_time(),
+            "external_force": (
                 self.external_force.Eval(context) if self.external_force is not None else None
             ),
-        )
+        }
 
     def _tick(self, context: Context, state: State):
         start = time.perf_counter()
-        result = self._evaluate(context)
-        state.get_mutable_discrete_state(self._torque_index).set_value(result.torque)
-        if result.law.rates is not None:
-            state.get_mutable_discrete_state(self._rate_index).set_value(result.law.rates)
+        arguments, keywords = self._inputs(context)
+        torque, rates = self._tick_of.held_command(*arguments, **keywords)
+        state.get_mutable_discrete_state(self._torque_index).set_value(torque)
+        if rates is not None:
+            state.get_mutable_discrete_state(self._rate_index).set_value(rates)
         if self.tick_seconds is not None:
             self.tick_seconds.append(time.perf_counter() - start)
 
     def _calc_logs(self, context, abstract_value):
-        abstract_value.set_value(self._tick_of.log_row(self._evaluate(context)))
+        arguments, keywords = self._inputs(context)
+        abstract_value.set_value(
+            self._tick_of.log_row(self._tick_of.evaluate(*arguments, **keywords))
+        )

@@ -208,6 +208,11 @@ class PoseControlTick:
         )
         return PoseTickResult(terms, out, torque, saturated)
 
+    def held_command(self, state, reference, theta, *, time=0.0, external_force=None):
+        """As `ControlTick.held_command`: `evaluate`'s torque and θ'."""
+        result = self.evaluate(state, reference, theta)
+        return result.torque, result.law.rates
+
     def log_row(self, result: PoseTickResult) -> np.ndarray:
         """The tick's loggable values in the layout of `log_columns`: P, f_c, the number of
         saturated joints, the law's series, tau_c and the tool's orientation.

@@ -126,24 +126,40 @@ class FusedSliderTick(ControlTick):
         -------
         TickResult
         """
+        out = self._output(state, reference, theta, time, external_force)
         law, nv, m = self.law, self.model.nv, self.n_axes
-        xd, xd_dot, xd_ddot, phase = reference
-        at = nv + 1 + m  # where the law's output starts
+        after = out[nv + 1 + m :]  # the law's output
         if self._kind == "hlcmp":
-            out = self._run(state, xd, xd_dot, xd_ddot, phase[0], theta, *self._parameters)
-            after = out[at:]
             law_output = LawOutput(
                 after[:m], law._logs(after), law._learning(lambda: after[6 * m :], theta)
             )
         elif self._kind == "impedance":
-            out = self._run(state, xd, xd_dot, xd_ddot, *self._parameters)
-            law_output = LawOutput(out[at:], {})
+            law_output = LawOutput(after, {})
         else:
-            assert external_force is not None, "the variable impedance reads the force"
-            desired = np.asarray(law.desired_force(time), float)
-            out = self._run(
-                state, xd, xd_dot, xd_ddot, theta, desired, external_force, *self._parameters
-            )
-            after = out[at:]
             law_output = LawOutput(after[:m], {}, lambda: after[m:])
         return DeferredTermsResult(self.model.terms, (state,), law_output, out[:nv], int(out[nv]))
+
+    def _torque_and_rates(self, state, reference, theta, time, external_force):
+        """The torque and θ' sliced from the kernel's output, nothing else formed."""
+        out = self._output(state, reference, theta, time, external_force)
+        nv, m = self.model.nv, self.n_axes
+        after = out[nv + 1 + m :]
+        if self._kind == "hlcmp":
+            return out[:nv], self.law._learning(lambda: after[6 * m :], theta)()
+        if self._kind == "impedance":
+            return out[:nv], None
+        return out[:nv], after[m:]
+
+    def _output(self, state, reference, theta, time, external_force) -> np.ndarray:
+        """The law's kernel: [the joint force, the number of saturated joints, x, the
+        law's output] (`core.slider_tick`)."""
+        xd, xd_dot, xd_ddot, phase = reference
+        if self._kind == "hlcmp":
+            return self._run(state, xd, xd_dot, xd_ddot, phase[0], theta, *self._parameters)
+        if self._kind == "impedance":
+            return self._run(state, xd, xd_dot, xd_ddot, *self._parameters)
+        assert external_force is not None, "the variable impedance reads the force"
+        desired = np.asarray(self.law.desired_force(time), float)
+        return self._run(
+            state, xd, xd_dot, xd_ddot, theta, desired, external_force, *self._parameters
+        )
