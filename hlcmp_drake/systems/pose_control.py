@@ -208,8 +208,27 @@ class PoseControlTick:
         )
         return PoseTickResult(terms, out, torque, saturated)
 
-    def held_command(self, state, reference, theta, *, time=0.0, external_force=None):
-        """As `ControlTick.held_command`: `evaluate`'s torque and θ'."""
+    def held_command(
+        self,
+        state: np.ndarray,
+        reference: PoseReference | tuple,
+        theta: np.ndarray | None,
+        *,
+        time: float = 0.0,
+        external_force: np.ndarray | None = None,
+    ) -> tuple[np.ndarray, np.ndarray | None]:
+        """As `ControlTick.held_command`: `evaluate`'s torque and θ'.
+
+        Parameters
+        ----------
+        state, reference, theta, time, external_force
+            As for `evaluate`.
+
+        Returns
+        -------
+        torque : (nv,) array
+        rates : (P,) array or None
+        """
         result = self.evaluate(state, reference, theta)
         return result.torque, result.law.rates
 
