@@ -33,8 +33,8 @@ class EvaluatingLoop(ControlLoop):
 
     def _tick(self, context, state):
         start = time.perf_counter()
-        arguments, keywords = self._inputs(context)
-        result = self._tick_of.evaluate(*arguments, **keywords)
+        state_now, reference, theta, now, force = self._inputs(context)
+        result = self._tick_of.evaluate(state_now, reference, theta, time=now, external_force=force)
         state.get_mutable_discrete_state(self._torque_index).set_value(result.torque)
         if result.law.rates is not None:
             state.get_mutable_discrete_state(self._rate_index).set_value(result.law.rates)

@@ -260,12 +260,12 @@ class ControlTick:
         state: np.ndarray,
         reference: tuple,
         theta: np.ndarray | None,
-        *,
         time: float = 0.0,
         external_force: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray | None]:
         """What `ControlLoop` holds until the next tick: `evaluate`'s torque and θ' alone
-        (a fused tick forms them without the rest of the result).
+        (a fused tick forms them without the rest of the result). Its arguments may be
+        given by position, as `ControlLoop` gives them every tick.
 
         Parameters
         ----------
@@ -409,23 +409,20 @@ class ControlLoop(LeafSystem):
         self.tick_seconds = []
         return self.tick_seconds
 
-    def _inputs(self, context) -> tuple[tuple, dict]:
-        """The tick's arguments at `context`, positional and by keyword."""
+    def _inputs(self, context) -> tuple:
+        """The tick's arguments at `context`: state, reference, θ, time, measured force."""
+        theta, force = self.theta, self.external_force
         return (
             self.plant_state.Eval(context),
-            tuple(port.Eval(context) for port in self._reference),
-            self.theta.Eval(context) if self.theta is not None else None,
-        ), {
-            "time": context.get_time(),
-            "external_force": (
-                self.external_force.Eval(context) if self.external_force is not None else None
-            ),
-        }
+            tuple([port.Eval(context) for port in self._reference]),
+            None if theta is None else theta.Eval(context),
+            context.get_time(),
+            None if force is None else force.Eval(context),
+        )
 
     def _tick(self, context: Context, state: State):
         start = time.perf_counter()
-        arguments, keywords = self._inputs(context)
-        torque, rates = self._tick_of.held_command(*arguments, **keywords)
+        torque, rates = self._tick_of.held_command(*self._inputs(context))
         state.get_mutable_discrete_state(self._torque_index).set_value(torque)
         if rates is not None:
             state.get_mutable_discrete_state(self._rate_index).set_value(rates)
@@ -433,7 +430,6 @@ class ControlLoop(LeafSystem):
             self.tick_seconds.append(time.perf_counter() - start)
 
     def _calc_logs(self, context, abstract_value):
-        arguments, keywords = self._inputs(context)
-        abstract_value.set_value(
-            self._tick_of.log_row(self._tick_of.evaluate(*arguments, **keywords))
-        )
+        state, reference, theta, now, force = self._inputs(context)
+        result = self._tick_of.evaluate(state, reference, theta, time=now, external_force=force)
+        abstract_value.set_value(self._tick_of.log_row(result))

@@ -213,7 +213,6 @@ class PoseControlTick:
         state: np.ndarray,
         reference: PoseReference | tuple,
         theta: np.ndarray | None,
-        *,
         time: float = 0.0,
         external_force: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray | None]:

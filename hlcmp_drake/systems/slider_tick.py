@@ -97,6 +97,11 @@ class FusedSliderTick(ControlTick):
                 law.sample_period,
             )
         self._parameters = (*model.constants, *law_parameters, self.effort_limits)
+        # Where the kernel's output holds the torque and θ' (`core.slider_tick`): the
+        # Hl-CMP's θ' after its six series, the variable impedance's after f_c.
+        m = self.n_axes
+        self._nv = model.nv
+        self._rates_from = model.nv + 1 + m + (6 * m if self._kind == "hlcmp" else m)
 
     def evaluate(
         self,
@@ -142,13 +147,13 @@ class FusedSliderTick(ControlTick):
     def _torque_and_rates(self, state, reference, theta, time, external_force):
         """The torque and θ' sliced from the kernel's output, nothing else formed."""
         out = self._output(state, reference, theta, time, external_force)
-        nv, m = self.model.nv, self.n_axes
-        after = out[nv + 1 + m :]
-        if self._kind == "hlcmp":
-            return out[:nv], self.law._learning(lambda: after[6 * m :], theta)()
+        torque = out[: self._nv]
         if self._kind == "impedance":
-            return out[:nv], None
-        return out[:nv], after[m:]
+            return torque, None
+        rates = out[self._rates_from :]
+        if self._kind == "hlcmp":
+            return torque, self.law._learning(lambda: rates, theta)()
+        return torque, rates
 
     def _output(self, state, reference, theta, time, external_force) -> np.ndarray:
         """The law's kernel: [the joint force, the number of saturated joints, x, the
