@@ -120,9 +120,14 @@ def _quiet_drake(args):
 
 
 def _print_table(table):
+    """A table on stdout; on a terminal its first column wraps to the terminal's width
+    (the benchmark's labels are long), into a pipe or a file each row stays one line."""
+    import shutil
+
     from hlcmp_drake.present.tables import to_text
 
-    print(to_text(table))
+    width = shutil.get_terminal_size().columns if sys.stdout.isatty() else None
+    print(to_text(table, width=width))
 
 
 def _verdict_word(holds):

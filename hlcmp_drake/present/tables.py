@@ -4,30 +4,55 @@ markdown for the README, HTML for the report page."""
 from __future__ import annotations
 
 import html
+import textwrap
 
 from hlcmp_drake.experiments.table import Table
 
+# A wrapped first column keeps at least this many characters a line.
+MIN_FIRST_WIDTH = 20
 
-def to_text(table: Table) -> str:
+
+def to_text(table: Table, width: int | None = None) -> str:
     """Columns aligned with spaces: the first left-aligned, the others right-aligned.
 
     Parameters
     ----------
     table : Table
+    width : int, optional
+        The widest line wanted (a terminal's columns): a first column that would make
+        the lines wider is wrapped at spaces onto lines of its own below its row's first,
+        never narrower than its longest word or `MIN_FIRST_WIDTH`. None: no wrapping.
+
+    Returns
+    -------
+    str
+        The header, a rule of dashes, then the rows, one per line unless wrapped.
     """
     widths = [
         max(len(row[k]) for row in [table.headers, *table.rows]) for k in range(len(table.headers))
     ]
+    if width is not None:
+        others = sum(w + 2 for w in widths[1:])
+        longest_word = max(
+            len(word) for row in [table.headers, *table.rows] for word in row[0].split() or [""]
+        )
+        widths[0] = min(widths[0], max(width - others, longest_word, MIN_FIRST_WIDTH))
 
-    def line(cells):
-        return "  ".join(
-            cell.ljust(w) if k == 0 else cell.rjust(w)
-            for k, (cell, w) in enumerate(zip(cells, widths))
-        ).rstrip()
+    def lines(cells):  # a row's lines: the wrapped first cell, the others on its first
+        first = (
+            [cells[0]]
+            if len(cells[0]) <= widths[0]
+            else textwrap.wrap(cells[0], widths[0], break_long_words=False)
+        )
+        rest = ["  ".join(cell.rjust(w) for cell, w in zip(cells[1:], widths[1:]))]
+        rest += [""] * (len(first) - 1)
+        return [
+            f"{text.ljust(widths[0])}  {others}".rstrip() if others else text.rstrip()
+            for text, others in zip(first, rest)
+        ]
 
-    return "\n".join(
-        [line(table.headers), "  ".join("-" * w for w in widths)] + [line(r) for r in table.rows]
-    )
+    rule = ["  ".join("-" * w for w in widths)]
+    return "\n".join(lines(table.headers) + rule + [ln for row in table.rows for ln in lines(row)])
 
 
 def _markdown_cell(text: str) -> str:
