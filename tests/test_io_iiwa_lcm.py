@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from drake import lcmt_iiwa_command, lcmt_iiwa_status
 
 from hlcmp_drake.io.iiwa_lcm import (
     IiwaStatus,
@@ -38,3 +39,44 @@ def test_messages_round_trip_and_bad_ones_are_named():
         decode_torque_command(encode_torque_command(1, np.zeros(7), [np.nan] + [0.0] * 6), 7)
     with pytest.raises(ProtocolError, match="torque-only mode needs 7"):
         decode_torque_command(encode_torque_command(1, np.zeros(7), np.zeros(3)), 7)
+
+
+@pytest.mark.parametrize("joints", [7, 3])
+def test_statuses_read_in_place_equal_lcms_own_decoding(joints):
+    rng = np.random.default_rng(joints)
+    message = lcmt_iiwa_status()
+    message.utime, message.num_joints = -(2**40) + 17, joints
+    for field in lcmt_iiwa_status.__slots__[2:]:  # every array different
+        setattr(message, field, rng.normal(size=joints).tolist())
+    data = message.encode()
+    ours, lcms = decode_status(data, joints), lcmt_iiwa_status.decode(data)
+    assert ours.utime == lcms.utime
+    for field, theirs in (
+        ("position", "joint_position_measured"),
+        ("velocity", "joint_velocity_estimated"),
+        ("torque_commanded", "joint_torque_commanded"),
+        ("torque_measured", "joint_torque_measured"),
+        ("torque_external", "joint_torque_external"),
+    ):
+        array = getattr(ours, field)
+        assert array.dtype == np.float64 and array.dtype.isnative and array.flags.c_contiguous
+        assert array.tolist() == list(getattr(lcms, theirs))
+    with pytest.raises(ProtocolError, match=f"a status of {len(data) - 8} bytes, where"):
+        decode_status(data[:-8], joints)
+    with pytest.raises(ProtocolError, match="does not decode as lcmt_iiwa_status"):
+        decode_status(data[:12], joints)
+    # Cut short on the network: one line from every decoder, never struct's own error.
+    with pytest.raises(ProtocolError, match="does not decode as lcmt_force_torque"):
+        decode_wrench(encode_wrench(5, [1.0, 2.0, 3.0], [0.0, 0.0, 0.0])[:-4])
+    with pytest.raises(ProtocolError, match="does not decode as lcmt_iiwa_command"):
+        decode_torque_command(encode_torque_command(5, np.zeros(7), np.zeros(7))[:-4], 7)
+
+
+@pytest.mark.parametrize("joints, torques", [(7, 7), (7, 3), (2, 0)])
+def test_commands_encode_as_lcm_encodes_them(joints, torques):
+    rng = np.random.default_rng(joints + torques)
+    position, torque = rng.normal(size=joints), rng.normal(size=torques)
+    message = lcmt_iiwa_command()
+    message.utime, message.num_joints, message.num_torques = 2**50 + 3, joints, torques
+    message.joint_position, message.joint_torque = position.tolist(), torque.tolist()
+    assert encode_torque_command(2**50 + 3, position, torque) == message.encode()

@@ -12,7 +12,9 @@ an index error deep in a controller.
 from __future__ import annotations
 
 import dataclasses as dc
+import functools
 import re
+import struct
 from typing import Any
 
 import numpy as np
@@ -29,7 +31,7 @@ class ProtocolError(Exception):
 def _decode(message_type: Any, data: bytes, what: str):
     try:
         return message_type.decode(data)
-    except ValueError as error:
+    except (ValueError, struct.error) as error:  # another type's bytes, or too few
         raise ProtocolError(
             f"{what} that does not decode as {message_type.__name__} ({error})"
         ) from None
@@ -93,7 +95,9 @@ def encode_status(status: IiwaStatus) -> bytes:
 
 
 def decode_status(data: bytes, num_joints: int) -> IiwaStatus:
-    """An IiwaStatus from lcmt_iiwa_status bytes.
+    """An IiwaStatus from lcmt_iiwa_status bytes, read in place (`_STATUS_HEADER`, then the
+    type's double arrays as one block: every status of a served run is decoded, and
+    lcm's own decoder costs several times as much; tested equal to it).
 
     Parameters
     ----------
@@ -111,20 +115,41 @@ def decode_status(data: bytes, num_joints: int) -> IiwaStatus:
         When the bytes do not decode or hold another number of joints. Non-finite values
         are passed on: the client's watchdog names them.
     """
-    message = _decode(lcmt_iiwa_status, data, "a status")
-    if message.num_joints != num_joints:
-        raise ProtocolError(f"a status for {message.num_joints} joints, the arm has {num_joints}")
-    return IiwaStatus(
-        message.utime,
-        np.array(message.joint_position_measured),
-        np.array(message.joint_velocity_estimated),
-        np.array(message.joint_torque_commanded),
-        np.array(message.joint_torque_measured),
-        np.array(message.joint_torque_external),
+    if len(data) < _STATUS_HEADER.size or data[:8] != _STATUS_FINGERPRINT:
+        _decode(lcmt_iiwa_status, data, "a status")  # says what is wrong, in lcm's words
+    _, utime, joints = _STATUS_HEADER.unpack_from(data)
+    if joints != num_joints:
+        raise ProtocolError(f"a status for {joints} joints, the arm has {num_joints}")
+    count = len(_STATUS_ARRAYS) * joints
+    if len(data) != _STATUS_HEADER.size + 8 * count:
+        raise ProtocolError(
+            f"a status of {len(data)} bytes, where {joints} joints make "
+            f"{_STATUS_HEADER.size + 8 * count}"
+        )
+    rows = (
+        np.frombuffer(data, ">f8", count, _STATUS_HEADER.size)
+        .astype(float)
+        .reshape(len(_STATUS_ARRAYS), joints)
     )
+    return IiwaStatus(utime, *(rows[k] for k in _STATUS_ROWS))
 
 
 _STATUS_FINGERPRINT = lcmt_iiwa_status._get_packed_fingerprint()
+# lcmt_iiwa_status on the wire (LCM is big-endian): the type's fingerprint, utime (int64),
+# num_joints (int32), then its arrays of num_joints doubles in the order of its fields.
+_STATUS_HEADER = struct.Struct(">8sqi")
+_STATUS_ARRAYS = lcmt_iiwa_status.__slots__[2:]
+# IiwaStatus's arrays, by their fields' places among the type's arrays.
+_STATUS_ROWS = tuple(
+    _STATUS_ARRAYS.index(field)
+    for field in (
+        "joint_position_measured",
+        "joint_velocity_estimated",
+        "joint_torque_commanded",
+        "joint_torque_measured",
+        "joint_torque_external",
+    )
+)
 
 
 def status_stamp(data: bytes) -> int | None:
@@ -163,13 +188,21 @@ def encode_torque_command(utime: int, position: np.ndarray, torque: np.ndarray) 
     -------
     bytes
     """
-    message = lcmt_iiwa_command()
-    message.utime = int(utime)
-    message.num_joints = len(position)
-    message.joint_position = np.asarray(position, dtype=float).tolist()
-    message.num_torques = len(torque)
-    message.joint_torque = np.asarray(torque, dtype=float).tolist()
-    return message.encode()
+    position = np.asarray(position, dtype=float).tolist()
+    torque = np.asarray(torque, dtype=float).tolist()
+    return _command_layout(len(position), len(torque)).pack(
+        _COMMAND_FINGERPRINT, int(utime), len(position), *position, len(torque), *torque
+    )
+
+
+_COMMAND_FINGERPRINT = lcmt_iiwa_command._get_packed_fingerprint()
+
+
+@functools.lru_cache(maxsize=8)
+def _command_layout(joints: int, torques: int) -> struct.Struct:
+    """lcmt_iiwa_command on the wire: fingerprint, utime, num_joints, joint_position,
+    num_torques, joint_torque (tested equal to lcm's own encoding)."""
+    return struct.Struct(f">8sqi{joints}di{torques}d")
 
 
 def decode_torque_command(data: bytes, num_joints: int) -> tuple[int, np.ndarray]:
