@@ -74,7 +74,8 @@ def one_run(scenario: str, pair: str, duration: float, out: Path, sets: list[str
 
 
 def row(pair: str, k: int, record: dict) -> str:
-    """One markdown row: ticks, missed (and their share), tick p50/p99/max, the status."""
+    """One markdown row: ticks, missed (and their share), tick p50/p99/max, the statuses
+    that came during a warm-up (`iiwa_driver.warm_up_lead_s`), the status."""
     ticks, missed = record["ticks"], record["missed_ticks"]
     share = 100 * missed / (ticks + missed) if ticks + missed else 0.0
     us = record["tick_us"]
@@ -83,7 +84,11 @@ def row(pair: str, k: int, record: dict) -> str:
         if us["p50"] is not None
         else "- | - | -"
     )
-    return f"| {pair} | {k} | {ticks} | {missed} ({share:.1f} %) | {timing} | {record['status']} |"
+    overlaps = record["warm_up_overlaps"]
+    return (
+        f"| {pair} | {k} | {ticks} | {missed} ({share:.1f} %) | {timing} | {overlaps} | "
+        f"{record['status']} |"
+    )
 
 
 def main() -> None:
@@ -123,9 +128,9 @@ def main() -> None:
                 print(rows[-1], flush=True)
     print(
         f"\n| pair ({args.scenario}, {args.duration:g} s) | run | ticks | missed | tick p50 | "
-        "tick p99 | max | status |"
+        "tick p99 | max | warm-up overlaps | status |"
     )
-    print("|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|")
     print("\n".join(rows))
 
 

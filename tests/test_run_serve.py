@@ -628,6 +628,53 @@ def test_statuses_that_queue_up_are_answered_once_the_newest_only():
     assert len(commands) == answered + 1 and client.ticks == 3
 
 
+def test_a_warm_up_before_each_status_changes_no_command():
+    """The same drifting statuses answered with and without a throw-away tick before each
+    (`warm_up_lead_s`, called between statuses as `serve` calls it): the same commands,
+    byte for byte, and the same θ."""
+    runs = []
+    for lead in (0.0, 0.0005):
+        client, send, commands = _client_fed_by_hand([f"iiwa_driver.warm_up_lead_s={lead}"])
+        evaluations: list = []
+
+        def counted(*args, evaluate=client.tick.evaluate, calls=evaluations, **keywords):
+            calls.append(1)
+            return evaluate(*args, **keywords)
+
+        client.tick.evaluate = counted
+        send(0, client.q0)
+        time.sleep(0.002)
+        for k in range(30):
+            client.warm_up()
+            send(1000 * k, client.q0 + 0.0005 * k, v=np.full(7, 0.5))
+        runs.append((commands, client.theta.copy(), len(evaluations), client.warm_up_overlaps))
+    (plain, theta, ticks, _), (warmed, theta_warmed, evaluated, overlaps) = runs
+    assert len(plain) == 30 and warmed == plain and overlaps == 0
+    np.testing.assert_array_equal(theta_warmed, theta)
+    assert ticks == 30 and evaluated == 30 + 29  # a warm-up after each answered status
+
+
+def test_a_status_that_comes_during_the_warm_up_counts_its_wait():
+    """A status already waiting when the warm-up starts is taken after it, as received
+    when the client stopped listening: its tick time holds the warm-up's."""
+    client, send, commands = _client_fed_by_hand(["iiwa_driver.warm_up_lead_s=0.0009"])
+    send(0, client.q0)
+    time.sleep(0.002)
+    send(0, client.q0)
+    channel, zeros = client.config.status_channel, np.zeros(7)
+    client._lcm.Publish(channel, encode_status(IiwaStatus(1000, client.q0, *[zeros] * 4)))
+    started = time.perf_counter()
+    client.warm_up()
+    warm_up_s = time.perf_counter() - started
+    assert client.pending and client.warm_up_overlaps == 1
+    client.poll()
+    client._lcm.HandleSubscriptions(0)  # the command
+    assert len(commands) == 2 and client.tick_seconds[-1] >= warm_up_s * 0.9
+    assert client.record("memq://")["warm_up_overlaps"] == 1
+    client.warm_up()  # no warm-up twice after one status... until the next is answered
+    assert client.warm_up_overlaps == 1
+
+
 @pytest.mark.slow
 def test_served_6d_hlcmp_equals_its_simulated_run_through_the_contact(tmp_path):
     """hlcmp serve peg_in_hole --lcm memq:// serves the 6-D Hl-CMP (the first learner) and

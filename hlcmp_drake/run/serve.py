@@ -215,6 +215,16 @@ class TorqueClient:
         self._wrist = None
         self._force_world, self._torque_tool = np.zeros(3), np.zeros(3)
         self._latest = None  # (received at, status bytes) not yet answered
+        # The warm-up's state: the last answered status's tick inputs and stamp, the stamp
+        # it warmed up after, the driver's clock in this one (the least delay seen from a
+        # stamp to its receipt, let grow by 1 µs a status to follow a drift), and, while
+        # it runs, when the client stopped listening.
+        self._warm_inputs: tuple | None = None
+        self._answered_stamp: int | None = None
+        self._warmed_after: int | None = None
+        self._stamp_offset_s: float | None = None
+        self._deaf_since: float | None = None
+        self.warm_up_overlaps = 0
         self.first_status_wall = None
         self.last_status_wall = None
         self._utime0 = self._last_utime = None
@@ -264,8 +274,48 @@ class TorqueClient:
         now = time.perf_counter()
         self.last_status_wall = now
         self.first_status_wall = self.first_status_wall or now
+        stamp = status_stamp(data)
+        if stamp is not None:
+            offset = now - stamp / 1e6
+            previous = self._stamp_offset_s
+            self._stamp_offset_s = offset if previous is None else min(previous + 1e-6, offset)
+        if self._deaf_since is not None:  # it came during a warm-up: it waited since then
+            self.warm_up_overlaps += 1
+            now = self._deaf_since
         self._latest = (now, data)
-        self._measure_period(status_stamp(data))
+        self._measure_period(stamp)
+
+    @property
+    def pending(self) -> bool:
+        """Whether a status has come that the next `poll` answers."""
+        return self._latest is not None
+
+    def warm_up(self) -> None:
+        """With `warm_up_lead_s` > 0, once per answered status: listen until that long
+        before the next status is expected (the answered one's stamp plus `period_s`, on
+        the driver's clock as the stamps' receipts place it), then run one throw-away tick
+        at the answered status's inputs, so that the next tick starts from warm caches. A
+        status that comes first is left for `poll`; one that comes during the warm-up
+        counts as received when the client stopped listening (`warm_up_overlaps`)."""
+        lead = self.config.warm_up_lead_s
+        if not lead or self._warm_inputs is None or self._warmed_after == self._answered_stamp:
+            return
+        self._warmed_after = self._answered_stamp
+        expected = self._answered_stamp / 1e6 + self.config.period_s + self._stamp_offset_s
+        wake = expected - lead
+        # Listening all the while (LCM waits in whole milliseconds, so the warm-up starts
+        # up to 1 ms after `wake`): the client is deaf only while the warm-up runs.
+        while not self.pending and time.perf_counter() < wake:
+            self._lcm.HandleSubscriptions(1)
+        if self.pending:
+            return
+        self._deaf_since = time.perf_counter()
+        try:
+            state, reference, theta = self._warm_inputs
+            self.tick.evaluate(state, reference, theta)
+            self._lcm.HandleSubscriptions(0)  # what came meanwhile
+        finally:
+            self._deaf_since = None
 
     def _measure_period(self, utime: int | None) -> None:
         """Take the step from the previous status's stamp into the measured period."""
@@ -399,9 +449,8 @@ class TorqueClient:
             # gap is not integrated as if it were one long step of the old rate.
             step = min((status.utime - self._last_utime) / 1e6, self.config.period_s)
             self.theta = self.theta + step * self._rate
-        result = self.tick.evaluate(
-            state, tuple(values[k] for values in self._reference), self.theta
-        )
+        reference = tuple([values[k] for values in self._reference])
+        result = self.tick.evaluate(state, reference, self.theta)
         command = result.torque - result.joint_gravity  # the driver adds G(q) itself
         # A non-finite command or a joint past its limit withholds this tick's command.
         if (
@@ -415,6 +464,7 @@ class TorqueClient:
         self._lcm.Publish(self.config.command_channel, self._last_command)
         self.tick_seconds.append(time.perf_counter() - received)
         self.ticks += 1
+        self._warm_inputs, self._answered_stamp = (state, reference, self.theta), status.utime
         self._last_utime = status.utime
         self._rate = result.law.rates
         # The simulated run's monitor and loggers read the wrist force at 100 Hz; so does this,
@@ -533,7 +583,8 @@ class TorqueClient:
         -------
         dict
             ticks, missed_ticks, tick_us (p50, p99, max: from a status's receipt to its
-            command's publication), stopped_because, and what was served where.
+            command's publication), warm_up_overlaps (statuses that came during a
+            warm-up), stopped_because, and what was served where.
         """
         micros = np.array(self.tick_seconds) * 1e6
         percentiles = (
@@ -552,6 +603,8 @@ class TorqueClient:
             "force_source": self.config.force_source,
             "period_s": self.config.period_s,
             "status_period_s": self.status_period_s,
+            "warm_up_lead_s": self.config.warm_up_lead_s,
+            "warm_up_overlaps": self.warm_up_overlaps,
             "ticks": self.ticks,
             "missed_ticks": self.missed_ticks,
             "longest_missed_run": self.longest_missed_run,
@@ -582,8 +635,10 @@ def serve(client: TorqueClient, lcm: DrakeLcm, lcm_url: str, reporter: Progress 
             # Sleep until a status comes: polling without sleeping (busy_wait) starts the
             # tick from warm caches, but starves LCM's receiving of the CPU, and it loses
             # datagrams then (docs/iiwa.md).
+            client.warm_up()
             polling = config.busy_wait and client.first_status_wall is not None
-            lcm.HandleSubscriptions(0 if polling else 10)
+            if not client.pending:
+                lcm.HandleSubscriptions(0 if polling else 10)
             client.poll()
             if (
                 client.first_status_wall is None
