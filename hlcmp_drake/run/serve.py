@@ -632,10 +632,10 @@ def serve(client: TorqueClient, lcm: DrakeLcm, lcm_url: str, reporter: Progress 
     start = time.perf_counter()
     with without_garbage_collection():
         while not client.done:
+            client.warm_up()  # with iiwa_driver.warm_up_lead_s; may take the next status
             # Sleep until a status comes: polling without sleeping (busy_wait) starts the
             # tick from warm caches, but starves LCM's receiving of the CPU, and it loses
             # datagrams then (docs/iiwa.md).
-            client.warm_up()
             polling = config.busy_wait and client.first_status_wall is not None
             if not client.pending:
                 lcm.HandleSubscriptions(0 if polling else 10)
