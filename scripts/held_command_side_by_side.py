@@ -20,7 +20,7 @@ import time
 import numpy as np
 
 from hlcmp_drake.config.loading import load_scenario
-from hlcmp_drake.run.benchmark import prepared_simulator
+from hlcmp_drake.run.benchmark import advance_alternately, prepared_simulator
 from hlcmp_drake.systems.control_loop import ControlLoop
 from hlcmp_drake.worlds import common
 from hlcmp_drake.worlds.build import diagram_factory
@@ -63,14 +63,7 @@ def main() -> None:
             simulators[side] = prepared_simulator(built, scenario)
             simulators[side].Initialize()
         common.ControlLoop = ControlLoop
-        spent = dict.fromkeys(sides, 0.0)
-        now, chunk = 0.0, 0
-        while now < args.seconds - 1e-9:
-            now, chunk = min(args.seconds, now + CHUNK_S), chunk + 1
-            for side in list(sides) if chunk % 2 else list(sides)[::-1]:
-                start = time.perf_counter()
-                simulators[side].AdvanceTo(now)
-                spent[side] += time.perf_counter() - start
+        spent = advance_alternately(simulators, args.seconds, CHUNK_S)
         steps = round(args.seconds / scenario.plant_config.time_step)
         for side in sides:
             micros = 1e6 * np.array(ticks[side])

@@ -18,10 +18,9 @@ from __future__ import annotations
 
 import argparse
 import os
-import time
 
 from hlcmp_drake.config.loading import load_scenario
-from hlcmp_drake.run.benchmark import prepared_simulator
+from hlcmp_drake.run.benchmark import advance_alternately, prepared_simulator
 from hlcmp_drake.worlds.build import diagram_factory
 
 CHUNK_S = 0.1
@@ -44,14 +43,7 @@ def main() -> None:
         simulators[side].Initialize()
         steps[side] = round(args.seconds / scenario.plant_config.time_step)
     print(f"load average {os.getloadavg()[0]:.2f}")
-    spent = dict.fromkeys(simulators, 0.0)
-    now, chunk = 0.0, 0
-    while now < args.seconds - 1e-9:
-        now, chunk = min(args.seconds, now + CHUNK_S), chunk + 1
-        for side in ("a", "b") if chunk % 2 else ("b", "a"):
-            start = time.perf_counter()
-            simulators[side].AdvanceTo(now)
-            spent[side] += time.perf_counter() - start
+    spent = advance_alternately(simulators, args.seconds, CHUNK_S)
     for side, simulator in simulators.items():
         integrator = simulator.get_integrator()
         print(

@@ -22,7 +22,7 @@ import types
 import numpy as np
 
 from hlcmp_drake.config.loading import load_scenario
-from hlcmp_drake.run.benchmark import prepared_simulator
+from hlcmp_drake.run.benchmark import advance_alternately, prepared_simulator
 from hlcmp_drake.systems.control_loop import ControlLoop
 from hlcmp_drake.systems.slider_tick import FusedSliderTick
 from hlcmp_drake.worlds import common
@@ -99,14 +99,7 @@ def main() -> None:
             simulators[side] = prepared_simulator(built, scenario)
             simulators[side].Initialize()
         common.ControlLoop = ControlLoop
-        spent = dict.fromkeys(simulators, 0.0)
-        now, chunk = 0.0, 0
-        while now < args.seconds - 1e-9:
-            now, chunk = min(args.seconds, now + CHUNK_S), chunk + 1
-            for side in list(simulators) if chunk % 2 else list(simulators)[::-1]:
-                start = time.perf_counter()
-                simulators[side].AdvanceTo(now)
-                spent[side] += time.perf_counter() - start
+        spent = advance_alternately(simulators, args.seconds, CHUNK_S)
         same = np.array_equal(*(whole_state(s) for s in simulators.values()))
         print(
             f"{controller}: "

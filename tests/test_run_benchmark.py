@@ -182,3 +182,17 @@ def test_the_6d_tick_rows_name_both_paths_and_the_bench_path_first():
     assert lines[first].split()[-1] == "7.60"
     assert "numpy path (6-D 2200 / 3000 µs, translational 500 / 700 µs)" in lines[first + 1]
     assert lines[first + 1].split()[-1] == "4.40"
+
+
+def test_sides_advanced_alternately_all_end_where_asked():
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.primitives import ConstantVectorSource
+
+    from hlcmp_drake.run.benchmark import advance_alternately
+
+    simulators = {side: Simulator(ConstantVectorSource([1.0])) for side in ("a", "b")}
+    for simulator in simulators.values():
+        simulator.Initialize()
+    spent = advance_alternately(simulators, 0.35, chunk_s=0.1)
+    assert set(spent) == {"a", "b"} and all(wall >= 0.0 for wall in spent.values())
+    assert all(s.get_context().get_time() == 0.35 for s in simulators.values())

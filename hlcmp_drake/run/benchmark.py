@@ -68,6 +68,38 @@ def advance(built: BuiltDiagram, scenario: Scenario) -> Simulator:
     return simulator
 
 
+def advance_alternately(simulators: dict, seconds: float, chunk_s: float = 0.1) -> dict:
+    """Advance several initialized simulators to `seconds` side by side: in chunks of
+    `chunk_s` simulated seconds, one after the other, the order reversed every chunk, so
+    that the machine's drift falls on every side alike (the scripts' side-by-side
+    measurements).
+
+    Parameters
+    ----------
+    simulators : dict of str to Simulator
+        By side, each initialized at t = 0.
+    seconds : float
+        Where they all end [s].
+    chunk_s : float
+        Simulated seconds per chunk.
+
+    Returns
+    -------
+    dict of str to float
+        The wall time each side spent in AdvanceTo [s].
+    """
+    spent = dict.fromkeys(simulators, 0.0)
+    sides = list(simulators)
+    now, chunk = 0.0, 0
+    while now < seconds - 1e-9:
+        now, chunk = min(seconds, now + chunk_s), chunk + 1
+        for side in sides if chunk % 2 else sides[::-1]:
+            start = time.perf_counter()
+            simulators[side].AdvanceTo(now)
+            spent[side] += time.perf_counter() - start
+    return spent
+
+
 def count_python_calls(built: BuiltDiagram, scenario: Scenario) -> float:
     """Python calls per plant step while `built` is simulated, counted by instrumentation:
     every Python function that Drake's C++ calls into during AdvanceTo -- an output port's
