@@ -15,6 +15,18 @@ from hlcmp_drake.io.paths import DIAGRAMS_DIR
 ONE_DOF = (DIAGRAMS_DIR / "one_dof.yaml").read_text()
 
 
+def test_a_file_loaded_again_is_a_scenario_of_its_own():
+    # The parsed text is kept for the next load of the same file: what one caller changes
+    # (a sweep setting a field, a weld moved) must not reach the next one.
+    first, _ = load_scenario("insertion")
+    first.duration_s = 99.0
+    first.controllers["hlcmp"].q_k[0] = -1.0
+    first.directives[1].add_weld.parent = "nowhere"
+    second, _ = load_scenario("insertion")
+    assert second.duration_s != 99.0 and second.controllers["hlcmp"].q_k[0] != -1.0
+    assert second.directives[1].add_weld.parent == "world"
+
+
 def test_bundled_one_dof_loads_into_typed_configs():
     scenario, path = load_scenario("one_dof")
     assert path.name == "one_dof.yaml"

@@ -100,6 +100,26 @@ def test_a_bad_scenario_file_names_the_line(tmp_path, old, new, line_with, expec
     assert message.startswith(f"{path}:{number}: ") and expected in message, message
 
 
+@pytest.mark.parametrize(
+    "old, new, expected",
+    [
+        ("child: iiwa::iiwa_link_0", "child: iiwa::iiwa_link_9", "no Frame named 'iiwa_link_9'"),
+        ("child: insertion_tool::mount", "child: insertion_tool::mouth", "named 'mouth'"),
+        ("child: foam_plank::plank", "child: foam_plank::plan", "no Frame named 'plan'"),
+        ("foam_plank::plank]", "foam_plank::plan]", "body with name 'foam_plank::plan'"),
+    ],
+)
+def test_the_directive_drake_refuses_is_the_one_named_wherever_it_is(tmp_path, old, new, expected):
+    # The directives that load are found by bisection: each of the insertion's welds (its
+    # directives 1, 3 and 5) and its collision filter group (6) is the one named.
+    path, lines = _written(tmp_path, old, new)
+    with pytest.raises(InputError) as error:
+        load_scenario(path)
+    changed = next(n for n, row in enumerate(lines, 1) if new in row)
+    number = max(n for n, row in enumerate(lines[:changed], 1) if row.startswith("- "))
+    assert str(error.value).startswith(f"{path}:{number}: ") and expected in str(error.value)
+
+
 def test_a_directives_line_is_its_items_in_the_list():
     text = (
         "a: 1\nlist:\n# a comment\n- one: 1\n  two: 2\n-   three: 3\n- four:\n    five: 5\nb: 2\n"

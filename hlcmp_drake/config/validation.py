@@ -400,11 +400,20 @@ def scenario_plant(scenario: Scenario, fail: Fail) -> MultibodyPlant:
         return _parsed(scenario.plant_config, scenario.directives)
     except RuntimeError as error:
         problem = loading_problem(error)
-    # The first directive that Drake refuses: the shortest list that fails to load.
-    for k, directive in enumerate(scenario.directives):
+    # The directive Drake refuses: the first k directives load, the first k + 1 do not.
+    # Bisected, as each try parses the models again: none of them loads (the plant config
+    # alone did, above), all of them fail.
+    loads, refused = 0, len(scenario.directives)
+    while refused - loads > 1:
+        middle = (loads + refused) // 2
         try:
-            _parsed(scenario.plant_config, scenario.directives[: k + 1])
+            _parsed(scenario.plant_config, scenario.directives[:middle])
+            loads = middle
         except RuntimeError as error:
-            kind = next((n for n in DIRECTIVE_KINDS if getattr(directive, n) is not None), "")
-            fail(f"directives.{k}.{kind}".rstrip("."), loading_problem(error))
-    fail("directives", problem)
+            refused, problem = middle, loading_problem(error)
+    if refused == 0:
+        fail("directives", problem)
+    k = refused - 1
+    directive = scenario.directives[k]
+    kind = next((n for n in DIRECTIVE_KINDS if getattr(directive, n) is not None), "")
+    fail(f"directives.{k}.{kind}".rstrip("."), problem)
