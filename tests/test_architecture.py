@@ -2,6 +2,8 @@
 before it, and no printing outside the command line and the progress reporter."""
 
 import ast
+import subprocess
+import sys
 from pathlib import Path
 
 import hlcmp_drake
@@ -118,6 +120,20 @@ def test_the_numpy_core_never_imports_drake():
                 node.module or "" for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)
             ]
             assert not [m for m in imported if m.startswith("pydrake")], name
+
+
+def test_the_processes_that_plot_nothing_start_without_matplotlib():
+    # Half a second of each served client's, driver's and sweep worker's start-up: they
+    # import matplotlib (directly or through pydrake.visualization) only when they plot.
+    command = (
+        "import sys, hlcmp_drake.cli, hlcmp_drake.run.serve, hlcmp_drake.run.sim_driver, "
+        "hlcmp_drake.run.drake_driver, hlcmp_drake.run.sweep.tasks, hlcmp_drake.run.library; "
+        "print(sorted(m for m in sys.modules if m.split('.')[0] == 'matplotlib'))"
+    )
+    loaded = subprocess.run(
+        [sys.executable, "-c", command], capture_output=True, text=True, check=True
+    )
+    assert loaded.stdout.strip() == "[]", loaded.stdout
 
 
 def test_the_config_layer_imports_no_world_or_experiment():

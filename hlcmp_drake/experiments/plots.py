@@ -6,9 +6,12 @@ them needs no display and leaves an interactive session's backend alone."""
 from __future__ import annotations
 
 from collections.abc import Iterable
+from typing import TYPE_CHECKING
 
 import numpy as np
-from matplotlib.figure import Figure
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 
 def new_figure(
@@ -29,6 +32,10 @@ def new_figure(
     (Figure, array of Axes)
         The axes flattened row by row.
     """
+    # Imported here: the processes that never plot (serve, sim-driver) skip matplotlib's
+    # import, most of their start-up.
+    from matplotlib.figure import Figure
+
     figure = Figure(figsize=size, layout="constrained")
     axes = figure.subplots(rows, cols, sharex=sharex, squeeze=False)
     return figure, axes.ravel()

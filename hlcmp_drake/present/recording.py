@@ -46,7 +46,6 @@ from pydrake.geometry import (
 from pydrake.math import RigidTransform, RollPitchYaw, RotationMatrix
 from pydrake.multibody.plant import MultibodyPlantConfig
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.visualization import AddFrameTriadIllustration
 
 from hlcmp_drake.config.models import scoped_frame
 from hlcmp_drake.config.scenario import ArmTask, RecordingConfig, Scenario
@@ -81,6 +80,10 @@ class _Copy:
         plant, scene_graph = add_plant(builder, replay)
         tool = None
         if isinstance(scenario.task, ArmTask):
+            # Imported here: pydrake.visualization imports matplotlib, which the processes
+            # that record nothing (serve, sim-driver, sweep workers) need not load.
+            from pydrake.visualization import AddFrameTriadIllustration
+
             tool = scoped_frame(plant, scenario.task.tool_frame)
             AddFrameTriadIllustration(
                 scene_graph=scene_graph,

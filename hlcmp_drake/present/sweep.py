@@ -9,14 +9,17 @@ from __future__ import annotations
 
 import math
 import re
+from typing import TYPE_CHECKING
 
 import numpy as np
 import yaml
-from matplotlib.figure import Figure
 
 from hlcmp_drake.config.sweep import short_names
 from hlcmp_drake.experiments.plots import new_figure
 from hlcmp_drake.experiments.table import Table, number
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 FINISHED = ("ok", "unstable")
 

@@ -23,10 +23,9 @@ from __future__ import annotations
 
 import dataclasses as dc
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import TYPE_CHECKING, Callable, Sequence
 
 import numpy as np
-from matplotlib.figure import Figure
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.scenario import DemonstrationConfig, Scenario
@@ -48,6 +47,9 @@ from hlcmp_drake.run.runner import run_one, write_results
 from hlcmp_drake.worlds.arm import fit_demonstration, fit_orientation_demonstration
 from hlcmp_drake.worlds.build import diagram_factory
 from hlcmp_drake.worlds.controllers import controller_kind, learners
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 # The simulated time after the skill's end (its tau) in every trial of `learn` and
 # `reproduce` [s]. It is the bundled scenarios' own (8.5 s + 1 s for the insertion, 8 s +

@@ -5,10 +5,9 @@ from __future__ import annotations
 
 import dataclasses as dc
 from pathlib import Path
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
-from matplotlib.figure import Figure
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 from pydrake.systems.framework import EventStatus
 
@@ -20,6 +19,9 @@ from hlcmp_drake.io import outputs
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.worlds.build import world_of
 from hlcmp_drake.worlds.probe import ProbeWorld
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 
 @dc.dataclass
