@@ -93,15 +93,17 @@ def main() -> None:
             lines["... and without the safety monitor"] = timed(
                 the_world(scenario, args.controller), steps, args.runs
             )
-            first: dict = {}
-            evaluate = ControlLoop._evaluate
+            ticked: set = set()
+            tick = ControlLoop._tick
 
-            def reused(loop, context):
-                if loop not in first:
-                    first[loop] = evaluate(loop, context)
-                return first[loop]
+            def first_only(loop, context, state):
+                # Later updates leave the state as it is: the first tick's torque and θ'
+                # held, without reading a port or evaluating the law.
+                if loop not in ticked:
+                    ticked.add(loop)
+                    tick(loop, context, state)
 
-            with mock.patch.object(ControlLoop, "_evaluate", reused):
+            with mock.patch.object(ControlLoop, "_tick", first_only):
                 lines["... and the tick's first result reused"] = timed(
                     the_world(scenario, args.controller), steps, args.runs
                 )

@@ -1,0 +1,87 @@
+"""The fast path's `ControlLoop` against the one of another checkout (e.g. a worktree of an
+earlier commit), side by side in one process: the other's systems/control_loop.py is
+loaded under another module name and put in the worlds in its place; the ticks, the worlds
+and everything else are this checkout's. Two simulators per controller advance in
+alternating 0.1 s chunks, the order swapped every chunk (docs/performance.md, "Tried and
+dropped: one port, one state").
+
+    git worktree add /tmp/old 3633177
+    python scripts/loop_against_tree.py /tmp/old one_dof 10 hlcmp_per_step,hlcmp,vic_fd_1.5
+
+Prints, per controller, µs per plant step on each side, their ratio, and whether the two
+ended in the same state to the bit; the load average first and last.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.run.benchmark import advance_alternately, prepared_simulator
+from hlcmp_drake.systems.control_loop import ControlLoop
+from hlcmp_drake.worlds import common
+from hlcmp_drake.worlds.build import diagram_factory
+
+CHUNK_S = 0.1
+
+
+def other_control_loop(checkout: Path) -> type:
+    """`ControlLoop` of the checkout at `checkout`, loaded as the module "other_control_loop"."""
+    path = checkout / "hlcmp_drake" / "systems" / "control_loop.py"
+    spec = importlib.util.spec_from_file_location("other_control_loop", path)
+    assert spec is not None and spec.loader is not None, path
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # its dataclasses look their module up
+    spec.loader.exec_module(module)
+    return module.ControlLoop
+
+
+def whole_state(simulator) -> np.ndarray:
+    context = simulator.get_context()
+    groups = range(context.num_discrete_state_groups())
+    return np.concatenate(
+        [context.get_discrete_state(i).get_value() for i in groups]
+        + [context.get_continuous_state_vector().CopyToVector()]
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("other", type=Path, help="the other checkout's folder")
+    parser.add_argument("scenario")
+    parser.add_argument("seconds", type=float)
+    parser.add_argument("controllers", help="comma-separated labels")
+    args = parser.parse_args()
+    sides = {"other": other_control_loop(args.other), "this": ControlLoop}
+    scenario, _ = load_scenario(
+        args.scenario, [f"duration_s={args.seconds}", "task.control_path=fast"]
+    )
+    factory = diagram_factory(scenario)
+    steps = round(args.seconds / scenario.plant_config.time_step)
+    print(f"load average {os.getloadavg()[0]:.2f}")
+    for controller in args.controllers.split(","):
+        simulators = {}
+        for side, loop_class in sides.items():
+            common.ControlLoop = loop_class  # what the world's builder adds
+            simulators[side] = prepared_simulator(factory(controller), scenario)
+            simulators[side].Initialize()
+        common.ControlLoop = ControlLoop
+        spent = advance_alternately(simulators, args.seconds, CHUNK_S)
+        same = np.array_equal(*(whole_state(s) for s in simulators.values()))
+        print(
+            f"{controller}: "
+            + ", ".join(f"{side} {spent[side] / steps * 1e6:.1f}" for side in simulators)
+            + f" µs a step; other / this {spent['other'] / spent['this']:.3f}"
+            + f"; the same state to the bit: {same}"
+        )
+    print(f"load average {os.getloadavg()[0]:.2f}")
+
+
+if __name__ == "__main__":
+    main()
