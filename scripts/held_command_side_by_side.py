@@ -21,20 +21,20 @@ import numpy as np
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.run.benchmark import advance_alternately, prepared_simulator
-from hlcmp_drake.systems import control_loop
-from hlcmp_drake.systems.control_loop import TickUpdate
+from hlcmp_drake.systems.control_loop import ControlLoop
+from hlcmp_drake.worlds import common
 from hlcmp_drake.worlds.build import diagram_factory
 
 CHUNK_S = 0.1
 
 
-class EvaluatingUpdate(TickUpdate):
-    """`TickUpdate` holding the torque and θ' of the tick's whole result."""
+class EvaluatingLoop(ControlLoop):
+    """`ControlLoop` whose update holds the torque and θ' of the tick's whole result."""
 
     def _tick(self, context, state):
         start = time.perf_counter()
         state_now, reference, theta, now, force = self._inputs(context)
-        result = self.tick.evaluate(state_now, reference, theta, time=now, external_force=force)
+        result = self._tick_of.evaluate(state_now, reference, theta, time=now, external_force=force)
         state.get_mutable_discrete_state(self._torque_index).set_value(result.torque)
         if result.law.rates is not None:
             state.get_mutable_discrete_state(self._rate_index).set_value(result.law.rates)
@@ -52,17 +52,17 @@ def main() -> None:
         args.scenario, [f"duration_s={args.seconds}", "task.control_path=fast"]
     )
     factory = diagram_factory(scenario)
-    sides = {"evaluate": EvaluatingUpdate, "held_command": TickUpdate}
+    sides = {"evaluate": EvaluatingLoop, "held_command": ControlLoop}
     print(f"load average {os.getloadavg()[0]:.2f}")
     for controller in args.controllers.split(","):
         simulators, ticks = {}, {}
-        for side, update_class in sides.items():
-            control_loop.TickUpdate = update_class  # what ControlLoop puts inside
+        for side, loop_class in sides.items():
+            common.ControlLoop = loop_class  # what the world's builder adds
             built = factory(controller)
             ticks[side] = built.controller.system.record_tick_times()
             simulators[side] = prepared_simulator(built, scenario)
             simulators[side].Initialize()
-        control_loop.TickUpdate = TickUpdate
+        common.ControlLoop = ControlLoop
         spent = advance_alternately(simulators, args.seconds, CHUNK_S)
         steps = round(args.seconds / scenario.plant_config.time_step)
         for side in sides:

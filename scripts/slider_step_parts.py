@@ -25,7 +25,7 @@ from pydrake.systems.primitives import ConstantVectorSource, Integrator
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.run.benchmark import advance
-from hlcmp_drake.systems.control_loop import TickUpdate
+from hlcmp_drake.systems.control_loop import ControlLoop
 from hlcmp_drake.worlds import slider
 from hlcmp_drake.worlds.build import diagram_factory
 from hlcmp_drake.worlds.models import add_plant
@@ -94,16 +94,16 @@ def main() -> None:
                 the_world(scenario, args.controller), steps, args.runs
             )
             ticked: set = set()
-            tick = TickUpdate._tick
+            tick = ControlLoop._tick
 
-            def first_only(update, context, state):
+            def first_only(loop, context, state):
                 # Later updates leave the state as it is: the first tick's torque and θ'
                 # held, without reading a port or evaluating the law.
-                if update not in ticked:
-                    ticked.add(update)
-                    tick(update, context, state)
+                if loop not in ticked:
+                    ticked.add(loop)
+                    tick(loop, context, state)
 
-            with mock.patch.object(TickUpdate, "_tick", first_only):
+            with mock.patch.object(ControlLoop, "_tick", first_only):
                 lines["... and the tick's first result reused"] = timed(
                     the_world(scenario, args.controller), steps, args.runs
                 )

@@ -121,11 +121,11 @@ def in_the_running_insertion(rev_modules, duration, runs):
         this_scenario = scenario if run else short
         built = arm.build(this_scenario, "hlcmp", setup)
         loop = built.controller.system
-        ours = loop.update.tick
+        ours = loop._tick_of
         theirs = revision_tick(
             rev_modules, scenario, setup, ours.model.plant, ours.law, ours.effort_limits
         )
-        loop.update.tick = both = BothTicks(ours, theirs, times if run else {"rev": [], "this": []})
+        loop._tick_of = both = BothTicks(ours, theirs, times if run else {"rev": [], "this": []})
         advance(built, this_scenario)
         worst = max(worst, both.worst)
     report(f"in the running insertion: {runs} runs of {duration} s", times, worst)

@@ -23,23 +23,31 @@ import numpy as np
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.run.benchmark import advance_alternately, prepared_simulator
-from hlcmp_drake.systems import control_loop
-from hlcmp_drake.systems.control_loop import TickUpdate
+from hlcmp_drake.systems.control_loop import ControlLoop
 from hlcmp_drake.systems.slider_tick import FusedSliderTick
+from hlcmp_drake.worlds import common
 from hlcmp_drake.worlds.build import diagram_factory
 
 CHUNK_S = 0.1
 
 
-class KeywordUpdate(TickUpdate):
-    """`TickUpdate` giving the tick its time and force by keyword."""
+class KeywordLoop(ControlLoop):
+    """`ControlLoop` whose update gives the tick its time and force by keyword."""
 
     def _tick(self, context, state):
         start = time.perf_counter()
-        state_now, reference, theta, now, force = self._inputs(context)
-        arguments = (state_now, tuple(reference), theta)
-        keywords = {"time": now, "external_force": force}
-        torque, rates = self.tick.held_command(*arguments, **keywords)
+        arguments = (
+            self.plant_state.Eval(context),
+            tuple(port.Eval(context) for port in self._reference),
+            self.theta.Eval(context) if self.theta is not None else None,
+        )
+        keywords = {
+            "time": context.get_time(),
+            "external_force": (
+                self.external_force.Eval(context) if self.external_force is not None else None
+            ),
+        }
+        torque, rates = self._tick_of.held_command(*arguments, **keywords)
         state.get_mutable_discrete_state(self._torque_index).set_value(torque)
         if rates is not None:
             state.get_mutable_discrete_state(self._rate_index).set_value(rates)
@@ -82,15 +90,15 @@ def main() -> None:
     print(f"load average {os.getloadavg()[0]:.2f}")
     for controller in args.controllers.split(","):
         simulators = {}
-        for side, update_class in (("keywords", KeywordUpdate), ("positional", TickUpdate)):
-            control_loop.TickUpdate = update_class  # what ControlLoop puts inside
+        for side, loop_class in (("keywords", KeywordLoop), ("positional", ControlLoop)):
+            common.ControlLoop = loop_class  # what the world's builder adds
             built = factory(controller)
-            tick = built.controller.system.update.tick
+            tick = built.controller.system._tick_of
             if side == "keywords" and isinstance(tick, FusedSliderTick):
                 tick._torque_and_rates = types.MethodType(slices_every_tick, tick)
             simulators[side] = prepared_simulator(built, scenario)
             simulators[side].Initialize()
-        control_loop.TickUpdate = TickUpdate
+        common.ControlLoop = ControlLoop
         spent = advance_alternately(simulators, args.seconds, CHUNK_S)
         same = np.array_equal(*(whole_state(s) for s in simulators.values()))
         print(

@@ -52,13 +52,11 @@ def a_running_tick() -> tuple[FusedArmTick, np.ndarray, tuple, np.ndarray]:
     built = arm.build(scenario, "hlcmp", setup)
     run = simulate(built, scenario, "hlcmp")
     loop = built.controller.system
-    tick = loop.update.tick
+    tick = loop._tick_of
     assert isinstance(tick, FusedArmTick), "the insertion's Hl-CMP tick is the fused one"
     context = loop.GetMyContextFromRoot(built.diagram.CreateDefaultContext())
     state = np.array(run.series["plant_state"][-1])
-    reference = tuple(
-        np.array(loop.GetInputPort(name).Eval(context)) for name, _ in tick.reference_ports
-    )
+    reference = tuple(np.array(port.Eval(context)) for port in loop._reference)
     # weights of the size the run learns (as `hlcmp bench`'s tick_paths draws them)
     theta = np.random.default_rng(0).uniform(0, 300, tick.law.theta_size)
     return tick, state, reference, theta

@@ -36,16 +36,7 @@ from functools import cached_property
 
 import numpy as np
 from pydrake.common.value import AbstractValue
-from pydrake.systems.framework import (
-    BasicVector,
-    Context,
-    Diagram,
-    DiagramBuilder,
-    LeafSystem,
-    State,
-    ValueProducer,
-)
-from pydrake.systems.primitives import Multiplexer
+from pydrake.systems.framework import BasicVector, Context, LeafSystem, State, ValueProducer
 
 from hlcmp_drake.core.kernels import implementation, kernel_path
 from hlcmp_drake.core.laws import ControlLaw, LawOutput, TaskSpaceInstant
@@ -319,7 +310,7 @@ class ControlTick:
         )
 
 
-class ControlLoop(Diagram):
+class ControlLoop(LeafSystem):
     """`ControlTick` as a Drake system, evaluated once per plant step.
 
     Sizes: M task-space axes (the model's), nq positions and nv velocities of the plant,
@@ -354,9 +345,6 @@ class ControlLoop(Diagram):
       `extra_series` (the 6-D tick's commanded torque and tool orientation); layout in
       `log_columns`.
 
-    Inside, a C++ Multiplexer gathers the inputs, in this order, into the one input of
-    `TickUpdate`, which ticks: Python reads one port per step, not one per input.
-
     Parameters
     ----------
     tick : ControlTick
@@ -367,86 +355,31 @@ class ControlLoop(Diagram):
 
     def __init__(self, tick: ControlTick, period: float):
         super().__init__()
+        self._tick_of = tick
         law, model = tick.law, tick.model
-        inputs = [("plant_state", model.nq + model.nv), *tick.reference_ports]
-        if law.theta_size:
-            inputs.append(("theta", law.theta_size))
-        if law.reads_external_force:
-            inputs.append(("external_force", tick.n_axes))
-        builder = DiagramBuilder()
-        gather = builder.AddNamedSystem("inputs", Multiplexer([size for _, size in inputs]))
-        self.update = builder.AddNamedSystem("tick", TickUpdate(tick, period))
-        builder.Connect(gather.get_output_port(), self.update.get_input_port())
-        for k, (name, _) in enumerate(inputs):
-            builder.ExportInput(gather.get_input_port(k), name)
-        for k in range(self.update.num_output_ports()):
-            port = self.update.get_output_port(k)
-            builder.ExportOutput(port, port.get_name())
-        builder.BuildInto(self)
-        self.plant_state = self.GetInputPort("plant_state")
-        self.theta = self.GetInputPort("theta") if law.theta_size else None
-        self.external_force = (
-            self.GetInputPort("external_force") if law.reads_external_force else None
+        nq, nv = model.nq, model.nv
+        self.plant_state = self.DeclareVectorInputPort("plant_state", BasicVector(nq + nv))
+        self._reference = [
+            self.DeclareVectorInputPort(name, BasicVector(size))
+            for name, size in tick.reference_ports
+        ]
+        self.theta = (
+            self.DeclareVectorInputPort("theta", BasicVector(law.theta_size))
+            if law.theta_size
+            else None
         )
-        self.log_columns = tick.log_columns
-
-    @property
-    def law(self) -> ControlLaw:
-        """The `core.laws` law the loop evaluates (as `LawController.law`)."""
-        return self.update.tick.law
-
-    def record_tick_times(self) -> list[float]:
-        """Start recording the wall time of every tick (for the benchmark).
-
-        Returns
-        -------
-        list of float
-            Filled with one duration [s] per tick as the simulation runs.
-        """
-        return self.update.record_tick_times()
-
-
-class TickUpdate(LeafSystem):
-    """`ControlLoop`'s ticking part: its inputs gathered into one vector (`ControlLoop`'s
-    input ports, in their order), a periodic unrestricted update at the plant's period
-    holding the tick's torque and θ', and the logs evaluated at the present inputs.
-
-    Input port:
-
-    - ``inputs``: `ControlLoop`'s inputs, one after the other.
-
-    Output ports: ``joint_torque``, ``theta_rate`` (a law with a state) and ``logs``, as
-    `ControlLoop`'s.
-
-    Parameters
-    ----------
-    tick : ControlTick
-        The controller.
-    period : float
-        The plant's time step [s]: one tick per step.
-    """
-
-    def __init__(self, tick: ControlTick, period: float):
-        super().__init__()
-        self.tick = tick
-        law, model = tick.law, tick.model
-        sizes = [model.nq + model.nv, *(size for _, size in tick.reference_ports)]
-        sizes += [law.theta_size] if law.theta_size else []
-        sizes += [tick.n_axes] if law.reads_external_force else []
-        ends = np.cumsum([0, *sizes])
-        parts = [slice(int(a), int(b)) for a, b in zip(ends[:-1], ends[1:])]
-        references = len(tick.reference_ports)
-        self._state_part, self._reference_parts = parts[0], parts[1 : 1 + references]
-        rest = iter(parts[1 + references :])
-        self._theta_part = next(rest) if law.theta_size else None
-        self._force_part = next(rest) if law.reads_external_force else None
-        self._inputs_port = self.DeclareVectorInputPort("inputs", BasicVector(int(ends[-1])))
-        self._torque_index = self.DeclareDiscreteState(model.nv)
+        self.external_force = (
+            self.DeclareVectorInputPort("external_force", BasicVector(tick.n_axes))
+            if law.reads_external_force
+            else None
+        )
+        self._torque_index = self.DeclareDiscreteState(nv)
         self.DeclareStateOutputPort("joint_torque", self._torque_index)
         if law.theta_size:
             self._rate_index = self.DeclareDiscreteState(law.theta_size)
             self.DeclareStateOutputPort("theta_rate", self._rate_index)
         self.DeclarePeriodicUnrestrictedUpdateEvent(period, 0.0, self._tick)
+        self.log_columns = tick.log_columns
         self._log_values = self.DeclareCacheEntry(
             "log_values",
             ValueProducer(allocate=lambda: AbstractValue.Make(None), calc=self._calc_logs),
@@ -460,6 +393,11 @@ class TickUpdate(LeafSystem):
         )
         self.tick_seconds: list[float] | None = None
 
+    @property
+    def law(self) -> ControlLaw:
+        """The `core.laws` law the loop evaluates (as `LawController.law`)."""
+        return self._tick_of.law
+
     def record_tick_times(self) -> list[float]:
         """Start recording the wall time of every tick (for the benchmark).
 
@@ -472,21 +410,19 @@ class TickUpdate(LeafSystem):
         return self.tick_seconds
 
     def _inputs(self, context) -> tuple:
-        """The tick's arguments at `context`: state, reference, θ, time, measured force (views
-        of the one vector read)."""
-        values = self._inputs_port.Eval(context)
-        theta, force = self._theta_part, self._force_part
+        """The tick's arguments at `context`: state, reference, θ, time, measured force."""
+        theta, force = self.theta, self.external_force
         return (
-            values[self._state_part],
-            tuple([values[part] for part in self._reference_parts]),
-            None if theta is None else values[theta],
+            self.plant_state.Eval(context),
+            tuple([port.Eval(context) for port in self._reference]),
+            None if theta is None else theta.Eval(context),
             context.get_time(),
-            None if force is None else values[force],
+            None if force is None else force.Eval(context),
         )
 
     def _tick(self, context: Context, state: State):
         start = time.perf_counter()
-        torque, rates = self.tick.held_command(*self._inputs(context))
+        torque, rates = self._tick_of.held_command(*self._inputs(context))
         state.get_mutable_discrete_state(self._torque_index).set_value(torque)
         if rates is not None:
             state.get_mutable_discrete_state(self._rate_index).set_value(rates)
@@ -495,5 +431,5 @@ class TickUpdate(LeafSystem):
 
     def _calc_logs(self, context, abstract_value):
         state, reference, theta, now, force = self._inputs(context)
-        result = self.tick.evaluate(state, reference, theta, time=now, external_force=force)
-        abstract_value.set_value(self.tick.log_row(result))
+        result = self._tick_of.evaluate(state, reference, theta, time=now, external_force=force)
+        abstract_value.set_value(self._tick_of.log_row(result))
