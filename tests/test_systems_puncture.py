@@ -72,5 +72,7 @@ def test_an_update_that_changes_nothing_says_so():
 
     assert update_at(0.40, -0.03) == EventStatus.Severity.kDidNothing  # above the foam
     assert update_at(0.32, -0.03) == EventStatus.Severity.kDidNothing  # in, not yet torn
+    assert update_at(0.31, 0.03) == EventStatus.Severity.kDidNothing  # deep, coming out
+    assert not system.punctured(context)
     assert update_at(0.31, -0.03) == EventStatus.Severity.kSucceeded  # tears: stage 0 -> 1
     assert system.punctured(context)

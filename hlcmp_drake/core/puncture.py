@@ -29,6 +29,20 @@ def depth_below(
     return float(np.dot(np.asarray(top_point) - point, top_normal))
 
 
+def deep_enough_to_tear(depth: float, tear_depth: float) -> bool:
+    """Whether the tool point is deep enough for the foam to tear (`tears`' first half,
+    which needs no velocity).
+
+    Parameters
+    ----------
+    depth : float
+        Tool point below the top face [m].
+    tear_depth : float
+        The depth at which the foam tears [m].
+    """
+    return depth >= tear_depth
+
+
 def tears(depth: float, inward_speed: float, tear_depth: float) -> bool:
     """Whether the foam tears now.
 
@@ -41,7 +55,7 @@ def tears(depth: float, inward_speed: float, tear_depth: float) -> bool:
     tear_depth : float
         The depth at which the foam tears [m].
     """
-    return depth >= tear_depth and inward_speed > 0.0
+    return deep_enough_to_tear(depth, tear_depth) and inward_speed > 0.0
 
 
 def hole_friction(

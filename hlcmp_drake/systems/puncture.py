@@ -9,7 +9,7 @@ from pydrake.multibody.math import SpatialForce
 from pydrake.multibody.plant import ExternallyAppliedSpatialForce
 from pydrake.systems.framework import BasicVector, Context, EventStatus, LeafSystem
 
-from hlcmp_drake.core.puncture import depth_below, hole_friction, tears
+from hlcmp_drake.core.puncture import deep_enough_to_tear, depth_below, hole_friction, tears
 
 
 class HoleFriction(LeafSystem):
@@ -113,20 +113,37 @@ class HoleFriction(LeafSystem):
         applied.F_Bq_W = SpatialForce(np.zeros(3), force)
         return applied
 
-    def _tool_motion(self, context):
-        """The tool point's world position [m] and velocity [m/s] at this context."""
-        plant, ctx = self._plant, self._plant_context
-        plant.SetPositionsAndVelocities(ctx, self.plant_state.Eval(context))
-        pose = self._frame.CalcPoseInWorld(ctx)
-        velocity = self._frame.CalcSpatialVelocityInWorld(ctx).translational()
-        return pose.translation(), velocity
+    def _tool_position(self, plant_state):
+        """The tool point's world position [m] at the plant state (its positions set)."""
+        self._plant.SetPositions(self._plant_context, plant_state[: self._plant.num_positions()])
+        return self._frame.CalcPoseInWorld(self._plant_context).translation()
+
+    def _tool_velocity(self, plant_state):
+        """The tool point's world velocity [m/s] at the plant state, after `_tool_position`
+        (its velocities set)."""
+        plant = self._plant
+        plant.SetVelocities(self._plant_context, plant_state[plant.num_positions() :])
+        return self._frame.CalcSpatialVelocityInWorld(self._plant_context).translational()
 
     def _update(self, context, state):
-        position, velocity = self._tool_motion(context)
-        depth = depth_below(position, self._top_point, self._top_normal)
+        plant_state = self.plant_state.Eval(context)
+        depth = depth_below(self._tool_position(plant_state), self._top_point, self._top_normal)
         stage = self._stage(context)
+        if stage == 0.0:
+            # Before the tear nothing is held (the friction acts from stage 2): the update
+            # only asks whether the foam tears now, and the velocity only once it is deep
+            # enough to. Changing nothing, it says so: the Simulator then spares writing the
+            # whole diagram's state back (and recomputing everything that depends on it).
+            if not deep_enough_to_tear(depth, self._tear_depth):
+                return EventStatus.DidNothing()
+            velocity = self._tool_velocity(plant_state)
+            if not tears(depth, -float(np.dot(velocity, self._top_normal)), self._tear_depth):
+                return EventStatus.DidNothing()
+            state.get_mutable_discrete_state(self._stage_index).set_value([1.0])
+            return EventStatus.Succeeded()
         force = np.zeros(3)
         if stage >= 2:
+            velocity = self._tool_velocity(plant_state)
             force = self._axis * hole_friction(
                 depth,
                 self._thickness,
@@ -134,20 +151,10 @@ class HoleFriction(LeafSystem):
                 self._friction_per_m,
                 self._sliding_speed,
             )
-        if stage >= 1:
-            next_stage = 2.0
-        else:
-            next_stage = (
-                1.0
-                if tears(depth, -float(np.dot(velocity, self._top_normal)), self._tear_depth)
-                else 0.0
-            )
         held_force = context.get_discrete_state(self._force_index).get_value()
-        if next_stage == stage and not force.any() and not held_force.any():
-            # The state stays as it is: telling the Simulator so spares it writing the
-            # whole diagram's state back (and recomputing everything that depends on it).
+        if stage == 2.0 and not force.any() and not held_force.any():
             return EventStatus.DidNothing()
-        state.get_mutable_discrete_state(self._stage_index).set_value([next_stage])
+        state.get_mutable_discrete_state(self._stage_index).set_value([2.0])
         if force.any() or held_force.any():
             state.get_mutable_discrete_state(self._force_index).set_value(force)
             state.get_mutable_abstract_state(self._spatial_index).set_value([self._applied(force)])

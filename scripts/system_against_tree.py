@@ -1,12 +1,14 @@
-"""The fast path's `ControlLoop` against the one of another checkout (e.g. a worktree of an
-earlier commit), side by side in one process: the other's systems/control_loop.py is
-loaded under another module name and put in the worlds in its place; the ticks, the worlds
-and everything else are this checkout's. Two simulators per controller advance in
-alternating 0.1 s chunks, the order swapped every chunk (docs/performance.md, "Tried and
-dropped: one port, one state").
+"""One of this checkout's systems against the same system of another checkout (e.g. a
+worktree of an earlier commit), side by side in one process: the other's module is loaded
+under another name and its class put in the worlds in place of this one's; everything else
+is this checkout's. Two simulators per controller advance in alternating 0.1 s chunks, the
+order swapped every chunk (docs/performance.md: "Tried and dropped: one port, one state"
+for the fast path's `ControlLoop`, "What was cut, and what was tried" for the foam's
+`HoleFriction`).
 
     git worktree add /tmp/old 3633177
-    python scripts/loop_against_tree.py /tmp/old one_dof 10 hlcmp_per_step,hlcmp,vic_fd_1.5
+    python scripts/system_against_tree.py control_loop /tmp/old one_dof 10 hlcmp,vic_fd_1.5
+    python scripts/system_against_tree.py hole_friction /tmp/old insertion 3 const_2000
 
 Prints, per controller, µs per plant step on each side, their ratio, and whether the two
 ended in the same state to the bit; the load average first and last.
@@ -24,22 +26,28 @@ import numpy as np
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.run.benchmark import advance_alternately, prepared_simulator
-from hlcmp_drake.systems.control_loop import ControlLoop
 from hlcmp_drake.worlds import common
+from hlcmp_drake.worlds import puncture as foam
 from hlcmp_drake.worlds.build import diagram_factory
 
 CHUNK_S = 0.1
 
+# name -> (its module's file in a checkout, its class, the world module that adds it)
+SYSTEMS = {
+    "control_loop": ("hlcmp_drake/systems/control_loop.py", "ControlLoop", common),
+    "hole_friction": ("hlcmp_drake/systems/puncture.py", "HoleFriction", foam),
+}
 
-def other_control_loop(checkout: Path) -> type:
-    """`ControlLoop` of the checkout at `checkout`, loaded as the module "other_control_loop"."""
-    path = checkout / "hlcmp_drake" / "systems" / "control_loop.py"
-    spec = importlib.util.spec_from_file_location("other_control_loop", path)
-    assert spec is not None and spec.loader is not None, path
+
+def other_class(checkout: Path, file: str, name: str) -> type:
+    """Class `name` of the module `file` in the checkout at `checkout`, loaded as the
+    module "other_<name>"."""
+    spec = importlib.util.spec_from_file_location(f"other_{name}", checkout / file)
+    assert spec is not None and spec.loader is not None, checkout / file
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module  # its dataclasses look their module up
     spec.loader.exec_module(module)
-    return module.ControlLoop
+    return getattr(module, name)
 
 
 def whole_state(simulator) -> np.ndarray:
@@ -53,12 +61,15 @@ def whole_state(simulator) -> np.ndarray:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("system", choices=SYSTEMS)
     parser.add_argument("other", type=Path, help="the other checkout's folder")
     parser.add_argument("scenario")
     parser.add_argument("seconds", type=float)
     parser.add_argument("controllers", help="comma-separated labels")
     args = parser.parse_args()
-    sides = {"other": other_control_loop(args.other), "this": ControlLoop}
+    file, name, world = SYSTEMS[args.system]
+    this = getattr(world, name)
+    sides = {"other": other_class(args.other, file, name), "this": this}
     scenario, _ = load_scenario(
         args.scenario, [f"duration_s={args.seconds}", "task.control_path=fast"]
     )
@@ -67,11 +78,11 @@ def main() -> None:
     print(f"load average {os.getloadavg()[0]:.2f}")
     for controller in args.controllers.split(","):
         simulators = {}
-        for side, loop_class in sides.items():
-            common.ControlLoop = loop_class  # what the world's builder adds
+        for side, system_class in sides.items():
+            setattr(world, name, system_class)  # what the world's builder adds
             simulators[side] = prepared_simulator(factory(controller), scenario)
             simulators[side].Initialize()
-        common.ControlLoop = ControlLoop
+        setattr(world, name, this)
         spent = advance_alternately(simulators, args.seconds, CHUNK_S)
         same = np.array_equal(*(whole_state(s) for s in simulators.values()))
         print(
