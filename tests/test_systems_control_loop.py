@@ -197,6 +197,39 @@ def test_a_tick_is_arm_tick_evaluate_held_until_the_next(arm_ticks, insertion, n
     assert_outputs_are(expected[1])
 
 
+def test_a_tick_whose_instant_was_logged_takes_the_loggers_result(arm_ticks, insertion):
+    """Where the logs were read at the tick's instant and inputs (a logger's sample), the
+    tick holds the torque and θ' of that result instead of computing them again: the same
+    numbers to the bit; elsewhere it computes them. Only computing ticks are timed."""
+    plant, ticks = arm_ticks
+    tick, by_hand = ticks["hlcmp"]
+    calls = []
+    held_command = tick.held_command
+    tick.held_command = lambda *args: calls.append(args[3]) or held_command(*args)
+    try:
+        loop = ControlLoop(tick, plant.time_step())
+        times = loop.record_tick_times()
+        context = loop.CreateDefaultContext()
+        inputs = arm_tick_inputs(insertion[1], tick.law, seed=6)
+        expected = by_hand.evaluate(*inputs)
+        _fix(loop, context, *inputs)
+        simulator = Simulator(loop, context)
+        simulator.Initialize()
+        loop.GetOutputPort("logs").Eval(context)  # a logger's sample at t = 0
+        simulator.AdvanceTo(0.0005)  # the tick at t = 0: takes the logged result
+        assert calls == [] and times == []
+        np.testing.assert_array_equal(
+            loop.GetOutputPort("joint_torque").Eval(context), expected.torque
+        )
+        np.testing.assert_array_equal(
+            loop.GetOutputPort("theta_rate").Eval(context), expected.law.rates
+        )
+        simulator.AdvanceTo(0.0015)  # the tick at t = 1 ms, no logs read: computes
+        assert calls == [0.001] and len(times) == 1
+    finally:
+        del tick.held_command
+
+
 def test_the_torque_is_saturated_at_the_effort_limits(arm_ticks, insertion):
     """θ far too large: the tick's torque sits at the actuators' limits, as evaluate says."""
     plant, ticks = arm_ticks
