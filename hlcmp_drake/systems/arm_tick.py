@@ -201,7 +201,8 @@ class FusedArmTick(ControlTick):
         rotation: np.ndarray,
         v: np.ndarray,
     ) -> TaskSpaceTerms:
-        """The tick's `TaskSpaceTerms` as views of what it computed (C_x as the product).
+        """The tick's `TaskSpaceTerms` as views of what it computed (C_x as the product; J_w
+        a contiguous copy, which the compiled torque below the task takes as it is).
 
         Parameters
         ----------
@@ -230,5 +231,5 @@ class FusedArmTick(ControlTick):
             start[at[5] : at[6]].reshape(nv, nv),
             joint_gravity,
             rotation,
-            spatial[:3],
+            np.ascontiguousarray(spatial[:3]),  # as TaskSpaceModel.terms gives J_w
         )
