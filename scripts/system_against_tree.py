@@ -22,10 +22,8 @@ import os
 import sys
 from pathlib import Path
 
-import numpy as np
-
 from hlcmp_drake.config.loading import load_scenario
-from hlcmp_drake.run.benchmark import advance_alternately, prepared_simulator
+from hlcmp_drake.run.benchmark import advance_alternately, ended_alike, prepared_simulator
 from hlcmp_drake.worlds import common
 from hlcmp_drake.worlds import puncture as foam
 from hlcmp_drake.worlds.build import diagram_factory
@@ -48,15 +46,6 @@ def other_class(checkout: Path, file: str, name: str) -> type:
     sys.modules[spec.name] = module  # its dataclasses look their module up
     spec.loader.exec_module(module)
     return getattr(module, name)
-
-
-def whole_state(simulator) -> np.ndarray:
-    context = simulator.get_context()
-    groups = range(context.num_discrete_state_groups())
-    return np.concatenate(
-        [context.get_discrete_state(i).get_value() for i in groups]
-        + [context.get_continuous_state_vector().CopyToVector()]
-    )
 
 
 def main() -> None:
@@ -84,7 +73,7 @@ def main() -> None:
             simulators[side].Initialize()
         setattr(world, name, this)
         spent = advance_alternately(simulators, args.seconds, CHUNK_S)
-        same = np.array_equal(*(whole_state(s) for s in simulators.values()))
+        same = ended_alike(simulators)
         print(
             f"{controller}: "
             + ", ".join(f"{side} {spent[side] / steps * 1e6:.1f}" for side in simulators)

@@ -19,10 +19,8 @@ import os
 import time
 import types
 
-import numpy as np
-
 from hlcmp_drake.config.loading import load_scenario
-from hlcmp_drake.run.benchmark import advance_alternately, prepared_simulator
+from hlcmp_drake.run.benchmark import advance_alternately, ended_alike, prepared_simulator
 from hlcmp_drake.systems.control_loop import ControlLoop
 from hlcmp_drake.systems.slider_tick import FusedSliderTick
 from hlcmp_drake.worlds import common
@@ -69,15 +67,6 @@ def slices_every_tick(self, state, reference, theta, time, external_force):
     return out[:nv], after[m:]
 
 
-def whole_state(simulator) -> np.ndarray:
-    context = simulator.get_context()
-    groups = range(context.num_discrete_state_groups())
-    return np.concatenate(
-        [context.get_discrete_state(i).get_value() for i in groups]
-        + [context.get_continuous_state_vector().CopyToVector()]
-    )
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("scenario")
@@ -102,7 +91,7 @@ def main() -> None:
             simulators[side].Initialize()
         common.ControlLoop = ControlLoop
         spent = advance_alternately(simulators, args.seconds, CHUNK_S)
-        same = np.array_equal(*(whole_state(s) for s in simulators.values()))
+        same = ended_alike(simulators)
         print(
             f"{controller}: "
             + ", ".join(f"{side} {spent[side] / steps * 1e6:.1f}" for side in simulators)

@@ -196,3 +196,25 @@ def test_sides_advanced_alternately_all_end_where_asked():
     spent = advance_alternately(simulators, 0.35, chunk_s=0.1)
     assert set(spent) == {"a", "b"} and all(wall >= 0.0 for wall in spent.values())
     assert all(s.get_context().get_time() == 0.35 for s in simulators.values())
+
+
+def test_sides_ended_alike_only_in_the_same_state():
+    from pydrake.systems.analysis import Simulator
+    from pydrake.systems.framework import DiagramBuilder
+    from pydrake.systems.primitives import ConstantVectorSource, Integrator
+
+    from hlcmp_drake.run.benchmark import ended_alike
+
+    def integrating():
+        builder = DiagramBuilder()
+        integrator = builder.AddSystem(Integrator(2))
+        rate = builder.AddSystem(ConstantVectorSource([1.0, -2.0]))
+        builder.Connect(rate.get_output_port(), integrator.get_input_port())
+        return Simulator(builder.Build())
+
+    simulators = {side: integrating() for side in ("a", "b", "c")}
+    for simulator in simulators.values():
+        simulator.AdvanceTo(0.3)
+    assert ended_alike(simulators)
+    simulators["c"].AdvanceTo(0.31)
+    assert not ended_alike(simulators) and ended_alike({k: simulators[k] for k in "ab"})

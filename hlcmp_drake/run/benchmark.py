@@ -100,6 +100,32 @@ def advance_alternately(simulators: dict, seconds: float, chunk_s: float = 0.1) 
     return spent
 
 
+def ended_alike(simulators: dict) -> bool:
+    """Whether the simulators' contexts hold the same discrete and continuous state to the
+    bit (two sides of a side-by-side measurement that must compute the same thing).
+
+    Parameters
+    ----------
+    simulators : dict of str to Simulator
+        Of one diagram's structure each.
+
+    Returns
+    -------
+    bool
+    """
+
+    def whole_state(simulator) -> np.ndarray:
+        context = simulator.get_context()
+        groups = range(context.num_discrete_state_groups())
+        return np.concatenate(
+            [context.get_discrete_state(i).get_value() for i in groups]
+            + [context.get_continuous_state_vector().CopyToVector()]
+        )
+
+    first, *others = (whole_state(simulator) for simulator in simulators.values())
+    return all(np.array_equal(first, other) for other in others)
+
+
 def count_python_calls(built: BuiltDiagram, scenario: Scenario) -> float:
     """Python calls per plant step while `built` is simulated, counted by instrumentation:
     every Python function that Drake's C++ calls into during AdvanceTo -- an output port's
