@@ -73,6 +73,7 @@ class HoleFriction(LeafSystem):
         super().__init__()
         self._plant, self._frame = plant, tool_frame
         self._plant_context = plant.CreateDefaultContext()
+        self._nq = plant.num_positions()
         axis = np.asarray(tool_axis, dtype=float)
         self._axis = axis / np.linalg.norm(axis)
         self._top_point, self._top_normal = (
@@ -115,14 +116,13 @@ class HoleFriction(LeafSystem):
 
     def _tool_position(self, plant_state):
         """The tool point's world position [m] at the plant state (its positions set)."""
-        self._plant.SetPositions(self._plant_context, plant_state[: self._plant.num_positions()])
+        self._plant.SetPositions(self._plant_context, plant_state[: self._nq])
         return self._frame.CalcPoseInWorld(self._plant_context).translation()
 
     def _tool_velocity(self, plant_state):
         """The tool point's world velocity [m/s] at the plant state, after `_tool_position`
         (its velocities set)."""
-        plant = self._plant
-        plant.SetVelocities(self._plant_context, plant_state[plant.num_positions() :])
+        self._plant.SetVelocities(self._plant_context, plant_state[self._nq :])
         return self._frame.CalcSpatialVelocityInWorld(self._plant_context).translational()
 
     def _update(self, context, state):
