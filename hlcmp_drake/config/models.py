@@ -7,28 +7,77 @@ from __future__ import annotations
 import re
 from typing import TYPE_CHECKING, Sequence
 
-from pydrake.multibody.parsing import ModelDirectives, Parser, ProcessModelDirectives
-from pydrake.multibody.tree import BodyIndex, FrameIndex, ModelInstanceIndex
+from pydrake.geometry import CollisionFilterDeclaration, GeometrySet
+from pydrake.math import RigidTransform
+from pydrake.multibody.parsing import (
+    GetScopedFrameByName,
+    ModelDirectives,
+    Parser,
+    ProcessModelDirectives,
+)
+from pydrake.multibody.tree import (
+    BodyIndex,
+    FrameIndex,
+    ModelInstanceIndex,
+)
 
-from hlcmp_drake.io.paths import register_package
+from hlcmp_drake.io.paths import MODELS_DIR, PACKAGE_NAME, register_package
 
 if TYPE_CHECKING:
-    from pydrake.multibody.parsing import ModelDirective
+    from pydrake.geometry import SceneGraph
+    from pydrake.multibody.parsing import (
+        AddCollisionFilterGroup,
+        AddModel,
+        AddWeld,
+        ModelDirective,
+    )
     from pydrake.multibody.plant import MultibodyPlant
-    from pydrake.multibody.tree import Frame
+    from pydrake.multibody.tree import Frame, RigidBody
 
 
-def process_directives(plant: MultibodyPlant, directives: Sequence[ModelDirective]) -> None:
+# The kinds of model directive (ModelDirective's fields: one is set in each).
+DIRECTIVE_KINDS = (
+    "add_model",
+    "add_model_instance",
+    "add_frame",
+    "add_weld",
+    "add_collision_filter_group",
+    "add_directives",
+)
+
+
+def process_directives(
+    plant: MultibodyPlant,
+    directives: Sequence[ModelDirective],
+    scene_graph: SceneGraph | None = None,
+    by_drake: bool = False,
+) -> None:
     """Add model directives to `plant` (not finalized), package://hlcmp_drake/... resolving
     to the bundled models.
+
+    Directives that only add bundled SDF models, weld frames and filter collisions among
+    their own groups (every bundled scenario's) are applied here, as Drake's
+    ProcessModelDirectives applies them: each model parsed from its text
+    (`bundled_model_text`), then welded (`weld_frames`), the groups' collisions filtered
+    last (`filter_collisions`). Any other list is Drake's whole. The plant is the same
+    either way (tests/test_config_models.py compares every bundled world's model by model,
+    geometry pair by geometry pair); the reason is time: Drake's SDF parser sets up its
+    format description again for every file it opens, about 40 ms a model here, and not
+    for a model given as text (docs/performance.md, "Parsing the models").
 
     Parameters
     ----------
     plant : MultibodyPlant
-        Not yet finalized; with a SceneGraph, the collision filter groups are checked and
-        applied too (their members must exist).
+        Not yet finalized; registered with a SceneGraph, the collision filter groups are
+        checked and applied too (their members must exist).
     directives : sequence of ModelDirective
         A scenario's `directives`.
+    scene_graph : SceneGraph, optional
+        The plant's, where it has one: without it, collision filter groups leave every
+        directive to Drake.
+    by_drake : bool
+        Every directive by ProcessModelDirectives (what Drake itself says of a directive
+        it refuses).
 
     Raises
     ------
@@ -37,7 +86,196 @@ def process_directives(plant: MultibodyPlant, directives: Sequence[ModelDirectiv
     """
     parser = Parser(plant)
     register_package(parser.package_map())
-    ProcessModelDirectives(ModelDirectives(directives=list(directives)), plant, parser)
+    texts = None if by_drake else bundled_model_texts(plant, directives)
+    groups = [d.add_collision_filter_group for d in directives if d.add_collision_filter_group]
+    # Without registered geometry Drake skips the groups; with it, they need the scene.
+    filtered = bool(groups) and plant.geometry_source_is_registered()
+    if texts is None or (filtered and scene_graph is None):
+        ProcessModelDirectives(ModelDirectives(directives=list(directives)), plant, parser)
+        return
+    for directive, text in zip(directives, texts):
+        if text is not None:
+            parser.AddModelsFromString(text, "sdf")
+        elif directive.add_weld is not None:
+            weld_frames(plant, directive.add_weld)
+    if filtered and scene_graph is not None:
+        filter_collisions(plant, scene_graph, groups)
+
+
+def weld_frames(plant: MultibodyPlant, weld: AddWeld) -> None:
+    """The weld an add_weld directive makes: its parent and child frames by scoped name,
+    X_PC's value or the identity (X_PC's base_frame unused, as by Drake).
+
+    Parameters
+    ----------
+    plant : MultibodyPlant
+        Not yet finalized, with both frames.
+    weld : AddWeld
+        The directive's weld.
+
+    Raises
+    ------
+    RuntimeError
+        Drake's, for a frame that is not there or a body already jointed.
+    """
+    X_PC = weld.X_PC.GetDeterministicValue() if weld.X_PC is not None else RigidTransform()
+    plant.WeldFrames(
+        GetScopedFrameByName(plant, weld.parent), GetScopedFrameByName(plant, weld.child), X_PC
+    )
+
+
+def filter_collisions(
+    plant: MultibodyPlant, scene_graph: SceneGraph, groups: Sequence[AddCollisionFilterGroup]
+) -> None:
+    """The collisions add_collision_filter_group directives filter: each group the body
+    frames of its members ("model::body"), no collision within a group that ignores
+    itself, nor between a group and another it ignores.
+
+    Parameters
+    ----------
+    plant : MultibodyPlant
+        Not yet finalized, with every member's body and its geometry registered.
+    scene_graph : SceneGraph
+        The plant's.
+    groups : sequence of AddCollisionFilterGroup
+        Uniquely named, without namespace or member groups; each ignored group among them.
+
+    Raises
+    ------
+    RuntimeError
+        Drake's, for a member that is not a body of the plant.
+    """
+    frames = {
+        group.name: GeometrySet(
+            [
+                plant.GetBodyFrameIdOrThrow(scoped_body(plant, name).index())
+                for name in group.members
+            ]
+        )
+        for group in groups
+    }
+    manager = scene_graph.collision_filter_manager()
+    for group in groups:
+        for other in group.ignored_collision_filter_groups:
+            declaration = CollisionFilterDeclaration()
+            if other == group.name:
+                declaration.ExcludeWithin(frames[other])
+            else:
+                declaration.ExcludeBetween(frames[group.name], frames[other])
+            manager.Apply(declaration)
+
+
+def scoped_body(plant: MultibodyPlant, scoped_name: str) -> RigidBody:
+    """The body named 'model::body' of `plant`.
+
+    Parameters
+    ----------
+    plant : MultibodyPlant
+    scoped_name : str
+        E.g. "foam_plank::plank".
+
+    Returns
+    -------
+    RigidBody
+
+    Raises
+    ------
+    RuntimeError
+        Drake's, when there is no such model or body.
+    """
+    model, _, name = scoped_name.rpartition("::")
+    return plant.GetBodyByName(name, plant.GetModelInstanceByName(model))
+
+
+_BUNDLED = f"package://{PACKAGE_NAME}/models/"
+_PLAIN_NAME = re.compile(r"[A-Za-z0-9_]+")
+_MODEL_NAME = re.compile(r'(<model\s+name=")[^"]*(")')
+_RELATIVE_URI = re.compile(r"<uri>(?![a-z]+://)([^<]+)</uri>")
+
+
+def bundled_model_texts(
+    plant: MultibodyPlant, directives: Sequence[ModelDirective]
+) -> list[str | None] | None:
+    """For directives that only add bundled SDF models, weld frames and filter collisions
+    among their own groups: each model's text (`bundled_model_text`), None for the others.
+
+    Parameters
+    ----------
+    plant : MultibodyPlant
+        The plant they go into.
+    directives : sequence of ModelDirective
+
+    Returns
+    -------
+    list of (str or None), or None
+        None when any directive is of another kind, adds another model, or names a model
+        twice or one already in the plant; or when a collision filter group has no
+        members or one without its model ("model::body"), a namespace or member groups,
+        is named twice, or ignores a group that these directives do not make.
+    """
+    groups = [d.add_collision_filter_group for d in directives if d.add_collision_filter_group]
+    group_names = {group.name for group in groups}
+    if len(group_names) < len(groups) or any(
+        not group.members
+        or not all("::" in member for member in group.members)
+        or group.model_namespace is not None
+        or group.member_groups
+        or not set(group.ignored_collision_filter_groups) <= group_names
+        for group in groups
+    ):
+        return None
+    names = set()
+    texts: list[str | None] = []
+    for directive in directives:
+        kinds = [kind for kind in DIRECTIVE_KINDS if getattr(directive, kind) is not None]
+        add = directive.add_model
+        if kinds == ["add_model"] and add is not None:
+            name = add.name
+            text = bundled_model_text(add)
+            if text is None or name in names or plant.HasModelInstanceNamed(name):
+                return None
+            names.add(name)
+            texts.append(text)
+        elif kinds in (["add_weld"], ["add_collision_filter_group"]):
+            texts.append(None)
+        else:
+            return None
+    return texts
+
+
+def bundled_model_text(add: AddModel) -> str | None:
+    """The SDF text that loads as an add_model directive loads its bundled model: its one
+    model renamed to the directive's name, the files it names beside it given as
+    package://hlcmp_drake/models/....
+
+    Parameters
+    ----------
+    add : AddModel
+        An add_model directive.
+
+    Returns
+    -------
+    str or None
+        None unless it adds a bundled SDF file of one model under a plain name (letters,
+        digits, underscores) and sets nothing else (default joint positions or body
+        poses).
+    """
+    if (
+        not add.file.startswith(_BUNDLED)
+        or not add.file.endswith(".sdf")
+        or not _PLAIN_NAME.fullmatch(add.name)
+        or add.default_joint_positions
+        or add.default_free_body_pose
+    ):
+        return None
+    path = MODELS_DIR / add.file[len(_BUNDLED) :]
+    if not path.is_file():
+        return None
+    text = path.read_text(encoding="utf-8")
+    if len(re.findall(r"<model\b", text)) != 1:
+        return None
+    text = _MODEL_NAME.sub(lambda m: m[1] + add.name + m[2], text, count=1)
+    return _RELATIVE_URI.sub(lambda m: f"<uri>{_BUNDLED}{m[1]}</uri>", text)
 
 
 def drake_error_line(error: Exception) -> str:

@@ -14,6 +14,7 @@ from pydrake.systems.analysis import GetIntegrationSchemes, SimulatorConfig
 from pydrake.systems.framework import DiagramBuilder
 
 from hlcmp_drake.config.models import (
+    DIRECTIVE_KINDS,
     loading_problem,
     missing_model,
     process_directives,
@@ -30,15 +31,6 @@ from hlcmp_drake.config.scenario import (
 )
 from hlcmp_drake.io.paths import MODELS_DIR, PACKAGE_NAME
 
-# The kinds of model directive (ModelDirective's fields: one is set in each).
-DIRECTIVE_KINDS = (
-    "add_model",
-    "add_model_instance",
-    "add_frame",
-    "add_weld",
-    "add_collision_filter_group",
-    "add_directives",
-)
 # MultibodyPlantConfig's names that Drake reads as one of a list of options.
 PLANT_OPTIONS = (
     "contact_model",
@@ -351,11 +343,14 @@ def check_simulator_config(config: SimulatorConfig, fail: Fail) -> None:
         )
 
 
-def _parsed(config: MultibodyPlantConfig, directives: list) -> MultibodyPlant:
+def _parsed(
+    config: MultibodyPlantConfig, directives: list, by_drake: bool = False
+) -> MultibodyPlant:
     """A finalized plant (with a SceneGraph, so that collision filters are resolved) of
-    `config` and `directives`; Drake's RuntimeError when it cannot be made."""
-    plant, _ = AddMultibodyPlant(config, DiagramBuilder())
-    process_directives(plant, directives)
+    `config` and `directives`; Drake's RuntimeError when it cannot be made (by_drake:
+    every directive processed by Drake, `process_directives`)."""
+    plant, scene_graph = AddMultibodyPlant(config, DiagramBuilder())
+    process_directives(plant, directives, scene_graph, by_drake)
     plant.Finalize()
     return plant
 
@@ -398,6 +393,11 @@ def scenario_plant(scenario: Scenario, fail: Fail) -> MultibodyPlant:
         fail("plant_config", loading_problem(error))
     try:
         return _parsed(scenario.plant_config, scenario.directives)
+    except RuntimeError:
+        pass
+    # Refused: what Drake's own processing of every directive says, and of which.
+    try:
+        return _parsed(scenario.plant_config, scenario.directives, by_drake=True)
     except RuntimeError as error:
         problem = loading_problem(error)
     # The directive Drake refuses: the first k directives load, the first k + 1 do not.
@@ -407,7 +407,7 @@ def scenario_plant(scenario: Scenario, fail: Fail) -> MultibodyPlant:
     while refused - loads > 1:
         middle = (loads + refused) // 2
         try:
-            _parsed(scenario.plant_config, scenario.directives[:middle])
+            _parsed(scenario.plant_config, scenario.directives[:middle], by_drake=True)
             loads = middle
         except RuntimeError as error:
             refused, problem = middle, loading_problem(error)

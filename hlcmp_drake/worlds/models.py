@@ -28,7 +28,12 @@ if TYPE_CHECKING:
 __all__ = ["add_plant", "drake_error_line", "load_models", "scoped_frame", "solve_ik_for_tool"]
 
 
-def load_models(plant: MultibodyPlant, scenario: Scenario, finalize: bool = True) -> None:
+def load_models(
+    plant: MultibodyPlant,
+    scenario: Scenario,
+    finalize: bool = True,
+    scene_graph: SceneGraph | None = None,
+) -> None:
     """Add the scenario's model directives to `plant`, then finalize it.
 
     Parameters
@@ -39,6 +44,8 @@ def load_models(plant: MultibodyPlant, scenario: Scenario, finalize: bool = True
         Its `directives` (package://hlcmp_drake/... resolves to the bundled models).
     finalize : bool
         Finalize the plant (False: the caller adds more first).
+    scene_graph : SceneGraph, optional
+        The plant's, when it has one (`process_directives`).
 
     Raises
     ------
@@ -46,7 +53,7 @@ def load_models(plant: MultibodyPlant, scenario: Scenario, finalize: bool = True
         When Drake cannot load a model (the first line of Drake's message).
     """
     try:
-        process_directives(plant, scenario.directives)
+        process_directives(plant, scenario.directives, scene_graph)
     except RuntimeError as error:
         raise InputError(
             f"{scenario.name}: the models could not be loaded: {loading_problem(error)}"
@@ -80,7 +87,7 @@ def add_plant(
         When Drake cannot load a model.
     """
     plant, scene_graph = AddMultibodyPlant(scenario.plant_config, builder)
-    load_models(plant, scenario, finalize)
+    load_models(plant, scenario, finalize, scene_graph)
     return plant, scene_graph
 
 
