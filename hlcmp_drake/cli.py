@@ -31,6 +31,7 @@ This module is argparse and printing only: every command calls one library funct
 """
 
 import argparse
+import functools
 import gc
 import logging
 import os
@@ -651,6 +652,9 @@ def cmd_generalize(args):
     return 0
 
 
+# Built once a process: main may run many times in one (the tests), and building costs
+# about 5 ms (argparse looks up its messages' translations and the terminal's size).
+@functools.cache
 def build_parser():
     from hlcmp_drake import __version__
     from hlcmp_drake.io.paths import bundled_scenarios, bundled_variants
