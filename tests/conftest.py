@@ -44,6 +44,7 @@ COSTLY_FIXTURES = (
     "served_insertion",
     "learned",
     "insertion_skill",
+    "tiny_library",
     "insertion_run",
     "cutting_run",
     "one_dof_run",

@@ -5,6 +5,7 @@ a lost record relearns only what changed; and the acceptance flow of the bundled
 from the command line (slow)."""
 
 import json
+import shutil
 from pathlib import Path
 
 import pytest
@@ -32,12 +33,26 @@ def tiny(folder, trials=1):
     return path
 
 
-def test_a_tiny_library_is_learned_indexed_and_resumed(tmp_path):
-    out = tmp_path / "L"
-    result = build_library(tiny(tmp_path), out, workers=2)
-    assert sorted(result.ran) == ["depth_m=0.01", "depth_m=0.015"] and not result.failed
+@pytest.fixture(scope="module")
+def tiny_library(tmp_path_factory):
+    """The tiny library learned once from the command line on two local workers: (its
+    file, its folder, what the command ended with). Tests change only copies of it."""
+    folder = tmp_path_factory.mktemp("tiny")
+    spec, out = tiny(folder), folder / "L"
+    first = run_cli("library", spec, "--out", out, "--workers", "2", "--quiet")
+    return spec, out, first
+
+
+def copy_of(tiny_library, folder):
+    """The tiny library's file and a copy of its folder (file times kept) in `folder`."""
+    spec, out, _ = tiny_library
+    shutil.copytree(out, folder / "L")
+    return spec, folder / "L"
+
+
+def test_a_tiny_library_is_learned_indexed_and_resumed(tiny_library, tmp_path):
+    spec, out = copy_of(tiny_library, tmp_path)
     record = json.loads((out / "library.json").read_text())
-    assert record == result.record
     assert record["scenario"] == "insertion" and record["parameters"] == [DEPTH]
     assert record["set"] == {"duration_s": "0.3"} and record["trials"] == 1
     assert record["not_learned"] == []
@@ -51,13 +66,15 @@ def test_a_tiny_library_is_learned_indexed_and_resumed(tmp_path):
         assert skill.world == world_of_scenario(scenario)  # each skill knows its plank
     stamps = {p: p.stat().st_mtime_ns for p in out.rglob("skill.npz")}
 
-    again = build_library(tiny(tmp_path), out, workers=2)
-    assert again.ran == [] and again.already_done == 2
+    again = build_library(spec, out, workers=2)
+    assert again.ran == [] and again.already_done == 2 and not again.failed
+    assert again.record == record  # the index of the same skills, as written before
     assert {p: p.stat().st_mtime_ns for p in out.rglob("skill.npz")} == stamps
 
     (out / "skills" / "depth_m=0.015" / TASK_RECORD).unlink()  # as if killed mid-learning
-    partial = build_library(tiny(tmp_path), out, workers=2)
+    partial = build_library(spec, out, workers=2)
     assert partial.ran == ["depth_m=0.015"] and partial.already_done == 1
+    assert partial.record == json.loads((out / "library.json").read_text())
 
     more = build_library(tiny(tmp_path, trials=2), out, workers=2)
     assert sorted(more.ran) == ["depth_m=0.01", "depth_m=0.015"]
@@ -82,11 +99,13 @@ def test_the_ray_engine_learns_the_tiny_library_as_the_local_engine_does(tmp_pat
     assert build_library(tiny(tmp_path), tmp_path / "ray", workers=1).ran == []
 
 
-def test_the_command_prints_the_skills_and_a_rerun_says_nothing_was_relearned(tmp_path):
-    spec, out = tiny(tmp_path), tmp_path / "L"
-    first = run_cli("library", spec, "--out", out, "--workers", "1", "--quiet")
+def test_the_command_prints_the_skills_and_a_rerun_says_nothing_was_relearned(
+    tiny_library, tmp_path
+):
+    first = tiny_library[2]
     assert first.returncode == 0, first.stderr
     assert "2 skill(s) learned" in first.stdout
+    spec, out = copy_of(tiny_library, tmp_path)
     second = run_cli("library", spec, "--out", out, "--quiet")
     assert second.returncode == 0, second.stderr
     assert "all 2 skills were already learned; nothing relearned" in second.stdout
