@@ -51,6 +51,8 @@ COSTLY_FIXTURES = (
 )
 
 
+# First: pytest-xdist's own hook reads the xdist_group marks on the workers.
+@pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(items):
     for item in items:
         used = set(getattr(item, "fixturenames", ()))

@@ -33,7 +33,7 @@ def tiny(folder, trials=1):
     return path
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture(scope="session")  # a worker may run other modules' tests between its users
 def tiny_library(tmp_path_factory):
     """The tiny library learned once from the command line on two local workers: (its
     file, its folder, what the command ended with). Tests change only copies of it."""
