@@ -62,6 +62,9 @@ def pytest_collection_modifyitems(items):
         costly = next((name for name in COSTLY_FIXTURES if name in used), None)
         if costly:
             item.add_marker(pytest.mark.xdist_group(costly))
+    # Slow tests first: pytest-xdist hands tests out in this order, so the long ones start
+    # early and the short ones fill the workers' ends.
+    items.sort(key=lambda item: item.get_closest_marker("slow") is None)
 
 
 # --- fixtures ----------------------------------------------------------------------------
