@@ -241,6 +241,8 @@ def test_what_is_not_a_bundled_model_weld_or_own_filter_is_left_to_drake():
     assert outside(with_group(member_groups=["other"]))
     assert outside(with_group(model_namespace="iiwa"))
     assert outside(with_group(members=["plank"]))  # unscoped: Drake's lookup rules
+    assert outside(with_group(members=["foam_plank::plank::"]))  # Drake refuses these
+    assert outside(with_group(name="a::b", ignored_collision_filter_groups=["a::b"]))
     assert outside(with_group(ignored_collision_filter_groups=["iiwa::some_group"]))
     plant = MultibodyPlant(0.0)
     process_directives(plant, with_model())

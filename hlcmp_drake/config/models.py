@@ -189,6 +189,7 @@ def scoped_body(plant: MultibodyPlant, scoped_name: str) -> RigidBody:
 
 _BUNDLED = f"package://{PACKAGE_NAME}/models/"
 _PLAIN_NAME = re.compile(r"[A-Za-z0-9_]+")
+_SCOPED_BODY = re.compile(r"[A-Za-z0-9_]+::[A-Za-z0-9_]+")
 _MODEL_NAME = re.compile(r'(<model\s+name=")[^"]*(")')
 _RELATIVE_URI = re.compile(r"<uri>(?![a-z]+://)([^<]+)</uri>")
 
@@ -209,15 +210,18 @@ def bundled_model_texts(
     -------
     list of (str or None), or None
         None when any directive is of another kind, adds another model, or names a model
-        twice or one already in the plant; or when a collision filter group has no
-        members or one without its model ("model::body"), a namespace or member groups,
-        is named twice, or ignores a group that these directives do not make.
+        twice or one already in the plant; or when a collision filter group's name is not
+        plain (letters, digits, underscores) or is given twice, when it has no members or
+        one not named "model::body" (plain names), a namespace or member groups, or when
+        it ignores a group that these directives do not make: what Drake checks of a
+        group's names, it checks itself.
     """
     groups = [d.add_collision_filter_group for d in directives if d.add_collision_filter_group]
     group_names = {group.name for group in groups}
     if len(group_names) < len(groups) or any(
-        not group.members
-        or not all("::" in member for member in group.members)
+        not _PLAIN_NAME.fullmatch(group.name)
+        or not group.members
+        or not all(_SCOPED_BODY.fullmatch(member) for member in group.members)
         or group.model_namespace is not None
         or group.member_groups
         or not set(group.ignored_collision_filter_groups) <= group_names
