@@ -1,14 +1,15 @@
 """One of this checkout's systems against the same system of another checkout (e.g. a
 worktree of an earlier commit), side by side in one process: the other's module is loaded
-under another name and its class put in the worlds in place of this one's; everything else
-is this checkout's. Two simulators per controller advance in alternating 0.1 s chunks, the
-order swapped every chunk (docs/performance.md: "Tried and dropped: one port, one state"
-for the fast path's `ControlLoop`, "What was cut, and what was tried" for the foam's
-`HoleFriction`).
+under another name and its class (or the function that adds it) put in the worlds in place
+of this one's; everything else is this checkout's. Two simulators per controller advance in
+alternating 0.1 s chunks, the order swapped every chunk (docs/performance.md: "Tried and
+dropped: one port, one state" for the fast path's `ControlLoop`, "What was cut, and what
+was tried" for the foam's `HoleFriction`, "One logger" for the loggers).
 
     git worktree add /tmp/old 3633177
     python scripts/system_against_tree.py control_loop /tmp/old one_dof 10 hlcmp,vic_fd_1.5
     python scripts/system_against_tree.py hole_friction /tmp/old insertion 3 const_2000
+    python scripts/system_against_tree.py loggers /tmp/old one_dof 10 hlcmp_per_step
 
 Prints, per controller, µs per plant step on each side, their ratio, and whether the two
 ended in the same state to the bit; the load average first and last.
@@ -24,22 +25,24 @@ from pathlib import Path
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.run.benchmark import advance_alternately, ended_alike, prepared_simulator
-from hlcmp_drake.worlds import common
+from hlcmp_drake.worlds import arm, common, slider
 from hlcmp_drake.worlds import puncture as foam
 from hlcmp_drake.worlds.build import diagram_factory
 
 CHUNK_S = 0.1
 
-# name -> (its module's file in a checkout, its class, the world module that adds it)
+# name -> (its module's file in a checkout, its class or function, the world modules that
+# use it)
 SYSTEMS = {
-    "control_loop": ("hlcmp_drake/systems/control_loop.py", "ControlLoop", common),
-    "hole_friction": ("hlcmp_drake/systems/puncture.py", "HoleFriction", foam),
+    "control_loop": ("hlcmp_drake/systems/control_loop.py", "ControlLoop", (common,)),
+    "hole_friction": ("hlcmp_drake/systems/puncture.py", "HoleFriction", (foam,)),
+    "loggers": ("hlcmp_drake/worlds/common.py", "add_loggers", (slider, arm)),
 }
 
 
 def other_class(checkout: Path, file: str, name: str) -> type:
-    """Class `name` of the module `file` in the checkout at `checkout`, loaded as the
-    module "other_<name>"."""
+    """Class (or function) `name` of the module `file` in the checkout at `checkout`,
+    loaded as the module "other_<name>"."""
     spec = importlib.util.spec_from_file_location(f"other_{name}", checkout / file)
     assert spec is not None and spec.loader is not None, checkout / file
     module = importlib.util.module_from_spec(spec)
@@ -56,8 +59,8 @@ def main() -> None:
     parser.add_argument("seconds", type=float)
     parser.add_argument("controllers", help="comma-separated labels")
     args = parser.parse_args()
-    file, name, world = SYSTEMS[args.system]
-    this = getattr(world, name)
+    file, name, worlds = SYSTEMS[args.system]
+    this = getattr(worlds[0], name)
     sides = {"other": other_class(args.other, file, name), "this": this}
     scenario, _ = load_scenario(
         args.scenario, [f"duration_s={args.seconds}", "task.control_path=fast"]
@@ -68,10 +71,12 @@ def main() -> None:
     for controller in args.controllers.split(","):
         simulators = {}
         for side, system_class in sides.items():
-            setattr(world, name, system_class)  # what the world's builder adds
+            for world in worlds:  # what the world's builder adds
+                setattr(world, name, system_class)
             simulators[side] = prepared_simulator(factory(controller), scenario)
             simulators[side].Initialize()
-        setattr(world, name, this)
+        for world in worlds:
+            setattr(world, name, this)
         spent = advance_alternately(simulators, args.seconds, CHUNK_S)
         same = ended_alike(simulators)
         print(

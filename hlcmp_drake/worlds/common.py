@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Callable, Sequence
 import numpy as np
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
 from pydrake.systems.framework import DiagramBuilder
-from pydrake.systems.primitives import Integrator, LogVectorOutput, MatrixGain
+from pydrake.systems.primitives import Integrator, LogVectorOutput, MatrixGain, Multiplexer
 
 from hlcmp_drake.config.scenario import DemonstrationConfig, Scenario, StepReferenceConfig
 from hlcmp_drake.core import quaternion
@@ -471,10 +471,12 @@ def modular_log_ports(
 def add_loggers(
     builder: DiagramBuilder, scenario: Scenario, ports: dict
 ) -> dict[str, tuple[VectorLogSink, slice]]:
-    """Log each series at scenario.log_period_s with a Drake VectorLogSink.
+    """Log every series at scenario.log_period_s with one Drake VectorLogSink.
 
-    One logger per distinct port, named "log_<first series>"; several series may be
-    column ranges of one port.
+    The distinct ports side by side in a Multiplexer, logged together (named "log"): one
+    periodic event for the simulator to schedule every step and one to publish every
+    sample, where a logger per port made one each (docs/performance.md, "One logger").
+    Several series may be column ranges of one port.
 
     Parameters
     ----------
@@ -482,22 +484,36 @@ def add_loggers(
     scenario : Scenario
         Its log_period_s [s].
     ports : dict of str to OutputPort or (OutputPort, slice)
-        {series name: the port, or the port and the series' columns in it}.
+        {series name: the port, or the port and the series' columns in it (a step of 1)}.
 
     Returns
     -------
     dict of str to (VectorLogSink, slice)
-        {series name: its logger and its columns}.
+        {series name: the logger and the series' columns in what it logs}.
     """
-    loggers, by_port = {}, {}
+    distinct: dict = {}  # (system, port) -> (port, its first column in the logged vector)
+    placed = {}
     for name, port in ports.items():
         port, columns = port if isinstance(port, tuple) else (port, slice(None))
         key = (port.get_system().get_name(), port.get_name())
-        if key not in by_port:
-            by_port[key] = LogVectorOutput(port, builder, scenario.log_period_s)
-            by_port[key].set_name(f"log_{name}")
-        loggers[name] = (by_port[key], columns)
-    return loggers
+        if key not in distinct:
+            distinct[key] = (port, sum(p.size() for p, _ in distinct.values()))
+        first = distinct[key][1]
+        start, stop, step = columns.indices(port.size())
+        if step != 1:
+            raise ValueError(f"series '{name}': columns {columns} need a step of 1")
+        placed[name] = slice(first + start, first + stop)
+    if len(distinct) == 1:
+        ((logged, _),) = distinct.values()
+    else:
+        mux = builder.AddSystem(Multiplexer([p.size() for p, _ in distinct.values()]))
+        mux.set_name("logged_series")
+        for k, (port, _) in enumerate(distinct.values()):
+            builder.Connect(port, mux.get_input_port(k))
+        logged = mux.get_output_port(0)
+    logger = LogVectorOutput(logged, builder, scenario.log_period_s)
+    logger.set_name("log")
+    return {name: (logger, columns) for name, columns in placed.items()}
 
 
 def add_safety_monitor(
