@@ -58,12 +58,13 @@ def process_directives(
     Directives that only add bundled SDF models, weld frames and filter collisions among
     their own groups (every bundled scenario's) are applied here, as Drake's
     ProcessModelDirectives applies them: each model parsed from its text
-    (`bundled_model_text`), then welded (`weld_frames`), the groups' collisions filtered
-    last (`filter_collisions`). Any other list is Drake's whole. The plant is the same
-    either way (tests/test_config_models.py compares every bundled world's model by model,
-    geometry pair by geometry pair); the reason is time: Drake's SDF parser sets up its
-    format description again for every file it opens, about 40 ms a model here, and not
-    for a model given as text (docs/performance.md, "Parsing the models").
+    (`bundled_model_text`) and each weld made (`weld_frames`) in the directives' order, the
+    groups' collisions filtered last (`filter_collisions`). Any other list is Drake's
+    whole. The plant is the same either way (tests/test_config_models.py compares every
+    bundled world's model by model, geometry pair by geometry pair); the reason is time:
+    Drake's SDF parser sets up its format description again for every file it opens, about
+    40 ms a model here, and not for a model given as text (docs/performance.md, "Parsing
+    the models").
 
     Parameters
     ----------
@@ -73,8 +74,8 @@ def process_directives(
     directives : sequence of ModelDirective
         A scenario's `directives`.
     scene_graph : SceneGraph, optional
-        The plant's, where it has one: without it, collision filter groups leave every
-        directive to Drake.
+        The plant's, where it has one: a plant with registered geometry but no scene graph
+        given leaves directives with collision filter groups to Drake.
     by_drake : bool
         Every directive by ProcessModelDirectives (what Drake itself says of a directive
         it refuses).
