@@ -653,7 +653,7 @@ def cmd_generalize(args):
 
 
 # Built once a process: main may run many times in one (the tests), and building costs
-# about 5 ms (argparse looks up its messages' translations and the terminal's size).
+# about 4 ms (argparse looks up its messages' translations and the terminal's size).
 @functools.cache
 def build_parser():
     from hlcmp_drake import __version__
