@@ -90,14 +90,15 @@ def description(plant, scene_graph):
         )
         for actuator in (plant.get_joint_actuator(k) for k in plant.GetJointActuatorIndices())
     ]
+    parts = {
+        "instances": instances,
+        "bodies": bodies,
+        "joints": joints,
+        "frames": frames,
+        "actuators": actuators,
+    }
     if scene_graph is None:
-        return {
-            "instances": instances,
-            "bodies": bodies,
-            "joints": joints,
-            "frames": frames,
-            "actuators": actuators,
-        }
+        return parts
     inspector = scene_graph.model_inspector()
     ids = inspector.GetAllGeometryIds()
     geometries = []
@@ -127,15 +128,7 @@ def description(plant, scene_graph):
         )
     colliding = [g for g in ids if inspector.GetProximityProperties(g) is not None]
     filtered = [[inspector.CollisionFiltered(a, b) for b in colliding] for a in colliding]
-    return {
-        "instances": instances,
-        "bodies": bodies,
-        "joints": joints,
-        "frames": frames,
-        "actuators": actuators,
-        "geometries": geometries,
-        "filtered": filtered,
-    }
+    return {**parts, "geometries": geometries, "filtered": filtered}
 
 
 def built(scenario, by_drake, scene_graph=True):
