@@ -24,7 +24,12 @@ import sys
 from pathlib import Path
 
 from hlcmp_drake.config.loading import load_scenario
-from hlcmp_drake.run.benchmark import advance_alternately, ended_alike, prepared_simulator
+from hlcmp_drake.run.benchmark import (
+    advance_alternately,
+    ended_alike,
+    prepared_simulator,
+    side_by_side_line,
+)
 from hlcmp_drake.worlds import arm, common, slider
 from hlcmp_drake.worlds import puncture as foam
 from hlcmp_drake.worlds.build import diagram_factory
@@ -79,12 +84,7 @@ def main() -> None:
             setattr(world, name, this)
         spent = advance_alternately(simulators, args.seconds, CHUNK_S)
         same = ended_alike(simulators)
-        print(
-            f"{controller}: "
-            + ", ".join(f"{side} {spent[side] / steps * 1e6:.1f}" for side in simulators)
-            + f" µs a step; other / this {spent['other'] / spent['this']:.3f}"
-            + f"; the same state to the bit: {same}"
-        )
+        print(side_by_side_line(controller, spent, steps, ("other", "this"), same))
     print(f"load average {os.getloadavg()[0]:.2f}")
 
 

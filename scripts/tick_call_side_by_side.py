@@ -20,7 +20,12 @@ import time
 import types
 
 from hlcmp_drake.config.loading import load_scenario
-from hlcmp_drake.run.benchmark import advance_alternately, ended_alike, prepared_simulator
+from hlcmp_drake.run.benchmark import (
+    advance_alternately,
+    ended_alike,
+    prepared_simulator,
+    side_by_side_line,
+)
 from hlcmp_drake.systems.control_loop import ControlLoop
 from hlcmp_drake.systems.slider_tick import FusedSliderTick
 from hlcmp_drake.worlds import common
@@ -92,12 +97,7 @@ def main() -> None:
         common.ControlLoop = ControlLoop
         spent = advance_alternately(simulators, args.seconds, CHUNK_S)
         same = ended_alike(simulators)
-        print(
-            f"{controller}: "
-            + ", ".join(f"{side} {spent[side] / steps * 1e6:.1f}" for side in simulators)
-            + f" µs a step; keywords / positional {spent['keywords'] / spent['positional']:.3f}"
-            + f"; the same state to the bit: {same}"
-        )
+        print(side_by_side_line(controller, spent, steps, ("keywords", "positional"), same))
     print(f"load average {os.getloadavg()[0]:.2f}")
 
 

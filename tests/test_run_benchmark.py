@@ -218,3 +218,13 @@ def test_sides_ended_alike_only_in_the_same_state():
     assert ended_alike(simulators)
     simulators["c"].AdvanceTo(0.31)
     assert not ended_alike(simulators) and ended_alike({k: simulators[k] for k in "ab"})
+
+
+def test_a_side_by_side_line_gives_each_sides_step_and_the_ratio():
+    from hlcmp_drake.run.benchmark import side_by_side_line
+
+    line = side_by_side_line("hlcmp", {"other": 0.3, "this": 0.2}, 1000, ("other", "this"), True)
+    assert line == (
+        "hlcmp: other 300.0, this 200.0 µs a step; other / this 1.500; "
+        "the same state to the bit: True"
+    )

@@ -100,6 +100,38 @@ def advance_alternately(simulators: dict, seconds: float, chunk_s: float = 0.1) 
     return spent
 
 
+def side_by_side_line(
+    label: str, spent: dict, steps: int, ratio: tuple[str, str], same: bool
+) -> str:
+    """One line of a two-sided measurement (the side-by-side scripts): µs a plant step on
+    each side, the ratio of two sides' times, and whether they ended in the same state.
+
+    Parameters
+    ----------
+    label : str
+        What was run, e.g. the controller.
+    spent : dict of str to float
+        Wall time in AdvanceTo by side [s] (`advance_alternately`).
+    steps : int
+        Plant steps each side took.
+    ratio : (str, str)
+        The sides whose times are divided, numerator first.
+    same : bool
+        `ended_alike` of the sides.
+
+    Returns
+    -------
+    str
+    """
+    top, bottom = ratio
+    return (
+        f"{label}: "
+        + ", ".join(f"{side} {spent[side] / steps * 1e6:.1f}" for side in spent)
+        + f" µs a step; {top} / {bottom} {spent[top] / spent[bottom]:.3f}"
+        + f"; the same state to the bit: {same}"
+    )
+
+
 def ended_alike(simulators: dict) -> bool:
     """Whether the simulators' contexts hold the same discrete and continuous state to the
     bit (two sides of a side-by-side measurement that must compute the same thing).
