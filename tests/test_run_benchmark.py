@@ -51,8 +51,12 @@ def test_quick_benchmark_writes_every_measurement(tmp_path, capsys):
     assert set(results["world_alone_rtf"]) == {"insertion", "cutting"}
     assert all(rtf > 0 for rtf in results["world_alone_rtf"].values())
     assert "report" not in results  # a smoke run does not time the whole report
+    for when in ("at_start", "at_end"):  # the machine's load and speed, beside the code's
+        state = results["machine"][when]
+        assert len(state["load_average"]) == 3 and state["dmp_rollout_ms"] > 0
     out = capsys.readouterr().out
     assert "controller_overhead_ratio" in out and "quick smoke run" in out
+    assert "the machine during the run" in out
     assert "pose_dmp_vs_cartesian_dmp" in out and "pose_over_translational_tick" in out
     assert "met" not in out.split() and "missed" not in out
 
@@ -101,6 +105,24 @@ def test_a_quick_run_is_labelled_a_smoke_run_and_judges_no_target():
     full = to_text(table(_results("full")))
     assert "smoke" not in full and full.count("**missed**") == 8 and "(9.5 s, harnessed" in full
     assert "world_alone_rtf[insertion]" in full and "`hlcmp report`" in full
+
+
+def test_the_machines_load_and_speed_at_both_ends_head_the_table():
+    from hlcmp_drake.present.tables import to_text
+    from hlcmp_drake.run.benchmark import table
+
+    results = _results("full")
+    assert "the machine" not in to_text(table(results))  # a bench.json from before: no row
+    results["machine"].update(
+        tick_kernel="compiled",
+        cpus=2,
+        at_start={"load_average": [0.41, 0.5, 0.6], "dmp_rollout_ms": 11.64},
+        at_end={"load_average": [1.02, 0.9, 0.7], "dmp_rollout_ms": 12.31},
+    )
+    lines = to_text(table(results)).splitlines()
+    row = next(k for k, line in enumerate(lines) if "the machine during the run" in line)
+    assert "tick_kernel" in lines[row + 1]  # the first row: what every figure below ran on
+    assert "on 2 CPUs" in lines[row] and "0.41 / 1.02; 11.6 / 12.3 ms" in lines[row]
 
 
 def test_the_pose_dmp_rows_show_both_sides_or_say_n_a():

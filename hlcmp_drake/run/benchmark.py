@@ -603,7 +603,7 @@ def _demo(samples=2000):
     return t, np.column_stack([0.3 * smooth, 0.1 * np.sin(np.pi * u) ** 2, 0.4 - 0.2 * smooth])
 
 
-def dmp_timings(repetitions: int) -> dict:
+def dmp_timings(repetitions: int, compare: bool = True) -> dict:
     """dmp_fit_ms, dmp_rollout_ms (3 axes, 2000 samples, N = 50, rollout at 1 ms), and,
     when movement_primitives is installed, our time over its time for the same fit and
     rollout, alternating.
@@ -612,6 +612,8 @@ def dmp_timings(repetitions: int) -> dict:
     ----------
     repetitions : int
         Timed repetitions of each (medians are reported).
+    compare : bool
+        False: our fit and rollout alone (`machine_state`), nothing of movement_primitives.
     """
     t, positions = _demo()
     settings = DmpSettings(n_basis=50, smoothing_s=0.0)
@@ -619,6 +621,8 @@ def dmp_timings(repetitions: int) -> dict:
     try:
         from movement_primitives.dmp import DMP
     except ImportError:
+        DMP = None
+    if not compare:
         DMP = None
     for _ in range(repetitions):
         fit_s, dmp = _wall(partial(Dmp.fit, t, positions, "xyz", settings))
@@ -642,10 +646,35 @@ def dmp_timings(repetitions: int) -> dict:
             [(f + r) / m for f, r, m in zip(ours_fit, ours_rollout, theirs)]
         )
         out["movement_primitives_fit_and_rollout_ms"] = 1e3 * statistics.median(theirs)
-    else:
+    elif compare:
         out["dmp_vs_movement_primitives"] = None
         out["movement_primitives_note"] = "not installed: pip install -e '.[bench]'"
     return out
+
+
+def machine_state() -> dict:
+    """What the machine is like now, beside the code: the load average (1, 5 and 15 min)
+    and plain numpy's speed, `dmp_rollout_ms` of five rollouts (`dmp_timings`; no code of
+    the controllers or of Drake). `hlcmp bench` records it at its start and its end, so
+    that a run on a busy or a slower machine says so: its absolute times move with both,
+    its side-by-side ratios much less.
+
+    Returns
+    -------
+    dict
+        load_average (three numbers) and dmp_rollout_ms [ms].
+    """
+    return {
+        "load_average": [round(load, 2) for load in os.getloadavg()],
+        "dmp_rollout_ms": dmp_timings(5, compare=False)["dmp_rollout_ms"],
+    }
+
+
+def _say_machine(reporter: Progress, when: str, state: dict) -> None:
+    reporter.say(
+        f"the machine at the {when}: load average {state['load_average'][0]:.2f} on "
+        f"{os.cpu_count()} CPUs, plain numpy's DMP rollout {state['dmp_rollout_ms']:.1f} ms"
+    )
 
 
 def _pose_demo(turn_deg, samples=2000):
@@ -794,8 +823,11 @@ def run_benchmark(quick: bool = False, reporter: Progress = SILENT) -> dict:
             "processor": platform.processor(),
             "mode": "quick" if quick else "full",
             "tick_kernel": kernel_path(),
+            "cpus": os.cpu_count(),
+            "at_start": machine_state(),
         }
     }
+    _say_machine(reporter, "start", results["machine"]["at_start"])
     reporter.say(
         "insertion: fast path, modular path and C++ inverse dynamics along the same motion ..."
     )
@@ -826,6 +858,8 @@ def run_benchmark(quick: bool = False, reporter: Progress = SILENT) -> dict:
     else:  # the whole report: a smoke run's numbers would say nothing about it
         reporter.say("hlcmp report ...")
         results["report"] = report_wall_s()
+    results["machine"]["at_end"] = machine_state()
+    _say_machine(reporter, "end", results["machine"]["at_end"])
     return results
 
 
@@ -851,6 +885,19 @@ def _rows(results):
     ratio = results.get("dmp_vs_movement_primitives")
     kernel = results["machine"].get("tick_kernel")  # bench.json files from before lack it
     rows = []
+    if "at_end" in results["machine"]:  # bench.json files from before lack it
+        start, end = results["machine"]["at_start"], results["machine"]["at_end"]
+        rows.append(
+            (
+                "the machine during the run: load average (1 min) at its start / end on "
+                f"{results['machine']['cpus']} CPUs; the DMP rollout of dmp_rollout_ms below "
+                "(plain numpy: the machine's own speed) timed at its start / end",
+                f"{start['load_average'][0]:.2f} / {end['load_average'][0]:.2f}; "
+                f"{start['dmp_rollout_ms']:.1f} / {end['dmp_rollout_ms']:.1f} ms",
+                "",
+                None,
+            )
+        )
     if kernel:
         rows.append(
             (
