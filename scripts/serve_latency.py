@@ -15,7 +15,9 @@ The pairs:
 Against Drake's driver the client reads the wrist force from the external torques (that
 driver publishes no wrist sensor). Each run uses its own multicast group and port, so runs
 never hear each other. Nothing else should run on the machine meanwhile: the tick's time,
-and in real time the missed statuses, depend on it.
+and in real time the missed statuses, depend on it. So the machine's load average and plain
+numpy's speed (`hlcmp bench`'s `machine_state`) are printed before the first run and after
+the last.
 """
 
 import argparse
@@ -25,6 +27,8 @@ import subprocess
 import sys
 import tempfile
 from pathlib import Path
+
+from hlcmp_drake.run.benchmark import machine_state
 
 # pair -> (the driver's arguments, the client's settings, the status period [s])
 PAIRS = {
@@ -114,6 +118,7 @@ def main() -> None:
     if unknown:
         parser.error(f"unknown pair {', '.join(unknown)}; the pairs are {', '.join(PAIRS)}")
     rows = []
+    print(f"the machine before the runs: {machine_state()}", flush=True)
     with tempfile.TemporaryDirectory() as folder:
         for pair in pairs:
             for k in range(1, args.runs + 1):
@@ -132,6 +137,7 @@ def main() -> None:
     )
     print("|---|---|---|---|---|---|---|---|---|")
     print("\n".join(rows))
+    print(f"the machine after the runs: {machine_state()}")
 
 
 if __name__ == "__main__":
