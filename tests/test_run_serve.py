@@ -3,7 +3,9 @@ the simulated run (in one process over memq://, in two over udpm://), the watchd
 bad serve input."""
 
 import dataclasses as dc
+import errno
 import json
+import os
 import random
 import subprocess
 import sys
@@ -16,11 +18,22 @@ from pydrake.lcm import DrakeLcm
 from pydrake.multibody.tree import JacobianWrtVariable
 
 from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.io.iiwa_lcm import (
     IiwaStatus,
     encode_status,
 )
-from hlcmp_drake.run.serve import STOPPED, UNSAFE, TorqueClient, serve, serve_scenario, write_served
+from hlcmp_drake.run import serve as serve_module
+from hlcmp_drake.run.serve import (
+    STOPPED,
+    UNSAFE,
+    TorqueClient,
+    realtime_scheduling,
+    serve,
+    serve_scenario,
+    served_priority,
+    write_served,
+)
 from hlcmp_drake.run.sim_driver import SimulatedIiwaDriver
 from hlcmp_drake.worlds.arm import prepare
 
@@ -322,6 +335,53 @@ def test_saturated_torques_stop_the_client_after_max_saturation_s():
 def test_bad_serve_input_is_one_line_and_exit_2(args, message, tmp_path):
     out = ["--out", tmp_path / "o"] if args[0] == "serve" else []
     assert message in one_line_error(run_cli(*args, *out))
+
+
+def test_a_realtime_priority_the_process_may_not_take_is_refused_before_the_client_is_made(
+    tmp_path, monkeypatch
+):
+    def refused(*args):
+        raise PermissionError(errno.EPERM, "Operation not permitted")
+
+    made = []
+    monkeypatch.setattr(os, "sched_setscheduler", refused)
+    monkeypatch.setattr(serve_module, "TorqueClient", lambda *args: made.append(args))
+    line = one_line_error(
+        run_cli(
+            "serve",
+            "insertion",
+            "--lcm",
+            "udpm://239.255.76.3:7667?ttl=0",
+            "--set",
+            "iiwa_driver.realtime_priority=50",
+            "--out",
+            tmp_path / "o",
+        )
+    )
+    assert "iiwa_driver.realtime_priority" in line and "SCHED_FIFO priority 50" in line
+    assert "CAP_SYS_NICE" in line and not made and not (tmp_path / "o").exists()
+
+
+def test_the_client_serves_at_its_realtime_priority_and_then_schedules_as_before():
+    def scheduling():
+        return os.sched_getscheduler(0), os.sched_getparam(0).sched_priority
+
+    before = scheduling()
+    try:
+        with realtime_scheduling(7):
+            assert scheduling() == (os.SCHED_FIFO, 7)
+    except InputError as refused:  # neither root nor CAP_SYS_NICE here
+        pytest.skip(str(refused))
+    assert scheduling() == before
+    with pytest.raises(RuntimeError), realtime_scheduling(3):
+        raise RuntimeError("a tick failed")
+    assert scheduling() == before
+    with realtime_scheduling(0):
+        assert scheduling() == before
+    # memq://'s driver runs in the client's own thread: no priority for it.
+    config = dc.replace(load_scenario("insertion")[0].iiwa_driver, realtime_priority=50)
+    assert served_priority(config, "memq://") == 0
+    assert served_priority(config, "udpm://239.255.76.3:7667?ttl=0") == 50
 
 
 @pytest.mark.slow

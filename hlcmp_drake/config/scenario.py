@@ -13,6 +13,7 @@ adding its config class here and its factory in `hlcmp_drake.worlds.controllers`
 
 import dataclasses as dc
 import math
+import os
 from typing import Callable, NoReturn, Union
 
 from pydrake.multibody.parsing import ModelDirective
@@ -1072,6 +1073,14 @@ class IiwaDriverConfig:
         driver at 5 ms); at 1 ms on two cores it cost more missed ticks than it saved
         (docs/iiwa.md). A status that comes while the client is busy with it counts as
         received when the client stopped listening, so its wait is in `tick_us`.
+    realtime_priority : int
+        The client's SCHED_FIFO priority while it serves a driver over the network, 1-99
+        (Linux), as a robot's real-time client is run (an FRI client on a PREEMPT_RT
+        machine, for one); 0 (default): the normal scheduler. Raising it needs the right
+        to (root, CAP_SYS_NICE, or an rtprio limit of at least this), which is checked
+        before the client is made. A status then
+        wakes the client at once, and nothing of the normal scheduler's interrupts its
+        tick (docs/iiwa.md). Not for memq://, whose driver runs in the same process.
     """
 
     status_channel: str = "IIWA_STATUS"
@@ -1088,6 +1097,7 @@ class IiwaDriverConfig:
     period_tolerance: float = 0.1
     busy_wait: bool = False
     warm_up_lead_s: float = 0.0
+    realtime_priority: int = 0
 
     def check(self, fail: Fail) -> None:
         """Known force source, non-empty channels, positive times and tolerance, the
@@ -1132,6 +1142,17 @@ class IiwaDriverConfig:
             fail(
                 "iiwa_driver.warm_up_lead_s",
                 f"must be in [0, period_s = {self.period_s:g}), got {self.warm_up_lead_s}",
+            )
+        priority = self.realtime_priority
+        if isinstance(priority, bool) or not isinstance(priority, int) or not 0 <= priority <= 99:
+            fail(
+                "iiwa_driver.realtime_priority",
+                f"must be 0 (the normal scheduler) or a SCHED_FIFO priority 1-99, got {priority}",
+            )
+        if priority and not hasattr(os, "sched_setscheduler"):
+            fail(
+                "iiwa_driver.realtime_priority",
+                "needs SCHED_FIFO (os.sched_setscheduler: Linux), which this platform lacks",
             )
 
 

@@ -24,6 +24,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses as dc
 import gc
+import os
 import time
 from pathlib import Path
 from typing import Callable, Iterator, Sequence
@@ -33,7 +34,7 @@ from pydrake.lcm import DrakeLcm
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import JacobianWrtVariable
 
-from hlcmp_drake.config.scenario import Scenario
+from hlcmp_drake.config.scenario import IiwaDriverConfig, Scenario
 from hlcmp_drake.experiments import experiment_of
 from hlcmp_drake.io import outputs
 from hlcmp_drake.io.errors import InputError
@@ -605,6 +606,7 @@ class TorqueClient:
             "status_period_s": self.status_period_s,
             "warm_up_lead_s": self.config.warm_up_lead_s,
             "warm_up_overlaps": self.warm_up_overlaps,
+            "realtime_priority": served_priority(self.config, lcm_url),
             "ticks": self.ticks,
             "missed_ticks": self.missed_ticks,
             "longest_missed_run": self.longest_missed_run,
@@ -650,6 +652,45 @@ def serve(client: TorqueClient, lcm: DrakeLcm, lcm_url: str, reporter: Progress 
                     f"{config.first_status_timeout_s:g} s: is the driver running?",
                 )
     client.assess()
+
+
+def served_priority(config: IiwaDriverConfig, lcm_url: str) -> int:
+    """The SCHED_FIFO priority the client serves at: `config.realtime_priority`, except
+    over memq://, whose simulated driver runs in the client's own thread (0)."""
+    return 0 if lcm_url.startswith("memq://") else config.realtime_priority
+
+
+@contextlib.contextmanager
+def realtime_scheduling(priority: int) -> Iterator[None]:
+    """This thread at SCHED_FIFO `priority` (`iiwa_driver.realtime_priority`), its own
+    scheduling restored afterwards; nothing changes for 0.
+
+    Parameters
+    ----------
+    priority : int
+        0, or 1-99.
+
+    Raises
+    ------
+    InputError
+        When the process may not take that priority, naming the setting and how to grant it.
+    """
+    if not priority:
+        yield
+        return
+    policy, parameters = os.sched_getscheduler(0), os.sched_getparam(0)
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+    except PermissionError as error:
+        raise InputError(
+            f"iiwa_driver.realtime_priority: this process may not run at SCHED_FIFO priority "
+            f"{priority} ({error.strerror}): run it as root, with CAP_SYS_NICE, or with an "
+            f"rtprio limit of at least {priority}; 0 serves on the normal scheduler"
+        ) from None
+    try:
+        yield
+    finally:
+        os.sched_setscheduler(0, policy, parameters)
 
 
 @contextlib.contextmanager
@@ -786,6 +827,9 @@ def serve_scenario(
     scenario, _ = load_scenario(name_or_path, overrides, experiment_worlds())
     warning = check_skill_world(skill, scenario, any_scenario) if skill is not None else None
     scenario, controller, theta0 = served_scenario(scenario, controller, skill, freeze)
+    priority = served_priority(scenario.iiwa_driver, lcm_url)
+    with realtime_scheduling(priority):
+        pass  # refused here, before the client is made, if the process may not take it
     if warning is not None and warn is not None:
         warn(warning)
     lcm = open_lcm(lcm_url)
@@ -797,5 +841,6 @@ def serve_scenario(
         reporter.say(f"serve: {controller} and the simulated driver in this process (memq://)")
         lockstep(SimulatedIiwaDriver(scenario, lcm, setup), client, lcm)
     else:
-        serve(client, lcm, lcm_url, reporter)
+        with realtime_scheduling(priority):
+            serve(client, lcm, lcm_url, reporter)
     return write_served(client, out_dir, lcm_url)
