@@ -362,6 +362,27 @@ def test_a_realtime_priority_the_process_may_not_take_is_refused_before_the_clie
     assert "CAP_SYS_NICE" in line and not made and not (tmp_path / "o").exists()
 
 
+def test_a_realtime_client_that_would_never_sleep_is_refused_where_linux_throttles_it(
+    tmp_path, monkeypatch
+):
+    runtime, period = tmp_path / "runtime", tmp_path / "period"
+    monkeypatch.setattr(serve_module, "RT_RUNTIME_FILE", runtime)
+    monkeypatch.setattr(serve_module, "RT_PERIOD_FILE", period)
+    assert serve_module.realtime_throttling() is None  # no such files: nothing to say
+    period.write_text("1000000\n")
+    runtime.write_text("-1\n")  # no budget: never stopped
+    assert serve_module.realtime_throttling() is None
+    runtime.write_text("950000\n")  # Linux's default
+    assert serve_module.realtime_throttling() == (50.0, 1000.0)
+    made = []
+    monkeypatch.setattr(serve_module, "TorqueClient", lambda *args: made.append(args))
+    args = ["serve", "insertion", "--lcm", "udpm://239.255.76.3:7667?ttl=0", "--out", tmp_path]
+    sets = ["--set", "iiwa_driver.realtime_priority=50", "--set", "iiwa_driver.busy_wait=true"]
+    line = one_line_error(run_cli(*args, *sets))
+    assert "iiwa_driver.busy_wait" in line and "for 50 ms of every 1000 ms" in line
+    assert "kernel.sched_rt_runtime_us" in line and not made
+
+
 def test_the_client_serves_at_its_realtime_priority_and_then_schedules_as_before():
     def scheduling():
         return os.sched_getscheduler(0), os.sched_getparam(0).sched_priority

@@ -1080,7 +1080,8 @@ class IiwaDriverConfig:
         to (root, CAP_SYS_NICE, or an rtprio limit of at least this), which is checked
         before the client is made. A status then
         wakes the client at once, and nothing of the normal scheduler's interrupts its
-        tick (docs/iiwa.md). Not for memq://, whose driver runs in the same process.
+        tick (docs/iiwa.md). Not for memq://, whose driver runs in the same process; not
+        with `busy_wait` where Linux throttles real-time threads (refused).
     """
 
     status_channel: str = "IIWA_STATUS"

@@ -660,6 +660,48 @@ def served_priority(config: IiwaDriverConfig, lcm_url: str) -> int:
     return 0 if lcm_url.startswith("memq://") else config.realtime_priority
 
 
+# Linux's budget for real-time threads: of every period, they may run for the runtime
+# (-1: without limit); a SCHED_FIFO thread that never sleeps is stopped for the rest.
+RT_RUNTIME_FILE = Path("/proc/sys/kernel/sched_rt_runtime_us")
+RT_PERIOD_FILE = Path("/proc/sys/kernel/sched_rt_period_us")
+
+
+def realtime_throttling() -> tuple[float, float] | None:
+    """How long Linux stops a real-time thread that never sleeps, and in what period [ms]
+    (kernel.sched_rt_period_us less kernel.sched_rt_runtime_us); None where it does not
+    (a runtime of -1) or says nothing (no such files)."""
+    try:
+        runtime, period = (int(path.read_text()) for path in (RT_RUNTIME_FILE, RT_PERIOD_FILE))
+    except (OSError, ValueError):
+        return None
+    return None if runtime < 0 else ((period - runtime) / 1000, period / 1000)
+
+
+def check_served_priority(config: IiwaDriverConfig, lcm_url: str) -> None:
+    """Before the client is made: the process may take its SCHED_FIFO priority
+    (`realtime_scheduling`), and it does not poll without sleeping at it (`busy_wait`),
+    which Linux's real-time throttling would stop for tens of milliseconds a second, more
+    than a driver waits for a command (measured: docs/iiwa.md).
+
+    Raises
+    ------
+    InputError
+        Naming the setting and what to change.
+    """
+    priority = served_priority(config, lcm_url)
+    throttling = realtime_throttling() if priority and config.busy_wait else None
+    if throttling is not None and throttling[0] > 0:
+        stopped, period = throttling
+        raise InputError(
+            f"iiwa_driver.realtime_priority: with iiwa_driver.busy_wait the client never "
+            f"sleeps, and Linux stops a SCHED_FIFO thread that never sleeps for {stopped:g} "
+            f"ms of every {period:g} ms (kernel.sched_rt_runtime_us), missing every status "
+            "meanwhile: set one of the two, or kernel.sched_rt_runtime_us to -1"
+        )
+    with realtime_scheduling(priority):
+        pass  # refused here, in one line, if the process may not take it
+
+
 @contextlib.contextmanager
 def realtime_scheduling(priority: int) -> Iterator[None]:
     """This thread at SCHED_FIFO `priority` (`iiwa_driver.realtime_priority`), its own
@@ -827,9 +869,7 @@ def serve_scenario(
     scenario, _ = load_scenario(name_or_path, overrides, experiment_worlds())
     warning = check_skill_world(skill, scenario, any_scenario) if skill is not None else None
     scenario, controller, theta0 = served_scenario(scenario, controller, skill, freeze)
-    priority = served_priority(scenario.iiwa_driver, lcm_url)
-    with realtime_scheduling(priority):
-        pass  # refused here, before the client is made, if the process may not take it
+    check_served_priority(scenario.iiwa_driver, lcm_url)
     if warning is not None and warn is not None:
         warn(warning)
     lcm = open_lcm(lcm_url)
@@ -841,6 +881,6 @@ def serve_scenario(
         reporter.say(f"serve: {controller} and the simulated driver in this process (memq://)")
         lockstep(SimulatedIiwaDriver(scenario, lcm, setup), client, lcm)
     else:
-        with realtime_scheduling(priority):
+        with realtime_scheduling(served_priority(scenario.iiwa_driver, lcm_url)):
             serve(client, lcm, lcm_url, reporter)
     return write_served(client, out_dir, lcm_url)
