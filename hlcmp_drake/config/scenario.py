@@ -1078,10 +1078,10 @@ class IiwaDriverConfig:
         (Linux), as a robot's real-time client is run (an FRI client on a PREEMPT_RT
         machine, for one); 0 (default): the normal scheduler. Raising it needs the right
         to (root, CAP_SYS_NICE, or an rtprio limit of at least this), which is checked
-        before the client is made. A status then
-        wakes the client at once, and nothing of the normal scheduler's interrupts its
-        tick (docs/iiwa.md). Not for memq://, whose driver runs in the same process; not
-        with `busy_wait` where Linux throttles real-time threads (refused).
+        before the client is made. A status then wakes the client at once, and nothing of
+        the normal scheduler's interrupts its tick (docs/iiwa.md). Not for memq://, whose
+        driver runs in the same process; not with `busy_wait` where Linux throttles
+        real-time threads (refused).
     """
 
     status_channel: str = "IIWA_STATUS"
