@@ -656,7 +656,19 @@ def serve(client: TorqueClient, lcm: DrakeLcm, lcm_url: str, reporter: Progress 
 
 def served_priority(config: IiwaDriverConfig, lcm_url: str) -> int:
     """The SCHED_FIFO priority the client serves at: `config.realtime_priority`, except
-    over memq://, whose simulated driver runs in the client's own thread (0)."""
+    over memq://, whose simulated driver runs in the client's own thread (0).
+
+    Parameters
+    ----------
+    config : IiwaDriverConfig
+    lcm_url : str
+        Where it serves.
+
+    Returns
+    -------
+    int
+        0 (the normal scheduler) or 1-99.
+    """
     return 0 if lcm_url.startswith("memq://") else config.realtime_priority
 
 
@@ -682,6 +694,13 @@ def check_served_priority(config: IiwaDriverConfig, lcm_url: str) -> None:
     (`realtime_scheduling`), and it does not poll without sleeping at it (`busy_wait`),
     which Linux's real-time throttling would stop for tens of milliseconds a second, more
     than a driver waits for a command (measured: docs/iiwa.md).
+
+    Parameters
+    ----------
+    config : IiwaDriverConfig
+        Its `realtime_priority` and `busy_wait`.
+    lcm_url : str
+        Where it will serve (`served_priority`).
 
     Raises
     ------
