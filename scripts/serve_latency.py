@@ -4,6 +4,7 @@ serve.json numbers and a markdown table for the docs.
 
     python scripts/serve_latency.py [--scenario insertion] [--runs 3] [--duration 3]
         [--pairs lockstep,realtime,drake-5ms,drake-1ms] [--set iiwa_driver.busy_wait=false]
+        [--set iiwa_driver.realtime_priority=50]
 
 The pairs:
 
