@@ -618,12 +618,12 @@ def dmp_timings(repetitions: int, compare: bool = True) -> dict:
     t, positions = _demo()
     settings = DmpSettings(n_basis=50, smoothing_s=0.0)
     ours_fit, ours_rollout, theirs = [], [], []
-    try:
-        from movement_primitives.dmp import DMP
-    except ImportError:
-        DMP = None
-    if not compare:
-        DMP = None
+    DMP = None
+    if compare:
+        try:
+            from movement_primitives.dmp import DMP
+        except ImportError:
+            pass
     for _ in range(repetitions):
         fit_s, dmp = _wall(partial(Dmp.fit, t, positions, "xyz", settings))
         rollout_s, _ = _wall(partial(dmp.rollout, dt=0.001))
