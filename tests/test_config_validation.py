@@ -120,6 +120,28 @@ def test_the_directive_drake_refuses_is_the_one_named_wherever_it_is(tmp_path, o
     assert str(error.value).startswith(f"{path}:{number}: ") and expected in str(error.value)
 
 
+def test_a_group_ignoring_a_later_group_does_not_hide_the_directive_drake_refuses(tmp_path):
+    # Drake resolves the groups after every directive, so the insertion's group may ignore
+    # one made after it; the directives before that one alone fail, but not as all do.
+    later = (
+        "    ignored_collision_filter_groups: [arm_and_plank, tool]\n"
+        "- add_collision_filter_group:\n"
+        "    name: tool\n"
+        "    members: [insertion_tool::tol]\n"
+        "    ignored_collision_filter_groups: []\n"
+    )
+    alone = "    ignored_collision_filter_groups: [arm_and_plank]\n"
+    path, lines = _written(tmp_path, alone, later)
+    with pytest.raises(InputError) as error:
+        load_scenario(path)
+    number = lines.index("    name: tool")  # the later group's "- " line, counted from 1
+    assert str(error.value).startswith(f"{path}:{number}: "), str(error.value)
+    assert "body with name 'insertion_tool::tol' not found" in str(error.value)
+    # with its member's right name, the scenario loads: the group may come later
+    path.write_text(path.read_text().replace("insertion_tool::tol", "insertion_tool::tool"))
+    load_scenario(path)
+
+
 def test_a_directives_line_is_its_items_in_the_list():
     text = (
         "a: 1\nlist:\n# a comment\n- one: 1\n  two: 2\n-   three: 3\n- four:\n    five: 5\nb: 2\n"

@@ -400,9 +400,11 @@ def scenario_plant(scenario: Scenario, fail: Fail) -> MultibodyPlant:
         return _parsed(scenario.plant_config, scenario.directives, by_drake=True)
     except RuntimeError as error:
         problem = loading_problem(error)
-    # The directive Drake refuses: the first k directives load, the first k + 1 do not.
-    # Bisected, as each try parses the models again: none of them loads (the plant config
-    # alone did, above), all of them fail.
+    # The directive Drake refuses: the first k directives do not fail as all of them do,
+    # the first k + 1 do. Bisected, as each try parses the models again: none of them
+    # fails so (the plant config alone loaded, above), all of them do. A shorter list may
+    # fail for another reason, which is not this problem: a collision filter group may
+    # ignore a group that a later directive makes.
     loads, refused = 0, len(scenario.directives)
     while refused - loads > 1:
         middle = (loads + refused) // 2
@@ -410,9 +412,10 @@ def scenario_plant(scenario: Scenario, fail: Fail) -> MultibodyPlant:
             _parsed(scenario.plant_config, scenario.directives[:middle], by_drake=True)
             loads = middle
         except RuntimeError as error:
-            refused, problem = middle, loading_problem(error)
-    if refused == 0:
-        fail("directives", problem)
+            if loading_problem(error) == problem:
+                refused = middle
+            else:
+                loads = middle
     k = refused - 1
     directive = scenario.directives[k]
     kind = next((n for n in DIRECTIVE_KINDS if getattr(directive, n) is not None), "")
