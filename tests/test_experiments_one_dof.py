@@ -1,6 +1,7 @@
 """End to end: `hlcmp run one_dof` (the full 20 s scenario, about 25 s of wall time)."""
 
 import json
+import re
 from types import SimpleNamespace
 
 import numpy as np
@@ -108,6 +109,44 @@ def test_a_run_shorter_than_the_return_command_has_no_x_at_10s_and_no_verdict():
     assert all(m["position_at_10s_m"] is None for m in metrics.values())
     assert one_dof.claims(metrics, scenario) == {}
     assert "n/a" in one_dof.table(metrics).rows[0]
+
+
+def _ramp_metrics(scenario):
+    t = np.linspace(0.0, 12.0, 1201)
+    run = SimpleNamespace(t=t, series={"x": -0.15 * np.minimum(t, 1.0)[:, None]})
+    return {
+        name: one_dof.EXPERIMENT.metrics_of(run, config, scenario)
+        for name, config in scenario.controllers.items()
+    }
+
+
+def test_a_reference_of_one_step_has_no_return_and_no_verdict():
+    scenario, _ = load_scenario(
+        "one_dof", ["reference.times_s=[0.0]", "reference.positions_m=[[-0.15]]"]
+    )
+    metrics = _ramp_metrics(scenario)
+    for m in metrics.values():
+        assert m["reach_time_s"] == pytest.approx(1.0, abs=0.05)
+        assert m["position_at_10s_m"] is None and m["return_time_s"] is None
+        assert m["task"] == {
+            "done": False,
+            "evidence": "the reference has one step: no return command",
+        }
+    assert one_dof.claims(metrics, scenario) == {}
+
+
+@pytest.mark.parametrize("kept", ["vic_fd_1.5", "hlcmp"])
+def test_c5_without_a_learner_or_a_force_tracking_run_is_not_judged(tmp_path, kept):
+    """C5 compares the Hl-CMP with [21]: a scenario with only one of them has no C5."""
+    text = (REPO_ROOT / "diagrams" / "one_dof.yaml").read_text()
+    head, _, controllers = text.partition("controllers:\n")
+    blocks = re.split(r"\n(?=  \S)", controllers.rstrip("\n"))
+    one = next(block for block in blocks if block.startswith(f"  {kept}:"))
+    path = tmp_path / "one_dof.yaml"
+    path.write_text(f"{head}controllers:\n{one}\n")
+    scenario, _ = load_scenario(path)
+    assert list(scenario.controllers) == [kept]
+    assert one_dof.claims(_ramp_metrics(scenario), scenario) == {}
 
 
 def _fake_runs(scenario, scale=None):

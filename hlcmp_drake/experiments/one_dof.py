@@ -15,8 +15,11 @@ DEPTH_TOLERANCE_M = 0.005
 
 
 def _segments(scenario):
-    """(target depth, its start time, return target, return start) from the steps."""
+    """(target depth, its start time, return target, return start) from the steps; the
+    last two None for a reference of one step (nothing to return to)."""
     times, positions = scenario.reference.times_s, scenario.reference.positions_m
+    if len(times) < 2:
+        return positions[0][0], times[0], None, None
     return positions[0][0], times[0], positions[1][0], times[1]
 
 
@@ -41,8 +44,18 @@ def controller_metrics(run: RunResult, config: ControllerConfig, scenario: Scena
     """
     depth, t0, home, t_return = _segments(scenario)
     x = run.series["x"][:, 0]
-    reach = settle_time(run.t, x, depth, DEPTH_TOLERANCE_M, t0, t_return)
-    back = settle_time(run.t, x, home, DEPTH_TOLERANCE_M, t_return, scenario.duration_s + 1e-9)
+    end = scenario.duration_s + 1e-9
+    reach = settle_time(
+        run.t, x, depth, DEPTH_TOLERANCE_M, t0, end if t_return is None else t_return
+    )
+    if t_return is None:  # one step: no return command, no x(10 s)
+        return {
+            "position_at_10s_m": None,
+            "final_position_m": float(x[-1]),
+            "reach_time_s": reach,
+            "return_time_s": None,
+        }
+    back = settle_time(run.t, x, home, DEPTH_TOLERANCE_M, t_return, end)
     ends_before_return = run.t[-1] < t_return - 1e-9  # e.g. --set duration_s=2: there is no x(10 s)
     return {
         "position_at_10s_m": None if ends_before_return else value_at(run.t, x, t_return),
@@ -68,6 +81,8 @@ def reached_the_return(run: RunResult, scenario: Scenario) -> dict:
         {"done", "evidence"}.
     """
     _, _, _, return_start = _segments(scenario)
+    if return_start is None:
+        return {"done": False, "evidence": "the reference has one step: no return command"}
     done = bool(run.t[-1] >= return_start)
     ran = f"ran {run.t[-1]:.2f} s"
     return {
@@ -107,14 +122,17 @@ def faster_than_force_tracking(given: ClaimInputs) -> Verdict | None:
     Returns
     -------
     Verdict or None
-        With its six parts; None when a run ends before the return command at 10 s.
+        With its six parts; None when a run ends before the return command at 10 s, or
+        without a learner or a [21] run.
     """
     metrics, scenario = given.metrics, given.scenario
     depth = _segments(scenario)[0]
+    vic = {name: metrics[name] for name in labels_with_role(scenario, FORCE_TRACKING)}
+    if given.learner is None or not vic:
+        return None  # nothing to compare: C5 needs a learner and a [21] run
     hl = metrics[given.learner]
     if any(m["position_at_10s_m"] is None for m in metrics.values()):
         return None  # a run shorter than the return command at 10 s: C5 cannot be judged
-    vic = {name: metrics[name] for name in labels_with_role(scenario, FORCE_TRACKING)}
     by_force = sorted(vic, key=lambda n: sum(scenario.controllers[n].desired_force_N))
     weakest, strongest = by_force[0], by_force[-1]
     proper = min(vic, key=lambda n: abs(vic[n]["position_at_10s_m"] - depth))
