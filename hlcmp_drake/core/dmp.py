@@ -68,6 +68,13 @@ class DmpSettings:
                 raise ValueError(f"{name} must be positive and finite, got {value}")
         if not (np.isfinite(self.smoothing_s) and self.smoothing_s >= 0):
             raise ValueError(f"smoothing_s must be >= 0 and finite, got {self.smoothing_s}")
+        most = max_basis_functions(self.alpha_s)
+        if self.n_basis > most:
+            raise ValueError(
+                f"n_basis must be at most {most} with alpha_s = {self.alpha_s:g}, got "
+                f"{self.n_basis}: narrower basis functions all vanish late in the phase "
+                "(s near 0), where g(s) of Eq. 16 would be 0/0"
+            )
 
     @property
     def beta_value(self) -> float:
@@ -142,6 +149,29 @@ def basis_centers_and_widths(n_basis: int, alpha_s: float) -> tuple[np.ndarray, 
     spacing = np.append(spacing, spacing[-1])
     widths = 2.0 / spacing**2
     return centers, widths
+
+
+def max_basis_functions(alpha_s: float) -> int:
+    """The largest N whose phase basis (`basis_centers_and_widths`) keeps one activation
+    (Eq. 10) a normal double at every phase s in [0, 1], so that Eq. 16 never divides 0
+    by 0.
+
+    The least activation is at s = 0, that of the last centre: with r = exp(-alpha_s /
+    (N - 1)) the ratio of neighbouring centres, its exponent is -r^2 / (1 - r)^2 (the
+    width repeats the last spacing), which grows with N.
+
+    Parameters
+    ----------
+    alpha_s : float
+        Decay rate of the canonical system [-], > 0.
+
+    Returns
+    -------
+    int
+        N (109 for alpha_s = 4).
+    """
+    bound = np.sqrt(-np.log(np.finfo(float).tiny))  # the largest r / (1 - r)
+    return 1 + int(np.floor(alpha_s / np.log1p(1.0 / bound)))
 
 
 @jitable
