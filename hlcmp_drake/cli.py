@@ -1104,6 +1104,7 @@ def _check_output(args):
         return
     if args.command in WRITES_A_FILE:
         check_output_file(out)
+        _check_not_an_input(args, out)
         return
     check_output_folder(out)
     if args.command == "report" and args.scenarios:  # one folder per scenario, by its name
@@ -1111,6 +1112,22 @@ def _check_output(args):
 
         for folder in report_folders(out, args.scenarios).values():
             check_output_folder(folder, "--out")
+
+
+# The positional arguments of the commands that write a file, as their usage lines name them.
+_POSITIONAL = {"fit": ("demo",), "rollout": ("skill",)}
+
+
+def _check_not_an_input(args, out):
+    """Refuse an output file that is one of the command's input files (exit 2)."""
+    if not os.path.isfile(out):
+        return
+    for name, value in vars(args).items():
+        if name != "out" and isinstance(value, str) and os.path.isfile(value):
+            if os.path.samefile(value, out):
+                option = name.replace("_", "-")
+                where = option if name in _POSITIONAL.get(args.command, ()) else f"--{option}"
+                raise InputError(f"--out {out}: is the input {where}; it would be overwritten")
 
 
 def main(argv=None):

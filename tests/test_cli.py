@@ -254,6 +254,21 @@ def test_fit_and_rollout_refuse_bad_output_files(tmp_path):
     )
 
 
+def test_fit_and_rollout_refuse_to_write_over_their_input(tmp_path):
+    demo = tmp_path / "demo.csv"
+    demo.write_text(DEMO_CSV)
+    line = one_line_error(run_cli("fit", demo, "--out", demo))
+    assert line == f"hlcmp: error: --out {demo}: is the input demo; it would be overwritten"
+    assert demo.read_text() == DEMO_CSV
+    skill = tmp_path / "skill.npz"
+    assert run_cli("fit", demo, "--out", skill).returncode == 0
+    kept = skill.read_bytes()
+    (tmp_path / "link.npz").symlink_to(skill)  # the same file by another name
+    line = one_line_error(run_cli("rollout", skill, "--out", tmp_path / "link.npz"))
+    assert line.endswith(": is the input skill; it would be overwritten")
+    assert skill.read_bytes() == kept
+
+
 def test_a_dry_run_sweep_writes_nothing_so_needs_no_writable_folder(tmp_path):
     assert run_cli("sweep", "tiny", "--dry-run", "--out", "/proc/hlcmp_sweep").returncode == 0
 
