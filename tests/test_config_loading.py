@@ -147,3 +147,14 @@ def test_a_dumped_scenario_reads_back_with_every_controller_of_its_own_class():
         )
     insertion, _ = load_scenario("insertion")
     assert dump_scenario(insertion) == yaml_dump_typed(insertion)
+
+
+@pytest.mark.parametrize("text", ["", "\n  \n", "# only a comment\n\n# and another\n"])
+def test_an_empty_scenario_or_variant_file_is_one_line(tmp_path, text):
+    empty = tmp_path / "empty.yaml"
+    empty.write_text(text)
+    expected = f"{empty}: holds no YAML (it is empty or only comments)"
+    with pytest.raises(InputError, match=f"^{re.escape(expected)}$"):
+        load_scenario(empty)
+    with pytest.raises(InputError, match=f"^{re.escape(expected)}$"):
+        load_scenario("one_dof", variant=empty)

@@ -481,6 +481,11 @@ def _typed_scenario(text: str) -> Scenario:
     return yaml_load_typed(schema=Scenario, data=text)
 
 
+def _has_content(text: str) -> bool:
+    """Whether a YAML text holds more than blank lines and comments."""
+    return any(line.strip() and not line.lstrip().startswith("#") for line in text.splitlines())
+
+
 def _load_text(
     text: str,
     path: Path,
@@ -490,6 +495,9 @@ def _load_text(
 ) -> Scenario:
     """`load_scenario` after the files are read: parse, layer the variant, override,
     validate, resolve."""
+    for file, content in ((path, text), variant or (None, "x")):
+        if not _has_content(content):
+            raise InputError(f"{file}: holds no YAML (it is empty or only comments)")
     try:
         scenario = copy.deepcopy(_typed_scenario(text))
     except Exception as error:  # yaml errors come as several exception types
