@@ -92,6 +92,11 @@ def _rewrite(path, **changes):
         ({"goal": np.zeros(2)}, "field 'goal' has shape (2,)"),
         ({"theta_v": None}, "missing field(s): theta_v"),
         ({"theta_d": np.full((3, 30), np.nan)}, "NaN"),
+        ({"start": np.array([0.5, np.nan, 0.2])}, "field 'start' must hold finite numbers"),
+        ({"goal": np.array(["a", "b", "c"])}, "field 'goal' must hold finite numbers"),
+        ({"amplitude": np.full(3, np.inf)}, "field 'amplitude' must hold finite numbers"),
+        ({"tau": np.array(np.inf)}, "field 'tau' must be positive and finite, got inf"),
+        ({"tau": np.array(-1.0)}, "field 'tau' must be positive and finite, got -1.0"),
     ],
 )
 def test_bad_skill_files(tmp_path, skill, changes, message):

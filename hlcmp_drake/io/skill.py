@@ -382,11 +382,13 @@ def load_skill(path: str | Path) -> Skill:
             raise fail(
                 f"field '{key}' has shape {arrays[key].shape}, expected ({m},) for axes {axes}"
             )
+        if key != "goal_scaled" and not _finite_numbers(arrays[key]):
+            raise fail(f"field '{key}' must hold finite numbers")
     has_force = DEMO_FORCE_FIELD in arrays
     for key in ("theta_p", "theta_k", "theta_d", "theta_v") + (DEMO_FORCE_FIELD,) * has_force:
         if arrays[key].shape != (m, n):
             raise fail(f"field '{key}' has shape {arrays[key].shape}, expected ({m}, {n})")
-        if not np.all(np.isfinite(arrays[key])):
+        if not _finite_numbers(arrays[key]):
             raise fail(f"field '{key}' holds NaN or infinite values")
     try:
         alpha, beta = float(arrays["alpha"]), float(arrays["beta"])
@@ -400,8 +402,8 @@ def load_skill(path: str | Path) -> Skill:
         )
     except ValueError as error:
         raise fail(f"invalid DMP settings: {error}") from None
-    if not float(arrays["tau"]) > 0:
-        raise fail(f"field 'tau' must be positive, got {float(arrays['tau'])}")
+    if not (_finite_numbers(arrays["tau"]) and float(arrays["tau"]) > 0):
+        raise fail(f"field 'tau' must be positive and finite, got {arrays['tau']}")
     dmp = Dmp(
         settings,
         float(arrays["tau"]),
@@ -425,6 +427,11 @@ def load_skill(path: str | Path) -> Skill:
     )
 
 
+def _finite_numbers(array: np.ndarray) -> bool:
+    """Whether a stored array holds numbers (not text or objects), all finite."""
+    return array.dtype.kind in "fiu" and bool(np.all(np.isfinite(array)))
+
+
 def _rotational(arrays, n, fail):
     """Format 4's rotational profiles' weights, each checked to be (3, N) and finite."""
     missing = [key for key in ROTATIONAL_FIELDS if key not in arrays]
@@ -433,7 +440,7 @@ def _rotational(arrays, n, fail):
     for key in ROTATIONAL_FIELDS:
         if arrays[key].shape != (3, n):
             raise fail(f"field '{key}' has shape {arrays[key].shape}, expected (3, {n})")
-        if arrays[key].dtype.kind not in "fi" or not np.all(np.isfinite(arrays[key])):
+        if not _finite_numbers(arrays[key]):
             raise fail(f"field '{key}' must hold finite numbers")
     return {key: arrays[key].astype(float) for key in ROTATIONAL_FIELDS}
 
