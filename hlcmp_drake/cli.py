@@ -291,7 +291,7 @@ def cmd_probe(args):
     result = run_probe(args.scenario, args.out, speed=args.speed, overrides=args.set)
     readings = result.readings
     print(
-        f"probe {readings['scenario']} at {readings['speed_m_per_s']:.3f} m/s: peak "
+        f"probe {readings['scenario']} at {readings['speed_m_per_s']:.3g} m/s: peak "
         f"{readings['peak_force_N']:.2f} N "
         f"at {1000 * readings['depth_at_peak_m']:.1f} mm, residual "
         f"{readings['residual_force_N']:.2f} N, "

@@ -66,6 +66,24 @@ def test_a_scenario_without_a_probe_is_one_clear_line(capsys):
     assert "has no probe" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize(
+    "speed, expected",
+    [
+        ("30", "--speed: must be at most 0.5 m/s, got 30: the 50 mm push needs 100 or more"),
+        ("1e-9", "--speed: must be at least 0.0001 m/s, got 1e-09: the 100 mm path would take"),
+    ],
+)
+def test_a_probe_too_fast_to_resolve_its_push_or_too_slow_to_end_is_refused(
+    tmp_path, capsys, speed, expected
+):
+    assert main(["probe", "insertion", "--out", str(tmp_path), "--speed", speed]) == 2
+    assert capsys.readouterr().err.startswith(f"hlcmp: error: {expected}")
+    assert not any(tmp_path.iterdir())
+    over = "probe.speed_m_per_s=0.6"
+    assert main(["probe", "insertion", "--out", str(tmp_path), "--set", over]) == 2
+    assert f"override '{over}': speed_m_per_s: must be at most 0.5" in capsys.readouterr().err
+
+
 # The peg world's premise, written before it was first probed (docs/worlds.md, "The peg in
 # a tilted hole"): its tip driven along the 3-degree hole's axis, 20 mm into the bore.
 HOLE_TILT_RAD = math.radians(3.0)

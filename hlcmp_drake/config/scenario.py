@@ -996,6 +996,46 @@ class ProbeConfig:
         damping = "probe.wrist_damping_Nms_per_rad"
         check_number(self.wrist_damping_Nms_per_rad, damping, fail, ">= 0")
 
+    def speed_problem(self, speed: float, time_step: float) -> str | None:
+        """Why the carriage cannot probe at `speed` with plant steps of `time_step`, or
+        None: the push must span at least PROBE_PUSH_STEPS steps (its reading resolved to
+        1 % of its length) and the whole path at most PROBE_PATH_STEPS (a probe of
+        minutes, not hours).
+
+        Parameters
+        ----------
+        speed : float
+            The carriage's speed [m/s], > 0.
+        time_step : float
+            The plant's step [s]; 0 (continuous) bounds only the path's duration, at 1 ms.
+
+        Returns
+        -------
+        str or None
+        """
+        step = time_step or 0.001
+        push = math.hypot(*self.push_m)
+        approach = math.hypot(*self.approach_m)
+        path = approach + 2.0 * push
+        fastest, slowest = push / (PROBE_PUSH_STEPS * step), path / (PROBE_PATH_STEPS * step)
+        if time_step and speed > fastest:
+            return (
+                f"must be at most {fastest:.3g} m/s, got {speed:g}: the {1000 * push:g} mm "
+                f"push needs {PROBE_PUSH_STEPS} or more plant steps of {1000 * time_step:g} ms"
+            )
+        if speed < slowest:
+            return (
+                f"must be at least {slowest:.3g} m/s, got {speed:g}: the {1000 * path:g} mm "
+                f"path would take more than {PROBE_PATH_STEPS:.0e} plant steps"
+            )
+        return None
+
+
+# Bounds of a probe's speed (ProbeConfig.speed_problem): its push in at least this many plant
+# steps, its whole path in at most this many.
+PROBE_PUSH_STEPS = 100
+PROBE_PATH_STEPS = 1_000_000
+
 
 # Where `hlcmp serve` reads the wrist force from (IiwaDriverConfig.force_source).
 FORCE_SOURCES = ("wrist_sensor", "external_torque")

@@ -177,6 +177,10 @@ def run_probe(
             f"scenario '{scenario.name}' has no probe: it needs an arm task and probe.start_m, "
             "probe.push_m"
         )
+    if speed is not None:
+        problem = scenario.probe.speed_problem(speed, scenario.plant_config.time_step)
+        if problem:
+            raise InputError(f"--speed: {problem}")
     world = build_probe(scenario, speed)
     t, position, force, status, wrist = simulate_probe(world, scenario)
     readings, distance, resisting, lateral = readings_of(world, scenario, t, position, force)
