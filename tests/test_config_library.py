@@ -71,6 +71,11 @@ def test_a_library_file_plans_every_combination_with_numbers_as_queries(tmp_path
         (GOOD.replace("  duration_s: 0.3", "  task.puncture.depth_m: 0.01"), 6, "also in set"),
         ("scenario: insertion\n", None, "grid: a library needs at least one task parameter"),
         ("scenario: [insertion\n", 2, "expected ',' or ']'"),
+        (
+            GOOD.replace("hole_friction_N_per_m: [60.0, 90, 120.0]", "depth_m: [0.02, 0.025]"),
+            7,
+            "'task.puncture.depth_m' is given twice in the same map (first at line 6)",
+        ),
     ],
 )
 def test_a_bad_library_file_exits_2_naming_its_line_before_anything_runs(

@@ -158,3 +158,24 @@ def test_an_empty_scenario_or_variant_file_is_one_line(tmp_path, text):
         load_scenario(empty)
     with pytest.raises(InputError, match=f"^{re.escape(expected)}$"):
         load_scenario("one_dof", variant=empty)
+
+
+def test_a_key_given_twice_is_refused_where_it_is_given_again(tmp_path):
+    """YAML keeps the last of two equal keys: a controller's label given twice would drop
+    the first controller without a word."""
+    text = (DIAGRAMS_DIR / "one_dof.yaml").read_text()
+    lines = text.splitlines()
+    first = next(n for n, row in enumerate(lines, 1) if row.startswith("  vic_fd_0.5:"))
+    again = next(n for n, row in enumerate(lines, 1) if row.startswith("  vic_fd_1.5:"))
+    path = tmp_path / "twice.yaml"
+    path.write_text(text.replace("  vic_fd_1.5:", "  vic_fd_0.5:"))
+    expected = (
+        f"{path}:{again}: 'vic_fd_0.5' is given twice in the same map (first at line {first})"
+    )
+    with pytest.raises(InputError, match=f"^{re.escape(expected)}$"):
+        load_scenario(path)
+    variant = tmp_path / "variant.yaml"
+    variant.write_text("duration_s: 2.0\nlog_period_s: 0.01\nduration_s: 3.0\n")
+    expected = f"{variant}:3: 'duration_s' is given twice in the same map (first at line 1)"
+    with pytest.raises(InputError, match=f"^{re.escape(expected)}$"):
+        load_scenario("one_dof", variant=variant)

@@ -51,6 +51,10 @@ from hlcmp_drake.io.errors import InputError
         ),
         ("scenario: one_dof\nmetrics:\n- {label: k}\n", ":2: metrics: entry 1: give either `path`"),
         ("scenario: one_dof\nmetrics:\n- {series: Ks}\n", "series is CONTROLLER/NAME"),
+        (
+            "scenario: one_dof\ngrid:\n  dmp.n_basis: [2, 3]\ngrid:\n  duration_s: [1]\n",
+            ":4: 'grid' is given twice in the same map (first at line 2)",
+        ),
     ],
 )
 def test_a_bad_sweep_file_is_one_error_naming_its_line(tmp_path, text, expected):

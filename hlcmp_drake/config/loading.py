@@ -21,7 +21,7 @@ from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 
 from hlcmp_drake.config.scenario import ControllerConfig, DemonstrationConfig, Scenario
 from hlcmp_drake.config.validation import validate_scenario
-from hlcmp_drake.io.errors import InputError
+from hlcmp_drake.io.errors import InputError, located
 from hlcmp_drake.io.paths import DIAGRAMS_DIR, VARIANTS_DIR
 
 
@@ -79,6 +79,48 @@ def resolve_scenario_path(name_or_path: str | Path) -> Path:
         See `resolve_yaml`.
     """
     return resolve_yaml(name_or_path, DIAGRAMS_DIR, "scenario")
+
+
+def check_unique_keys(path: str | Path, text: str) -> None:
+    """Refuse a YAML text that gives one key twice in a map: the parsers keep the last one
+    without a word (a controller's label given twice would drop the first controller).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file, for the message.
+    text : str
+        Its YAML; a text that does not parse is left to the loader's own message.
+
+    Raises
+    ------
+    InputError
+        ``PATH:LINE: 'KEY' is given twice in the same map (first at line N)``.
+    """
+    import yaml
+
+    try:
+        root = yaml.compose(text, Loader=yaml.SafeLoader)
+    except yaml.YAMLError:
+        return
+    nodes = [] if root is None else [root]
+    twice = []  # (line, key, its first line)
+    while nodes:
+        node = nodes.pop()
+        if isinstance(node, yaml.MappingNode):
+            seen: dict[str, int] = {}
+            for key, value in node.value:
+                if isinstance(key, yaml.ScalarNode) and key.value != "<<":
+                    line = key.start_mark.line + 1
+                    if key.value in seen:
+                        twice.append((line, key.value, seen[key.value]))
+                    seen.setdefault(key.value, line)
+                nodes.append(value)
+        elif isinstance(node, yaml.SequenceNode):
+            nodes.extend(node.value)
+    if twice:
+        line, key, first = min(twice)
+        raise located(path, line, f"'{key}' is given twice in the same map (first at line {first})")
 
 
 def line_of(text: str, dotted_key: str) -> int | None:
@@ -498,6 +540,7 @@ def _load_text(
     for file, content in ((path, text), variant or (None, "x")):
         if not _has_content(content):
             raise InputError(f"{file}: holds no YAML (it is empty or only comments)")
+        check_unique_keys(file, content)
     try:
         scenario = copy.deepcopy(_typed_scenario(text))
     except Exception as error:  # yaml errors come as several exception types
