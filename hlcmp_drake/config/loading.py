@@ -537,7 +537,7 @@ def _load_text(
 ) -> Scenario:
     """`load_scenario` after the files are read: parse, layer the variant, override,
     validate, resolve."""
-    for file, content in ((path, text), variant or (None, "x")):
+    for file, content in [(path, text), *([variant] if variant else [])]:
         if not _has_content(content):
             raise InputError(f"{file}: holds no YAML (it is empty or only comments)")
         check_unique_keys(file, content)
