@@ -63,6 +63,10 @@ GOOD = "t,x\n" + "".join(f"{k * 0.1:.1f},{k * 0.01:.2f}\n" for k in range(12))
         (GOOD.replace("0.3,0.03", "0.3,abc"), ":5: column 'x' is not a number: 'abc'"),
         (GOOD.replace("0.3,0.03", "0.3,nan"), ":5: column 'x' is not finite"),
         (GOOD.replace("0.3,0.03", "0.3,inf"), ":5: column 'x' is not finite"),
+        (
+            GOOD.replace("0.3,0.03", "0.3,5e299"),
+            ":5: column 'x' is 5e299: positions are in metres, within 100 m of the world origin",
+        ),
         (GOOD.replace("0.3,0.03", "0.1,0.03"), ":5: time must increase strictly"),
         (GOOD.replace("0.3,0.03", "0.3"), ":5: expected 2 values (t,x), found 1"),
         (

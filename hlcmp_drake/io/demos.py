@@ -47,6 +47,11 @@ MAX_SPEED_M_PER_S = 3.0
 # 1 m/s from one sample to the next, 0.1 m/s over 10 ms); a jump does not.
 SPEED_WINDOW_S = 0.01
 
+# The farthest a demonstrated position may be from the world origin [m]: an arm's tool (the
+# iiwa14 reaches 0.82 m from its base) is never near; a larger number is another unit (mm)
+# or no position at all, and its speed would overflow.
+MAX_ABS_POSITION_M = 100.0
+
 QUATERNION_COLUMNS = ("qw", "qx", "qy", "qz")
 ANGULAR_VELOCITY_COLUMNS = ("wx", "wy", "wz")
 # The force on the tool, by position axis (x, y, z).
@@ -144,6 +149,13 @@ def read_demonstration(
                 raise located(path, number, f"column '{name}' is not a number: '{field}'") from None
             if not math.isfinite(value):
                 raise located(path, number, f"column '{name}' is not finite: '{field}'")
+            if name in AXES and abs(value) > MAX_ABS_POSITION_M:
+                raise located(
+                    path,
+                    number,
+                    f"column '{name}' is {field}: positions are in metres, within "
+                    f"{MAX_ABS_POSITION_M:g} m of the world origin",
+                )
             values.append(value)
         if rows and values[0] <= rows[-1][1][0]:
             raise located(
