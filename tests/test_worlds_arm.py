@@ -4,12 +4,15 @@ same runs with far fewer Python calls."""
 
 import numpy as np
 import pytest
+from pydrake.math import RotationMatrix
 
 from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.run.benchmark import count_python_calls
 from hlcmp_drake.run.simulate import simulate
 from hlcmp_drake.systems.control_loop import ControlLoop
 from hlcmp_drake.worlds import arm
+from hlcmp_drake.worlds.arm import solve_start_posture
 
 
 def test_start_posture_puts_the_tool_at_the_demonstration_start_pointing_down(arm):
@@ -97,3 +100,18 @@ def test_a_pose_demonstration_must_keep_the_tool_axis_the_arm_holds():
     tilted[40:] = multiply(from_rotation_vector(np.array([0.0, np.radians(2.0), 0.0])), tilted[40:])
     with pytest.raises(InputError, match=rf"demo.csv:{lines[40]}: the tool's \+z is 2.0 deg"):
         check_held_orientation("demo.csv", tilted, scenario.task.tool_direction, lines)
+
+
+@pytest.mark.parametrize("orientation", [None, RotationMatrix()])
+def test_a_start_out_of_reach_names_the_orientation_it_was_asked_for(orientation):
+    scenario, _ = load_scenario("insertion")
+    with pytest.raises(InputError) as error:
+        solve_start_posture(scenario, [3.0, 0.0, 0.5], orientation)
+    message = str(error.value)
+    assert message.startswith("inverse kinematics found no posture with the tool at [3.  0.  0.5]")
+    if orientation is None:  # the task's tool direction, free about it
+        assert f"pointing along {scenario.task.tool_direction} (orientation free" in message
+    else:
+        assert (
+            "turned as the demonstration's first orientation (rpy [0.0, 0.0, 0.0] rad)" in message
+        )

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 from pydrake.common.eigen_geometry import Quaternion
-from pydrake.math import RotationMatrix
+from pydrake.math import RollPitchYaw, RotationMatrix
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.systems.framework import DiagramBuilder
 
@@ -93,11 +93,17 @@ def solve_start_posture(
     load_models(plant, scenario)
     q0 = solve_ik_for_tool(plant, task, tip_position, task.ik_seed_rad, orientation)
     if q0 is None:
+        if orientation is not None:
+            turned = (np.round(RollPitchYaw(orientation).vector(), 3) + 0.0).tolist()  # no -0.0
+            pointing = f"turned as the demonstration's first orientation (rpy {turned} rad)"
+        else:
+            pointing = (
+                f"pointing along {task.tool_direction} "
+                f"(orientation {task.tool_rpy_rad or 'free about it'})"
+            )
         raise InputError(
             f"inverse kinematics found no posture with the tool at {np.round(tip_position, 3)} "
-            f"(the demonstration's start) pointing along {task.tool_direction} "
-            f"(orientation {task.tool_rpy_rad or 'free about it'}): "
-            "is it within the arm's reach?"
+            f"(the demonstration's start) {pointing}: is it within the arm's reach?"
         )
     context = plant.CreateDefaultContext()
     plant.SetPositions(context, q0)
