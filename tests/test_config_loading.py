@@ -55,7 +55,9 @@ def _line_of(text, needle):
     "old, new, expected",
     [
         ("duration_s: 20.0", "duration_s: 20.0\nspeed: 3", "speed"),
-        ("duration_s: 20.0", "duration_s: fast", "could not convert string to float"),
+        ("duration_s: 20.0", "duration_s: fast", "duration_s: must be a number, got 'fast'"),
+        ("q_k: [2000.0]", "q_k: 2000.0", "q_k: must be a list, got 2000.0"),
+        ("axis: 0", "axis: x", "axis: must be an integer, got 'x'"),
         (
             "q_k: [2000.0]",
             "q_k: [-2000.0]",
@@ -179,3 +181,34 @@ def test_a_key_given_twice_is_refused_where_it_is_given_again(tmp_path):
     expected = f"{variant}:3: 'duration_s' is given twice in the same map (first at line 1)"
     with pytest.raises(InputError, match=f"^{re.escape(expected)}$"):
         load_scenario("one_dof", variant=variant)
+
+
+@pytest.mark.parametrize(
+    "old, new, expected",
+    [
+        (
+            "    sample_period_s: 0.001\n",
+            "    sample_period_s: [0.001]\n",
+            "must be a number, got a list",
+        ),
+        ("    q_k: [2000.0]\n", "    q_k: '300'\n", "must be a list, got '300'"),
+        (
+            "  hlcmp_per_step: !HlcmpConfig",
+            "  hlcmp_per_step: 5\n  x: !HlcmpConfig",
+            "must be a map of fields, got 5",
+        ),
+    ],
+)
+def test_a_value_of_another_shape_is_refused_at_its_own_line(tmp_path, old, new, expected):
+    """Drake's loader names no line, and reads text given for a list of numbers as one number a
+    character ('300' as [3, 0, 0]): the value is found where the file gives it (the last
+    of the fields of that name, the one changed)."""
+    at = ONE_DOF.rindex(old)
+    text = ONE_DOF[:at] + new + ONE_DOF[at + len(old) :]
+    line = ONE_DOF[:at].count("\n") + 1
+    path = tmp_path / "bad.yaml"
+    path.write_text(text)
+    with pytest.raises(InputError) as error:
+        load_scenario(path)
+    key = new.split(":")[0].strip()
+    assert str(error.value) == f"{path}:{line}: {key}: {expected}"

@@ -19,7 +19,7 @@ from hlcmp_drake.io.errors import InputError
         ("scenario: one_dof\ngrid:\n  dmp.n_basis: [2, 3\n", ":4:"),
         (
             "scenario: one_dof\nrepetitions: 1.5\n",
-            ":2: Expected a <class 'int'> value for 'repetitions'",
+            ":2: repetitions: must be an integer, got 1.5",
         ),
         ("scenario: one_dof\nrepetitions: 0\n", ":2: repetitions: must be between 1 and 1000"),
         ("scenario: nowhere\n", ":1: scenario: nowhere: not a bundled scenario"),

@@ -20,6 +20,7 @@ from typing import Any, Mapping, NoReturn, Sequence, Union
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 
 from hlcmp_drake.config.scenario import ControllerConfig, DemonstrationConfig, Scenario
+from hlcmp_drake.config.shapes import composed, misshapen_value
 from hlcmp_drake.config.validation import validate_scenario
 from hlcmp_drake.io.errors import InputError, located
 from hlcmp_drake.io.paths import DIAGRAMS_DIR, VARIANTS_DIR
@@ -99,10 +100,7 @@ def check_unique_keys(path: str | Path, text: str) -> None:
     """
     import yaml
 
-    try:
-        root = yaml.compose(text, Loader=yaml.SafeLoader)
-    except yaml.YAMLError:
-        return
+    root = composed(text)
     nodes = [] if root is None else [root]
     twice = []  # (line, key, its first line)
     while nodes:
@@ -541,6 +539,10 @@ def _load_text(
         if not _has_content(content):
             raise InputError(f"{file}: holds no YAML (it is empty or only comments)")
         check_unique_keys(file, content)
+        misshapen = misshapen_value(content, Scenario)
+        if misshapen:
+            line, key, problem = misshapen
+            raise located(file, line, f"{_leaf(key)}: {problem}")
     try:
         scenario = copy.deepcopy(_typed_scenario(text))
     except Exception as error:  # yaml errors come as several exception types
@@ -565,6 +567,9 @@ def _load_text(
                 ) from None
             except InputError as error:
                 raise InputError(f"override '{label}': {error}") from None
+            misshapen = misshapen_value(data, Scenario)
+            if misshapen:
+                raise InputError(f"override '{label}': {_leaf(misshapen[1])}: {misshapen[2]}")
             try:
                 scenario = yaml_load_typed(
                     schema=Scenario, data=data, defaults=copy.deepcopy(scenario)

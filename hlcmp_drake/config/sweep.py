@@ -50,6 +50,7 @@ from hlcmp_drake.config.loading import (
     resolve_yaml,
 )
 from hlcmp_drake.config.scenario import Fail
+from hlcmp_drake.config.shapes import misshapen_value
 from hlcmp_drake.io.errors import InputError, located
 from hlcmp_drake.io.paths import DIAGRAMS_DIR
 
@@ -385,10 +386,12 @@ def read_typed_file(path: Path, schema: type) -> tuple:
         raise located(path, mark.line + 1 if mark else None, problem or str(error)) from None
     if not isinstance(raw, dict):
         raise located(path, None, "expected a map with at least `scenario`")
+    normalized = yaml.safe_dump(_normalized(raw, fail), sort_keys=False)
+    misshapen = misshapen_value(normalized, schema)
+    if misshapen:
+        fail(misshapen[1], f"{misshapen[1]}: {misshapen[2]}")
     try:
-        config = yaml_load_typed(
-            schema=schema, data=yaml.safe_dump(_normalized(raw, fail), sort_keys=False)
-        )
+        config = yaml_load_typed(schema=schema, data=normalized)
     except InputError:
         raise
     except Exception as error:  # Drake's typed loader raises RuntimeError and TypeError

@@ -1,0 +1,148 @@
+"""Where a YAML file's value does not fit the type its field declares: a list where a number
+goes, a number where a list goes, text where a number goes. Drake's typed loader says so
+without the line, and of a scalar given for a list often only "'float' object is not
+iterable"; this finds the value, its line and its dotted key, so that the error names
+them; and of text where a list of numbers goes, which it reads as one number a character
+("300" as [3, 0, 0]), that it is no list at all."""
+
+from __future__ import annotations
+
+import dataclasses as dc
+import functools
+import types
+import typing
+from typing import Union
+
+import yaml
+
+_NUMBER_TAGS = {"tag:yaml.org,2002:int", "tag:yaml.org,2002:float"}
+_NULL_TAG = "tag:yaml.org,2002:null"
+
+
+# libyaml's parser where PyYAML was built with it: the same nodes, ten times as fast.
+_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+
+
+@functools.lru_cache(maxsize=64)  # the loaders read the same few files many times
+def composed(text: str) -> yaml.Node | None:
+    """A YAML text's node tree (each node with its line), or None when the text is empty
+    or does not parse (the loaders' own messages say where).
+
+    Parameters
+    ----------
+    text : str
+
+    Returns
+    -------
+    yaml.Node or None
+        Shared between callers: not to be changed.
+    """
+    try:
+        return yaml.compose(text, Loader=_LOADER)
+    except yaml.YAMLError:
+        return None
+
+
+@functools.lru_cache(maxsize=64)
+def misshapen_value(text: str, schema: type) -> tuple[int, str, str] | None:
+    """The first value of a YAML text whose shape does not fit its field's type.
+
+    Checked: a dataclass's fields (a tagged union's member by its tag), lists, maps,
+    numbers (an int field takes only an int) and text. Fields of other types (Drake's own
+    schema classes, e.g. model directives) and unknown keys are left to the typed loader.
+
+    Parameters
+    ----------
+    text : str
+        The YAML text.
+    schema : type
+        The dataclass it is read into, e.g. `Scenario`.
+
+    Returns
+    -------
+    (int, str, str) or None
+        The value's line (from 1), its dotted key (list items by index) and what is wrong
+        (e.g. "must be a list, got 2000.0"); None when every value fits or the text does not
+        parse as YAML.
+    """
+    root = composed(text)
+    return None if root is None else _check(root, schema, "")
+
+
+def _check(node: yaml.Node, hint: typing.Any, key: str) -> tuple[int, str, str] | None:
+    def wrong(expected: str) -> tuple[int, str, str]:
+        return node.start_mark.line + 1, key, f"must be {expected}, got {_shown(node)}"
+
+    origin = typing.get_origin(hint)
+    if origin in (Union, types.UnionType):
+        members = [a for a in typing.get_args(hint) if a is not type(None)]
+        if len(members) < len(typing.get_args(hint)) and node.tag == _NULL_TAG:
+            return None  # an optional field left empty
+        if len(members) == 1:
+            return _check(node, members[0], key)
+        tagged = [m for m in members if f"!{getattr(m, '__name__', '')}" == node.tag]
+        if tagged:
+            return _check(node, tagged[0], key)
+        if all(dc.is_dataclass(m) for m in members) and not isinstance(node, yaml.MappingNode):
+            return wrong("a map of fields")
+        return None
+    if dc.is_dataclass(hint):
+        if not isinstance(node, yaml.MappingNode):
+            return wrong("a map of fields")
+        fields = typing.get_type_hints(hint)
+        for name, value in node.value:
+            if isinstance(name, yaml.ScalarNode) and name.value in fields:
+                found = _check(value, fields[name.value], _join(key, name.value))
+                if found:
+                    return found
+        return None
+    if origin is list:
+        if not isinstance(node, yaml.SequenceNode):
+            return wrong("a list")
+        (item,) = typing.get_args(hint)
+        for index, value in enumerate(node.value):
+            found = _check(value, item, _join(key, str(index)))
+            if found:
+                return found
+        return None
+    if origin is dict:
+        if not isinstance(node, yaml.MappingNode):
+            return wrong("a map")
+        _, item = typing.get_args(hint)
+        for name, value in node.value:
+            found = _check(value, item, _join(key, str(name.value)))
+            if found:
+                return found
+        return None
+    if hint in (float, int, str, bool) and not isinstance(node, yaml.ScalarNode):
+        return wrong(
+            {float: "a number", int: "an integer", str: "text", bool: "true or false"}[hint]
+        )
+    if hint is float and not _reads_as(float, node):
+        return wrong("a number")
+    if hint is int and not _reads_as(int, node):
+        return wrong("an integer")
+    return None
+
+
+def _reads_as(kind: type, node: yaml.ScalarNode) -> bool:
+    """Whether a scalar is a number of `kind`: YAML's own (.nan, .inf, 0x1f), or text that
+    Python reads so (1e-3, which YAML 1.1 reads as text)."""
+    if node.tag == "tag:yaml.org,2002:int" or (kind is float and node.tag in _NUMBER_TAGS):
+        return True
+    try:
+        kind(node.value)
+    except ValueError:
+        return False
+    return True
+
+
+def _join(key: str, part: str) -> str:
+    return f"{key}.{part}" if key else part
+
+
+def _shown(node: yaml.Node) -> str:
+    """A value as the message shows it: a scalar as written, else its kind."""
+    if isinstance(node, yaml.ScalarNode):
+        return repr(node.value) if node.tag == "tag:yaml.org,2002:str" else node.value
+    return "a list" if isinstance(node, yaml.SequenceNode) else "a map"

@@ -1,0 +1,53 @@
+"""hlcmp_drake.config.shapes: a value whose YAML shape does not fit its field's type is found
+at its line and key; every bundled file fits (nothing valid is refused)."""
+
+import dataclasses as dc
+
+import pytest
+from pydrake.common.yaml import yaml_load_typed
+
+from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.config.scenario import Scenario
+from hlcmp_drake.config.shapes import misshapen_value
+from hlcmp_drake.io.paths import DIAGRAMS_DIR
+
+
+@dc.dataclass
+class _Gains:
+    q: list[float] = dc.field(default_factory=list)
+    x: float = 0.0
+    n: int = 1
+    label: str | None = None
+
+
+@pytest.mark.parametrize(
+    "text, found",
+    [
+        ("q: [1, 2.5]\nx: 3\nn: 2\nlabel: a", None),
+        ("x: 1e-3\nq: ['0.5', .inf]\nlabel: null", None),  # numbers as Drake reads them
+        ("q: '300'", (1, "q", "must be a list, got '300'")),
+        ("x: 1\nq: [1, [2]]", (2, "q.1", "must be a number, got a list")),
+        ("n: 2.5", (1, "n", "must be an integer, got 2.5")),
+        ("x: {a: 1}", (1, "x", "must be a number, got a map")),
+        ("label: [a]", (1, "label", "must be text, got a list")),
+        ("q: [1, 2", None),  # no YAML: the loader's own message says where
+    ],
+)
+def test_a_misshapen_value_is_found_at_its_line(text, found):
+    assert misshapen_value(text, _Gains) == found
+
+
+def test_drake_reads_text_for_a_list_of_numbers_one_character_a_number():
+    """Why the shapes are checked before Drake's loader, not only after it refuses."""
+    assert yaml_load_typed(schema=_Gains, data="q: '300'").q == [3.0, 0.0, 0.0]
+
+
+@pytest.mark.parametrize("path", sorted(DIAGRAMS_DIR.glob("*.yaml")), ids=lambda p: p.stem)
+def test_every_bundled_scenario_fits_its_types(path):
+    assert misshapen_value(path.read_text(), Scenario) is None
+    load_scenario(path)
+
+
+@pytest.mark.parametrize("path", sorted((DIAGRAMS_DIR / "variants").glob("*.yaml")), ids=str)
+def test_every_bundled_variant_fits_its_types(path):
+    assert misshapen_value(path.read_text(), Scenario) is None
