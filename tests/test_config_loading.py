@@ -65,7 +65,11 @@ def _line_of(text, needle):
         ),
         ("pi: 5.0 ", "pi: 0.0 ", "pi: controller 'hlcmp': pi must be > 0"),
         ("q_d: [500.0]", "q_d: [500.0, 1.0]", "q_d: controller 'hlcmp' needs 1 value(s)"),
-        ("hlcmp: !HlcmpConfig", "hlcmp: !Hlcmp", "did not match any of the allowed type options"),
+        (
+            "hlcmp: !HlcmpConfig",
+            "hlcmp: !Hlcmp",
+            "hlcmp: !Hlcmp is none of !HlcmpConfig, !HlcmpForgettingConfig, ",
+        ),
         ("times_s: [0.0, 10.0]", "times_s: [0.0, 10.0", "expected ',' or ']'"),
     ],
 )

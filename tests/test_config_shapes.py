@@ -51,3 +51,38 @@ def test_every_bundled_scenario_fits_its_types(path):
 @pytest.mark.parametrize("path", sorted((DIAGRAMS_DIR / "variants").glob("*.yaml")), ids=str)
 def test_every_bundled_variant_fits_its_types(path):
     assert misshapen_value(path.read_text(), Scenario) is None
+
+
+@dc.dataclass
+class _Soft:
+    k: float = 1.0
+
+
+@dc.dataclass
+class _Stiff:
+    k: float = 2.0
+
+
+@dc.dataclass
+class _Controllers:
+    controllers: dict[str, _Soft | _Stiff] = dc.field(default_factory=dict)
+
+
+@pytest.mark.parametrize(
+    "text, found",
+    [
+        ("controllers:\n  a: !_Stiff {k: 3}\n  b: !_Soft {}", None),
+        (
+            "controllers:\n  a: !_Stiff {k: [3]}",
+            (2, "controllers.a.k", "must be a number, got a list"),
+        ),
+        (
+            "controllers:\n  a: !_Stif {}",
+            (2, "controllers.a", "!_Stif is none of !_Soft, !_Stiff (did you mean !_Stiff?)"),
+        ),
+        ("controllers:\n  a: !Pid {}", (2, "controllers.a", "!Pid is none of !_Soft, !_Stiff")),
+        ("controllers:\n  a: 5", (2, "controllers.a", "must be a map of fields, got 5")),
+    ],
+)
+def test_a_tagged_value_is_checked_as_its_tag_says(text, found):
+    assert misshapen_value(text, _Controllers) == found

@@ -8,6 +8,7 @@ them; and of text where a list of numbers goes, which it reads as one number a c
 from __future__ import annotations
 
 import dataclasses as dc
+import difflib
 import functools
 import types
 import typing
@@ -80,9 +81,17 @@ def _check(node: yaml.Node, hint: typing.Any, key: str) -> tuple[int, str, str] 
             return None  # an optional field left empty
         if len(members) == 1:
             return _check(node, members[0], key)
-        tagged = [m for m in members if f"!{getattr(m, '__name__', '')}" == node.tag]
-        if tagged:
-            return _check(node, tagged[0], key)
+        tags = [f"!{getattr(m, '__name__', '')}" for m in members]
+        if node.tag in tags:
+            return _check(node, members[tags.index(node.tag)], key)
+        if node.tag.startswith("!"):
+            near = difflib.get_close_matches(node.tag, tags, n=1)
+            hint = f" (did you mean {near[0]}?)" if near else ""
+            return (
+                node.start_mark.line + 1,
+                key,
+                f"{node.tag} is none of {', '.join(tags)}{hint}",
+            )
         if all(dc.is_dataclass(m) for m in members) and not isinstance(node, yaml.MappingNode):
             return wrong("a map of fields")
         return None
