@@ -38,6 +38,11 @@ from hlcmp_drake.io.errors import InputError
             ":3: grid: 'dmp.n_basis' lists a value twice",
         ),
         (
+            "scenario: one_dof\ngrid:\n  duration_s: [1, 2, 1.0]\n",
+            ":3: grid: 'duration_s' lists a value twice: ['1', '2', '1.0']",
+        ),
+        ("scenario: one_dof\ncases: []\n", ":2: cases: the list is empty (leave cases out"),
+        (
             "scenario: one_dof\ncases:\n- {label: a}\n- {label: a}\n",
             ":2: cases: two cases share a label",
         ),

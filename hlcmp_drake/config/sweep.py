@@ -277,6 +277,8 @@ def _normalized(raw: dict, fail) -> dict:
         cases = raw["cases"] or []
         if not isinstance(cases, list):
             fail("cases", "cases: expected a list of {label, set}")
+        if not cases:
+            fail("cases", "cases: the list is empty (leave cases out to sweep the grid alone)")
         raw["cases"] = [
             dict(
                 case,
@@ -424,7 +426,8 @@ def _check(config: SweepConfig, fail) -> None:
         if key in owner:
             fail(f"grid.{key}", f"grid: '{key}' is also in {owner[key]}")
         owner[key] = "grid"
-        if len(set(values)) != len(values):
+        read = [yaml.safe_load(value) for value in values]  # 1 and 1.0 are one value
+        if any(a == b for k, a in enumerate(read) for b in read[k + 1 :]):
             fail(f"grid.{key}", f"grid: '{key}' lists a value twice: {values}")
     case_keys = set()
     for k, case in enumerate(config.cases, 1):
