@@ -211,6 +211,13 @@ def test_extrapolate_allows_a_query_beyond_the_margin_with_a_warning(tmp_path):
 def test_a_folder_that_is_no_library_exits_2_with_one_line(tmp_path):
     result = run_cli("generalize", tmp_path, "--query", "a=1", "--out", tmp_path / "s.npz")
     assert "library.json: no such file" in one_line_error(result)
+    (tmp_path / "a_file").write_text("")
+    result = run_cli(
+        "generalize", tmp_path / "a_file", "--query", "a=1", "--out", tmp_path / "t.npz"
+    )
+    assert one_line_error(result).endswith(
+        "a_file: is a file, not a folder written by hlcmp library"
+    )
     folder = write_library(tmp_path, [0.010], [60.0])
     result = run_cli("generalize", folder, "--query", "a=1", "--out", tmp_path / "s.npz")
     assert "generalising needs at least two" in one_line_error(result)

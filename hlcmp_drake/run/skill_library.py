@@ -142,6 +142,8 @@ class SkillLibrary:
         """
         folder = Path(folder)
         path = folder / LIBRARY_FILE
+        if folder.exists() and not folder.is_dir():
+            raise InputError(f"{folder}: is a file, not a folder written by hlcmp library")
         try:
             record = json.loads(path.read_text())
         except FileNotFoundError:
