@@ -161,7 +161,7 @@ BREAKS = [
     ("task.puncture.sliding_speed_m_per_s", _number("> 0")),
     ("task.control_path", lambda v, s: ["nope"]),
     # the reference
-    ("reference.times_s", lambda v, s: [[1.0, *v[1:]], v[:-1], [v[0], NAN], [v[0], -1.0]]),
+    ("reference.times_s", lambda v, s: [[1.0, *v[1:]], v[:-1], [v[0], NAN], [v[0], -1.0], []]),
     (
         "reference.positions_m",
         lambda v, s: [[[NAN]] * len(v), [[0.0, 0.0]] * len(v), [[0.0]] * (len(v) + 1)],

@@ -166,8 +166,14 @@ def _check_reference(scenario: Scenario, folder: Path, fail: Fail) -> None:
     demonstration (its file, a finite duration >= 0)."""
     reference = scenario.reference
     if isinstance(reference, StepReferenceConfig):
-        if len(reference.times_s) != len(reference.positions_m) or not reference.times_s:
-            fail("reference", "times_s needs one entry per row of positions_m")
+        if not reference.times_s:
+            fail("reference.times_s", "needs at least one set-point (t = 0), got none")
+        if len(reference.times_s) != len(reference.positions_m):
+            fail(
+                "reference",
+                f"times_s needs one entry per row of positions_m: {len(reference.times_s)} "
+                f"time(s), {len(reference.positions_m)} row(s)",
+            )
         if not all(math.isfinite(t) for t in reference.times_s):
             fail("reference.times_s", f"every time must be finite, got {reference.times_s}")
         if reference.times_s[0] != 0 or any(
