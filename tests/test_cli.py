@@ -59,6 +59,8 @@ GOOD = "t,x\n" + "".join(f"{k * 0.1:.1f},{k * 0.01:.2f}\n" for k in range(12))
         ("x,y\n1,2\n", ":1: the first column must be 't'"),
         ("t\n" + "".join(f"{k},\n" for k in range(12)), ":1: no position column"),
         ("t,x,w\n0,1,2\n", ":1: unknown column 'w'"),
+        ("t,x,\n0,1,\n", ":1: column 3 has no name (a comma at the end of the line?)"),
+        ("t,,x\n0,1,2\n", ":1: column 2 has no name"),
         ("t,z,x\n0,1,2\n", ":1: position columns must be in the order x, y, z"),
         (GOOD.replace("0.3,0.03", "0.3,abc"), ":5: column 'x' is not a number: 'abc'"),
         (GOOD.replace("0.3,0.03", "0.3,nan"), ":5: column 'x' is not finite"),

@@ -122,6 +122,10 @@ def read_demonstration(
         raise InputError(f"{path}: the file is empty (expected a header line 't,x,y,z')")
     header_line, header_text = lines[0]
     header = [name.strip() for name in next(csv.reader([header_text]))]
+    if "" in header:
+        column = header.index("") + 1
+        trailing = " (a comma at the end of the line?)" if column == len(header) else ""
+        raise located(path, header_line, f"column {column} has no name{trailing}")
     kinematics, force_columns = _without_force(path, header_line, header)
     axes = _check_header(path, header_line, _without_orientation(path, header_line, kinematics))
     has_orientation = QUATERNION_COLUMNS[0] in header
