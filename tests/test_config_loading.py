@@ -155,7 +155,7 @@ def test_a_dumped_scenario_reads_back_with_every_controller_of_its_own_class():
     assert dump_scenario(insertion) == yaml_dump_typed(insertion)
 
 
-@pytest.mark.parametrize("text", ["", "\n  \n", "# only a comment\n\n# and another\n"])
+@pytest.mark.parametrize("text", ["", "\n  \n", "# only a comment\n\n# and another\n", "---\n"])
 def test_an_empty_scenario_or_variant_file_is_one_line(tmp_path, text):
     empty = tmp_path / "empty.yaml"
     empty.write_text(text)

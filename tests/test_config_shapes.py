@@ -6,7 +6,7 @@ import dataclasses as dc
 import pytest
 from pydrake.common.yaml import yaml_load_typed
 
-from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.config.loading import check_unique_keys, load_scenario
 from hlcmp_drake.config.scenario import Scenario
 from hlcmp_drake.config.shapes import misshapen_value
 from hlcmp_drake.io.paths import DIAGRAMS_DIR
@@ -25,11 +25,14 @@ class _Gains:
     [
         ("q: [1, 2.5]\nx: 3\nn: 2\nlabel: a", None),
         ("x: 1e-3\nq: ['0.5', .inf]\nlabel: null", None),  # numbers as Drake reads them
+        ("n: 10.0", None),  # a whole float: Drake's loader takes it for an integer
+        ("n: .inf", (1, "n", "must be an integer, got .inf")),
         ("q: '300'", (1, "q", "must be a list, got '300'")),
         ("x: 1\nq: [1, [2]]", (2, "q.1", "must be a number, got a list")),
         ("n: 2.5", (1, "n", "must be an integer, got 2.5")),
         ("x: {a: 1}", (1, "x", "must be a number, got a map")),
         ("label: [a]", (1, "label", "must be text, got a list")),
+        ("q:", (1, "q", "must be a list, got nothing")),
         ("q: [1, 2", None),  # no YAML: the loader's own message says where
     ],
 )
@@ -86,3 +89,12 @@ class _Controllers:
 )
 def test_a_tagged_value_is_checked_as_its_tag_says(text, found):
     assert misshapen_value(text, _Controllers) == found
+
+
+def test_an_alias_within_itself_or_aliases_of_aliases_end_quickly():
+    """Each node is walked once: an alias in itself would loop, ten aliases of ten aliases
+    eight deep would be 10^8 walks."""
+    assert misshapen_value("q: &r [1, *r]", _Gains) is None  # left to the loader's message
+    levels = ["a0: &a0 [1, 2, 3, 4, 5, 6, 7, 8, 9, 10]"]
+    levels += [f"a{k}: &a{k} [" + ", ".join([f"*a{k - 1}"] * 10) + "]" for k in range(1, 9)]
+    check_unique_keys("f.yaml", "\n".join(levels) + "\nb: &b {c: *b}\n")

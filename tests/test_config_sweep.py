@@ -173,3 +173,16 @@ def test_a_metrics_line_is_the_line_of_its_path_or_series(tmp_path):
         "- {label: c, path: controllers.hlcmp.reach_time_s, scale: 2.0}\n",
     )
     assert [metric_line(load_sweep(path), k) for k in range(3)] == [3, 5, 6]
+
+
+def test_grid_values_are_compared_by_value_where_they_are_numbers(tmp_path):
+    """A tagged config stays text (the safe loader makes none), 0 and false stay two values."""
+    tagged = "!StepReferenceConfig {{times_s: [0.0], positions_m: [[{}]]}}"
+    path = write_sweep(
+        tmp_path,
+        "scenario: one_dof\ngrid:\n"
+        f"  reference: ['{tagged.format(-0.1)}', '{tagged.format(-0.05)}']\n",
+    )
+    assert len(plan_tasks(load_sweep(path), tmp_path / "out")) == 2
+    path = write_sweep(tmp_path, "scenario: one_dof\ngrid:\n  duration_s: [0, false]\n")
+    load_sweep(path)  # refused later, by the scenario's own check of each value

@@ -103,8 +103,12 @@ def check_unique_keys(path: str | Path, text: str) -> None:
     root = composed(text)
     nodes = [] if root is None else [root]
     twice = []  # (line, key, its first line)
+    visited = set()  # an alias is the node it names: each is walked once
     while nodes:
         node = nodes.pop()
+        if id(node) in visited:
+            continue
+        visited.add(id(node))
         if isinstance(node, yaml.MappingNode):
             seen: dict[str, int] = {}
             for key, value in node.value:
@@ -522,8 +526,11 @@ def _typed_scenario(text: str) -> Scenario:
 
 
 def _has_content(text: str) -> bool:
-    """Whether a YAML text holds more than blank lines and comments."""
-    return any(line.strip() and not line.lstrip().startswith("#") for line in text.splitlines())
+    """Whether a YAML text holds more than blank lines, comments and document markers."""
+    return any(
+        line.strip() and not line.lstrip().startswith("#") and line.strip() not in ("---", "...")
+        for line in text.splitlines()
+    )
 
 
 def _load_text(

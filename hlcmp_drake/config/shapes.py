@@ -67,10 +67,18 @@ def misshapen_value(text: str, schema: type) -> tuple[int, str, str] | None:
         parse as YAML.
     """
     root = composed(text)
-    return None if root is None else _check(root, schema, "")
+    return None if root is None else _check(root, schema, "", set())
 
 
-def _check(node: yaml.Node, hint: typing.Any, key: str) -> tuple[int, str, str] | None:
+def _check(
+    node: yaml.Node, hint: typing.Any, key: str, visited: set[int]
+) -> tuple[int, str, str] | None:
+    # An alias is the node it names: each node is checked once, so that an alias within
+    # itself ends and aliases of aliases do not multiply the work.
+    if id(node) in visited:
+        return None
+    visited.add(id(node))
+
     def wrong(expected: str) -> tuple[int, str, str]:
         return node.start_mark.line + 1, key, f"must be {expected}, got {_shown(node)}"
 
@@ -79,11 +87,12 @@ def _check(node: yaml.Node, hint: typing.Any, key: str) -> tuple[int, str, str] 
         members = [a for a in typing.get_args(hint) if a is not type(None)]
         if len(members) < len(typing.get_args(hint)) and node.tag == _NULL_TAG:
             return None  # an optional field left empty
+        visited.discard(id(node))  # the same node again, as the member it holds
         if len(members) == 1:
-            return _check(node, members[0], key)
+            return _check(node, members[0], key, visited)
         tags = [f"!{getattr(m, '__name__', '')}" for m in members]
         if node.tag in tags:
-            return _check(node, members[tags.index(node.tag)], key)
+            return _check(node, members[tags.index(node.tag)], key, visited)
         if node.tag.startswith("!"):
             near = difflib.get_close_matches(node.tag, tags, n=1)
             hint = f" (did you mean {near[0]}?)" if near else ""
@@ -101,7 +110,7 @@ def _check(node: yaml.Node, hint: typing.Any, key: str) -> tuple[int, str, str] 
         fields = typing.get_type_hints(hint)
         for name, value in node.value:
             if isinstance(name, yaml.ScalarNode) and name.value in fields:
-                found = _check(value, fields[name.value], _join(key, name.value))
+                found = _check(value, fields[name.value], _join(key, name.value), visited)
                 if found:
                     return found
         return None
@@ -110,7 +119,7 @@ def _check(node: yaml.Node, hint: typing.Any, key: str) -> tuple[int, str, str] 
             return wrong("a list")
         (item,) = typing.get_args(hint)
         for index, value in enumerate(node.value):
-            found = _check(value, item, _join(key, str(index)))
+            found = _check(value, item, _join(key, str(index)), visited)
             if found:
                 return found
         return None
@@ -119,7 +128,7 @@ def _check(node: yaml.Node, hint: typing.Any, key: str) -> tuple[int, str, str] 
             return wrong("a map")
         _, item = typing.get_args(hint)
         for name, value in node.value:
-            found = _check(value, item, _join(key, str(name.value)))
+            found = _check(value, item, _join(key, str(name.value)), visited)
             if found:
                 return found
         return None
@@ -136,14 +145,15 @@ def _check(node: yaml.Node, hint: typing.Any, key: str) -> tuple[int, str, str] 
 
 def _reads_as(kind: type, node: yaml.ScalarNode) -> bool:
     """Whether a scalar is a number of `kind`: YAML's own (.nan, .inf, 0x1f), or text that
-    Python reads so (1e-3, which YAML 1.1 reads as text)."""
+    Python reads so (1e-3, which YAML 1.1 reads as text); an integer may be written as a
+    whole float (10.0), as Drake's loader reads it."""
     if node.tag == "tag:yaml.org,2002:int" or (kind is float and node.tag in _NUMBER_TAGS):
         return True
     try:
-        kind(node.value)
-    except ValueError:
+        value = float(yaml.safe_load(node.value)) if node.tag in _NUMBER_TAGS else float(node.value)
+    except (ValueError, TypeError, yaml.YAMLError):
         return False
-    return True
+    return kind is float or value.is_integer()
 
 
 def _join(key: str, part: str) -> str:
@@ -153,5 +163,7 @@ def _join(key: str, part: str) -> str:
 def _shown(node: yaml.Node) -> str:
     """A value as the message shows it: a scalar as written, else its kind."""
     if isinstance(node, yaml.ScalarNode):
+        if node.tag == _NULL_TAG:
+            return "nothing"
         return repr(node.value) if node.tag == "tag:yaml.org,2002:str" else node.value
     return "a list" if isinstance(node, yaml.SequenceNode) else "a map"

@@ -401,6 +401,20 @@ def read_typed_file(path: Path, schema: type) -> tuple:
     return text, config, fail
 
 
+def _as_compared(text: str) -> tuple:
+    """A grid value as two values are compared: a number by its value (1 and 1.0 are one
+    value, 0 and false are not), anything else (a tagged config, a list) by its text."""
+    try:
+        value = yaml.safe_load(text)
+    except yaml.YAMLError:  # e.g. a tag: the safe loader constructs none
+        return ("text", text)
+    if isinstance(value, bool):
+        return ("bool", value)
+    if isinstance(value, (int, float)):
+        return ("number", float(value))
+    return ("text", text)
+
+
 def _scenario_path(scenario: str, sweep_path: Path, fail: Fail) -> Path:
     if not scenario:
         fail("scenario", "scenario: must be given (a bundled scenario's name or a .yaml path)")
@@ -426,8 +440,8 @@ def _check(config: SweepConfig, fail) -> None:
         if key in owner:
             fail(f"grid.{key}", f"grid: '{key}' is also in {owner[key]}")
         owner[key] = "grid"
-        read = [yaml.safe_load(value) for value in values]  # 1 and 1.0 are one value
-        if any(a == b for k, a in enumerate(read) for b in read[k + 1 :]):
+        read = [_as_compared(value) for value in values]
+        if len(set(read)) != len(read):
             fail(f"grid.{key}", f"grid: '{key}' lists a value twice: {values}")
     case_keys = set()
     for k, case in enumerate(config.cases, 1):

@@ -129,11 +129,6 @@ def validate_scenario(
     scenario.robot_imperfection.check_scenario(scenario, fail)
     if scenario.probe.given and not isinstance(scenario.task, ArmTask):
         fail("probe.start_m", "a probe carries an arm's tool: it needs an !ArmTask task")
-    if scenario.probe.given:
-        probe = scenario.probe
-        problem = probe.speed_problem(probe.speed_m_per_s, scenario.plant_config.time_step)
-        if problem:
-            fail("probe.speed_m_per_s", problem)
     if experiments is not None:
         world = experiments.get(scenario.experiment)
         if world is None:

@@ -68,13 +68,6 @@ class DmpSettings:
                 raise ValueError(f"{name} must be positive and finite, got {value}")
         if not (np.isfinite(self.smoothing_s) and self.smoothing_s >= 0):
             raise ValueError(f"smoothing_s must be >= 0 and finite, got {self.smoothing_s}")
-        most = max_basis_functions(self.alpha_s)
-        if self.n_basis > most:
-            raise ValueError(
-                f"n_basis must be at most {most} with alpha_s = {self.alpha_s:g}, got "
-                f"{self.n_basis}: narrower basis functions all vanish late in the phase "
-                "(s near 0), where g(s) of Eq. 16 would be 0/0"
-            )
 
     @property
     def beta_value(self) -> float:
@@ -151,29 +144,6 @@ def basis_centers_and_widths(n_basis: int, alpha_s: float) -> tuple[np.ndarray, 
     return centers, widths
 
 
-def max_basis_functions(alpha_s: float) -> int:
-    """The largest N whose phase basis (`basis_centers_and_widths`) keeps one activation
-    (Eq. 10) a normal double at every phase s in [0, 1], so that Eq. 16 never divides 0
-    by 0.
-
-    The least activation is at s = 0, that of the last centre: with r = exp(-alpha_s /
-    (N - 1)) the ratio of neighbouring centres, its exponent is -r^2 / (1 - r)^2 (the
-    width repeats the last spacing), which grows with N.
-
-    Parameters
-    ----------
-    alpha_s : float
-        Decay rate of the canonical system [-], > 0.
-
-    Returns
-    -------
-    int
-        N (109 for alpha_s = 4).
-    """
-    bound = np.sqrt(-np.log(np.finfo(float).tiny))  # the largest r / (1 - r)
-    return 1 + int(np.floor(alpha_s / np.log1p(1.0 / bound)))
-
-
 @jitable
 def rbf_activations(s: float | np.ndarray, centers: np.ndarray, widths: np.ndarray) -> np.ndarray:
     """Eq. 10: omega_n(s) = exp(-0.5 h_n (s - c_n)^2). s scalar -> (N,), s (T,) -> (T, N).
@@ -190,8 +160,25 @@ def rbf_activations(s: float | np.ndarray, centers: np.ndarray, widths: np.ndarr
     (N,) or (T, N) array
         Activations omega_n(s) [-], in (0, 1].
     """
+    return np.exp(rbf_exponents(s, centers, widths))
+
+
+@jitable
+def rbf_exponents(s: float | np.ndarray, centers: np.ndarray, widths: np.ndarray) -> np.ndarray:
+    """Eq. 10's exponents: -0.5 h_n (s - c_n)^2, so that omega_n(s) = exp of them.
+
+    Parameters
+    ----------
+    s, centers, widths
+        As for `rbf_activations`.
+
+    Returns
+    -------
+    (N,) or (T, N) array
+        [-], <= 0.
+    """
     s = np.asarray(s, dtype=np.float64)
-    return np.exp(-0.5 * widths * (s[..., None] - centers) ** 2)
+    return -0.5 * widths * (s[..., None] - centers) ** 2
 
 
 @jitable
@@ -208,7 +195,13 @@ def normalized_basis(s: float | np.ndarray, centers: np.ndarray, widths: np.ndar
     (N,) or (T, N) array
         g(s) [-], each row summing to 1.
     """
-    omega = rbf_activations(s, centers, widths)
+    s = np.asarray(s, dtype=np.float64)
+    exponents = rbf_exponents(s, centers, widths)
+    # A common factor leaves the ratio as it is. Past the last centre (late in the phase)
+    # every activation may underflow to 0, which would make it 0/0; there the last
+    # centre's is the largest (`basis_centers_and_widths`), so it is divided out.
+    past = np.expand_dims(s, -1) < centers[-1]
+    omega = np.exp(exponents - np.where(past, exponents[..., -1:], 0.0))
     return omega / np.expand_dims(np.sum(omega, axis=-1), -1)
 
 

@@ -177,10 +177,13 @@ def run_probe(
             f"scenario '{scenario.name}' has no probe: it needs an arm task and probe.start_m, "
             "probe.push_m"
         )
-    if speed is not None:
-        problem = scenario.probe.speed_problem(speed, scenario.plant_config.time_step)
-        if problem:
-            raise InputError(f"--speed: {problem}")
+    # Checked here, not at load: only a probe moves the carriage (a run at another time
+    # step never uses it).
+    given = scenario.probe.speed_m_per_s if speed is None else speed
+    problem = scenario.probe.speed_problem(given, scenario.plant_config.time_step)
+    if problem:
+        where = f"{scenario.name}: probe.speed_m_per_s" if speed is None else "--speed"
+        raise InputError(f"{where}: {problem}")
     world = build_probe(scenario, speed)
     t, position, force, status, wrist = simulate_probe(world, scenario)
     readings, distance, resisting, lateral = readings_of(world, scenario, t, position, force)
