@@ -45,7 +45,9 @@ def composed(text: str) -> yaml.Node | None:
 
 
 @functools.lru_cache(maxsize=64)
-def misshapen_value(text: str, schema: type) -> tuple[int, str, str] | None:
+def misshapen_value(
+    text: str, schema: type, skip: tuple[str, ...] = ()
+) -> tuple[int, str, str] | None:
     """The first value of a YAML text whose shape does not fit its field's type.
 
     Checked: a dataclass's fields (a tagged union's member by its tag), lists, maps,
@@ -58,6 +60,9 @@ def misshapen_value(text: str, schema: type) -> tuple[int, str, str] | None:
         The YAML text.
     schema : type
         The dataclass it is read into, e.g. `Scenario`.
+    skip : tuple of str
+        Top-level keys not to check (a sweep's sections that are rewritten before they
+        are read).
 
     Returns
     -------
@@ -67,6 +72,13 @@ def misshapen_value(text: str, schema: type) -> tuple[int, str, str] | None:
         parse as YAML.
     """
     root = composed(text)
+    if skip and isinstance(root, yaml.MappingNode):  # a new node: the cached one is shared
+        kept = [
+            (k, v)
+            for k, v in root.value
+            if not (isinstance(k, yaml.ScalarNode) and k.value in skip)
+        ]
+        root = yaml.MappingNode(root.tag, kept, root.start_mark, root.end_mark)
     return None if root is None else _check(root, schema, "", set())
 
 

@@ -388,6 +388,12 @@ def read_typed_file(path: Path, schema: type) -> tuple:
         raise located(path, mark.line + 1 if mark else None, problem or str(error)) from None
     if not isinstance(raw, dict):
         raise located(path, None, "expected a map with at least `scenario`")
+    # The sections `_normalized` rewrites are checked as rewritten (their lines found by
+    # key); every other value where the file gives it.
+    misshapen = misshapen_value(text, schema, REWRITTEN)
+    if misshapen:
+        line, key, problem = misshapen
+        raise located(path, line, f"{key}: {problem}")
     normalized = yaml.safe_dump(_normalized(raw, fail), sort_keys=False)
     misshapen = misshapen_value(normalized, schema)
     if misshapen:
@@ -399,6 +405,10 @@ def read_typed_file(path: Path, schema: type) -> tuple:
     except Exception as error:  # Drake's typed loader raises RuntimeError and TypeError
         raise _schema_error(path, text, error) from None
     return text, config, fail
+
+
+# The sections of a sweep or library file whose values `_normalized` turns into YAML text.
+REWRITTEN = ("set", "labels", "grid", "cases")
 
 
 def _as_compared(text: str) -> tuple:
