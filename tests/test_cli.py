@@ -105,7 +105,10 @@ def test_good_one_axis_demo_is_accepted(tmp_path):
             "--goal: expected comma-separated numbers",
         ),
         (["rollout", "SKILL", "--out", "T", "--dt", "-1"], "must be a positive number"),
-        (["fit", "DEMO", "--out", "S", "--basis", "1"], "--basis: n_basis must be at least 2"),
+        (
+            ["fit", "DEMO", "--out", "S", "--basis", "1"],
+            "--basis: n_basis must be between 2 and 1000, got 1",
+        ),
         (["rollout", "NOSKILL", "--out", "T"], "no such file"),
         (["run", "no_such_scenario"], "not a bundled scenario"),
         (["frobnicate"], "invalid choice"),

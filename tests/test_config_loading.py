@@ -56,6 +56,12 @@ def _line_of(text, needle):
     [
         ("duration_s: 20.0", "duration_s: 20.0\nspeed: 3", "speed"),
         ("duration_s: 20.0", "duration_s: fast", "duration_s: must be a number, got 'fast'"),
+        ("duration_s: 20.0", "duration_s: 4000.0", "duration_s: must be at most 3600 s, got 4000"),
+        (
+            "log_period_s: 0.01",
+            "log_period_s: 0.0001",
+            "log_period_s: must be at least the plant's step (0.001 s), got 0.0001",
+        ),
         ("q_k: [2000.0]", "q_k: 2000.0", "q_k: must be a list, got 2000.0"),
         ("axis: 0", "axis: x", "axis: must be an integer, got 'x'"),
         (
@@ -216,3 +222,11 @@ def test_a_value_of_another_shape_is_refused_at_its_own_line(tmp_path, old, new,
         load_scenario(path)
     key = new.split(":")[0].strip()
     assert str(error.value) == f"{path}:{line}: {key}: {expected}"
+
+
+def test_the_driver_channels_must_differ():
+    """A client on one channel for two messages would read its own commands as statuses."""
+    with pytest.raises(InputError, match="wrist_channel: must differ from status_channel"):
+        load_scenario("insertion", ["iiwa_driver.wrist_channel=IIWA_STATUS"])
+    with pytest.raises(InputError, match="command_channel: must differ from status_channel"):
+        load_scenario("insertion", ["iiwa_driver.command_channel=IIWA_STATUS"])

@@ -136,6 +136,8 @@ def test_resampling_gives_a_uniform_grid_and_smooth_derivatives():
 def test_settings_validation():
     with pytest.raises(ValueError):
         DmpSettings(n_basis=1)
+    with pytest.raises(ValueError, match="n_basis must be between 2 and 1000, got 100000"):
+        DmpSettings(n_basis=100_000)  # its fit's N x N system would take 80 GB
     assert DmpSettings(alpha=40).beta_value == 10
     settings = DmpSettings()
     settings.alpha = 40  # as the YAML loader sets it: beta follows alpha

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import run_cli, tiny
+from conftest import one_line_error, run_cli, tiny
 
 from hlcmp_drake.config.loading import load_scenario_text
 from hlcmp_drake.config.sweep import load_sweep, plan_tasks
@@ -496,3 +496,13 @@ def test_the_short_check_run_accepts_every_value_a_whole_run_writes(tmp_path, na
     assert paths and [p for p in paths if path_problem(found, p)] == []
     with np.load(run_dir / "timeseries.npz") as arrays:
         assert set(found.series) == set(arrays.files) - {"t"}
+
+
+def test_a_ray_address_that_is_no_address_is_one_line(tmp_path):
+    pytest.importorskip("ray")
+    result = run_cli(
+        "sweep", "tiny", "--engine", "ray", "--address", "notanaddress", "--out", tmp_path / "s"
+    )
+    assert one_line_error(result).startswith(
+        "hlcmp: error: --address notanaddress: cannot join a Ray cluster there"
+    )

@@ -1154,9 +1154,16 @@ class IiwaDriverConfig:
                 "iiwa_driver.force_source",
                 f"must be one of {', '.join(FORCE_SOURCES)}, got '{self.force_source}'",
             )
-        for key in ("status_channel", "command_channel", "wrist_channel"):
+        channels = ("status_channel", "command_channel", "wrist_channel")
+        for k, key in enumerate(channels):
             if not getattr(self, key):
                 fail(f"iiwa_driver.{key}", "must name an LCM channel")
+            for other in channels[:k]:  # a client would read its own messages as the driver's
+                if getattr(self, key) == getattr(self, other):
+                    fail(
+                        f"iiwa_driver.{key}",
+                        f"must differ from {other} (both '{getattr(self, key)}')",
+                    )
         for key in (
             "period_s",
             "start_guard_s",

@@ -100,6 +100,19 @@ def validate_scenario(
     check_directives(scenario, fail)
     for key in ("duration_s", "log_period_s", "max_abs_position_m"):
         check_number(getattr(scenario, key), key, fail, "> 0")
+    if scenario.duration_s > MAX_DURATION_S:
+        fail(
+            "duration_s",
+            f"must be at most {MAX_DURATION_S:g} s, got {scenario.duration_s:g}: the references "
+            "are sampled every few ms over the whole run, in memory",
+        )
+    step = scenario.plant_config.time_step
+    if isinstance(step, (int, float)) and step > 0 and scenario.log_period_s < step:
+        fail(
+            "log_period_s",
+            f"must be at least the plant's step ({step:g} s), got {scenario.log_period_s:g}: "
+            "the state changes once a step",
+        )
     check_plant_config(scenario.plant_config, fail)
     check_simulator_config(scenario.simulator_config, fail)
     try:
@@ -154,6 +167,11 @@ def validate_scenario(
         )
         if problem:
             fail("probe.arm_model", problem)
+
+
+# The longest run a scenario may ask for [s]: an hour, half an hour or more of wall time in
+# the arm worlds, whose DMP forcing spline then holds 1.8 million samples.
+MAX_DURATION_S = 3600.0
 
 
 def _check_reference(scenario: Scenario, folder: Path, fail: Fail) -> None:

@@ -28,6 +28,11 @@ DEGENERATE_GOAL_FRACTION = 0.1
 TAIL_FRACTION = 0.5
 
 
+# The most basis functions a DMP may have: the fit solves an N x N system per axis (8 MB at
+# 1000; 100 000 would need 80 GB). The bundled scenarios use 10 to 30.
+MAX_BASIS_FUNCTIONS = 1000
+
+
 @dataclass
 class DmpSettings:
     """Shape parameters of the DMP and of the phase basis it shares with the compliant
@@ -60,8 +65,10 @@ class DmpSettings:
 
     def check(self) -> None:
         """Raise ValueError, naming the field, if a value is out of its range."""
-        if self.n_basis < 2:
-            raise ValueError(f"n_basis must be at least 2, got {self.n_basis}")
+        if not 2 <= self.n_basis <= MAX_BASIS_FUNCTIONS:
+            raise ValueError(
+                f"n_basis must be between 2 and {MAX_BASIS_FUNCTIONS}, got {self.n_basis}"
+            )
         for name in ("alpha", "alpha_s", "beta"):
             value = getattr(self, name)
             if value is not None and not (np.isfinite(value) and value > 0):

@@ -189,9 +189,10 @@ def run_on_ray(
         )
         try:
             ray.init(logging_level=logging.WARNING, **options)
-        except ConnectionError as error:
+        except (ConnectionError, ValueError) as error:  # ValueError: not an address at all
             raise InputError(
-                f"--address {address}: cannot join a Ray cluster there ({error})"
+                f"--address {address}: cannot join a Ray cluster there "
+                f"({' '.join(str(error).split())[:200]})"
             ) from None
     remote = ray.remote(num_cpus=1)(function)
     queue, in_flight = list(items), {}
