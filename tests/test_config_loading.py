@@ -59,8 +59,8 @@ def _line_of(text, needle):
         ("duration_s: 20.0", "duration_s: 4000.0", "duration_s: must be at most 3600 s, got 4000"),
         (
             "log_period_s: 0.01",
-            "log_period_s: 0.0001",
-            "log_period_s: must be at least the plant's step (0.001 s), got 0.0001",
+            "log_period_s: 0.00001",
+            "log_period_s: must be at least 2e-05 s for a 20 s run, got 1e-05: at most 1e+06",
         ),
         ("q_k: [2000.0]", "q_k: 2000.0", "q_k: must be a list, got 2000.0"),
         ("axis: 0", "axis: x", "axis: must be an integer, got 'x'"),
