@@ -192,7 +192,7 @@ BREAKS = [
     ("recording.spacing_m", _number(">= 0")),
     ("recording.camera_position_m", _camera("camera_target_m")),
     ("recording.camera_target_m", _camera("camera_position_m")),
-    ("recording.frames_per_second", _number("> 0")),
+    ("recording.frames_per_second", lambda v, s: [NAN, 0.0, 241.0]),
     ("probe.arm_model", _not_an_arm),
     ("probe.start_m", lambda v, s: [[0.0, 0.0], _with_nan(v), *_alone(s, [0.6, 0.0, 0.3])]),
     ("probe.approach_m", lambda v, s: [[0.0], [NAN, 0.0, 0.0]]),

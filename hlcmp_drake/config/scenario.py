@@ -860,6 +860,11 @@ class DemonstrationConfig:
     duration_s: float = 0.0
 
 
+# Above a display's refresh rate (60-240 Hz) frames are never seen; 1e9 fps hung the
+# recording after the run, drawing and storing every frame.
+MAX_FRAMES_PER_SECOND = 240.0
+
+
 @dc.dataclass
 class RecordingConfig:
     """The offline 3-D recording: the runs' copies of the world stand `spacing_m` apart
@@ -877,8 +882,8 @@ class RecordingConfig:
         distance is chosen to keep every copy and its sign in view. Defaults
         [1.6, -1.8, 1.2] and [0, 0, 0.2].
     frames_per_second : float
-        The recording's frame rate [1/s], finite and > 0: the runs are sampled at it.
-        Default 30.
+        The recording's frame rate [1/s], finite, > 0 and at most MAX_FRAMES_PER_SECOND:
+        the runs are sampled at it. Default 30.
     """
 
     spacing_m: float = 0.6
@@ -905,6 +910,13 @@ class RecordingConfig:
                 "view direction",
             )
         check_number(self.frames_per_second, "recording.frames_per_second", fail, "> 0")
+        if self.frames_per_second > MAX_FRAMES_PER_SECOND:
+            fail(
+                "recording.frames_per_second",
+                f"must be at most {MAX_FRAMES_PER_SECOND:g}, got {self.frames_per_second:g}: "
+                "a browser plays the recording at its display's rate, and every frame is "
+                "drawn and stored in the HTML file",
+            )
 
 
 @dc.dataclass
