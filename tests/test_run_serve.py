@@ -302,6 +302,14 @@ def test_saturated_torques_stop_the_client_after_max_saturation_s():
         (["serve", "insertion", "--lcm", "memq://", "--freeze"], "--freeze needs --skill"),
         (["serve", "insertion", "--lcm", "memq://", "--any-scenario"], "--any-scenario needs"),
         (["serve", "insertion", "--lcm", "tcp://x:1"], "expected udpm://GROUP:PORT?ttl=0"),
+        (
+            ["serve", "insertion", "--lcm", "udpm://239.255.76.1:7667?ttl=abc"],
+            "ttl must be a whole number from 0 to 255, got 'abc'",
+        ),
+        (
+            ["sim-driver", "insertion", "--lcm", "udpm://239.255.76.1:7667?ttl=0,rcv_buf=9"],
+            "unknown option 'rcv_buf': udpm:// takes ttl and recv_buf_size",
+        ),
         (["sim-driver", "insertion", "--lcm", "memq://"], "memq:// reaches only this process"),
         (
             ["sim-driver", "insertion", "--lcm", "memq://", "--drake-driver"],

@@ -288,6 +288,27 @@ def decode_wrench(data: bytes) -> tuple[int, np.ndarray, np.ndarray]:
     return message.timestamp, force, np.array([message.tx, message.ty, message.tz])
 
 
+# LCM's udpm options, each to the whole numbers it takes. LCM warns about any other value
+# and runs on, with no traffic or the default in its place.
+UDPM_OPTIONS = {"ttl": range(0, 256), "recv_buf_size": range(1, 2**31)}
+
+
+def _udpm_options_problem(query: str) -> str | None:
+    """What is wrong with a udpm:// URL's options ("ttl=0&recv_buf_size=2097152", LCM also
+    splits at commas), or None."""
+    for option in filter(None, re.split("[,&]", query)):
+        key, _, value = option.partition("=")
+        allowed = UDPM_OPTIONS.get(key)
+        if allowed is None:
+            return f"unknown option '{key}': udpm:// takes {' and '.join(UDPM_OPTIONS)}"
+        if not (value.isdigit() and int(value) in allowed):
+            return (
+                f"{key} must be a whole number from {allowed.start} to {allowed.stop - 1}, "
+                f"got '{value}'"
+            )
+    return None
+
+
 def open_lcm(url: str) -> DrakeLcm:
     """A DrakeLcm on `url`, checked first: LCM itself only prints a bad URL and then
     neither sends nor receives.
@@ -296,7 +317,8 @@ def open_lcm(url: str) -> DrakeLcm:
     ----------
     url : str
         memq:// (this process only) or udpm://GROUP:PORT[?ttl=0], GROUP an IPv4
-        multicast address (ttl=0 keeps the traffic on this machine).
+        multicast address (ttl=0 keeps the traffic on this machine); the options are
+        LCM's ttl and recv_buf_size, whole numbers.
 
     Returns
     -------
@@ -308,7 +330,7 @@ def open_lcm(url: str) -> DrakeLcm:
         For any other URL.
     """
     if url != "memq://":
-        match = re.fullmatch(r"udpm://(\d+)\.(\d+)\.(\d+)\.(\d+):(\d+)(\?.*)?", url)
+        match = re.fullmatch(r"udpm://(\d+)\.(\d+)\.(\d+)\.(\d+):(\d+)(?:\?(.*))?", url)
         octets = [int(g) for g in match.groups()[:4]] if match else []
         if not (
             match
@@ -320,4 +342,7 @@ def open_lcm(url: str) -> DrakeLcm:
                 f"--lcm {url}: expected udpm://GROUP:PORT?ttl=0 with an IPv4 multicast GROUP "
                 "(224.0.0.0 to 239.255.255.255), e.g. udpm://239.255.76.67:7667?ttl=0, or memq://"
             )
+        problem = _udpm_options_problem(match.group(6) or "")
+        if problem:
+            raise InputError(f"--lcm {url}: {problem}")
     return DrakeLcm(url)
