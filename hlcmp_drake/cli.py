@@ -973,7 +973,8 @@ def build_parser():
         "--command-delay",
         type=_step_count,
         help="plant steps between a status and the first step its command acts on "
-        "(default 0, as in a simulated run; 1 is Drake's simulated driver)",
+        "(default 0, as in a simulated run; 1 is Drake's simulated driver), shorter in "
+        "time than --idle-timeout",
     )
     sim_driver.add_argument(
         "--drake-driver",

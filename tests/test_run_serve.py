@@ -326,6 +326,11 @@ def test_saturated_torques_stop_the_client_after_max_saturation_s():
         (["sim-driver", "insertion", "--lcm", "memq://", "--command-delay", "0.5"], "whole"),
         (
             ["sim-driver", "insertion", "--lcm", "udpm://239.255.76.1:7667?ttl=0"]
+            + ["--command-delay", "1000"],
+            "--command-delay 1000: 1 s of plant steps must be shorter than --idle-timeout (1 s)",
+        ),
+        (
+            ["sim-driver", "insertion", "--lcm", "udpm://239.255.76.1:7667?ttl=0"]
             + ["--drake-driver", "--status-period", "0.0015"],
             "must be a whole number of plant steps",
         ),

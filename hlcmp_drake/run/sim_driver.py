@@ -419,11 +419,17 @@ def run_sim_driver(
     overrides : sequence of str
         ``dotted.key=value`` overrides of the scenario.
     command_delay_steps : int
-        As for `SimulatedIiwaDriver` (1: Drake's simulated driver's timing).
+        As for `SimulatedIiwaDriver` (1: Drake's simulated driver's timing); in time,
+        shorter than `idle_timeout_s`.
 
     Returns
     -------
     DriverSummary
+
+    Raises
+    ------
+    InputError
+        For a bad scenario, URL or delay, before the world is built.
     """
     from hlcmp_drake.config.loading import load_scenario
 
@@ -433,6 +439,13 @@ def run_sim_driver(
             "runs the simulated driver and the client together"
         )
     scenario, _ = load_scenario(name_or_path, overrides)
+    delay_s = command_delay_steps * scenario.plant_config.time_step
+    if delay_s >= idle_timeout_s:
+        # No command would act before the driver's own watchdog called the client gone.
+        raise InputError(
+            f"--command-delay {command_delay_steps}: {delay_s:g} s of plant steps must be "
+            f"shorter than --idle-timeout ({idle_timeout_s:g} s)"
+        )
     lcm = open_lcm(lcm_url)
     driver = SimulatedIiwaDriver(scenario, lcm, command_delay_steps=command_delay_steps)
     return drive(driver, lcm, realtime, duration, idle_timeout_s, reporter=reporter)
