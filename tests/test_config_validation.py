@@ -50,6 +50,8 @@ def test_an_arm_scenario_the_fast_path_cannot_run_is_refused_with_the_field_name
             "const_1000, const_2000)",
         ),
         ("experiment=one_dof", "experiment: 'one_dof' needs a !SliderTask task"),
+        ("controllers={}", "an empty map changes nothing: a map is merged into"),
+        ("recording={ }", "an empty map changes nothing"),
     ],
 )
 def test_the_issues_cases_exit_2_at_load_naming_the_override(tmp_path, override, expected):

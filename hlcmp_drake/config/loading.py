@@ -566,6 +566,12 @@ def _load_text(
     applied = []
     for override in overrides:
         for label, key, value in _parse_override(override):
+            if re.fullmatch(r"\{\s*\}", value):
+                raise InputError(
+                    f"override '{label}': an empty map changes nothing: a map is merged into "
+                    "the scenario's values, as Drake's LoadYamlFile merges (set the fields, "
+                    "or give a whole !Tag config)"
+                )
             try:
                 data = override_yaml(scenario, key, value)
             except KeyError as error:
