@@ -209,29 +209,66 @@ class _Source:
     ):
         self.path, self.text, self.overrides, self.variant = path, text, overrides, variant
 
-    def error(self, dotted_key: str, problem: str) -> InputError:
-        """`override 'k=v': key: problem` when an override set the key, else
-        `file:line: key: problem` of the variant's file when it sets the key, else of the
-        scenario's (the line omitted when it cannot be found)."""
-        leaf = _leaf(dotted_key)
-        for label, key in reversed(self.overrides):
-            if (
-                key == dotted_key
-                or key.startswith(dotted_key + ".")
-                or dotted_key.startswith(key + ".")
-            ):
-                return InputError(f"override '{label}': {leaf}: {problem}")
+    def overrides_of(self, dotted_key: str) -> list[tuple[str, str]]:
+        """The overrides (label, key) that set `dotted_key`, a field in it or a section
+        holding it, in the order given."""
+        return [
+            (label, key)
+            for label, key in self.overrides
+            if key == dotted_key
+            or key.startswith(dotted_key + ".")
+            or dotted_key.startswith(key + ".")
+        ]
+
+    def where(self, dotted_key: str) -> str:
+        """`file:line` of the variant's file when it sets the key, else of the scenario's
+        (the file alone when the line cannot be found)."""
         if self.variant is not None:
             variant_path, variant_text = self.variant
             line = line_of(variant_text, dotted_key)
             if line:
-                return InputError(f"{variant_path}:{line}: {leaf}: {problem}")
-        line = line_of(self.text, dotted_key) or line_of(self.text, leaf)
-        where = f"{self.path}:{line}" if line else f"{self.path}"
-        return InputError(f"{where}: {leaf}: {problem}")
+                return f"{variant_path}:{line}"
+        line = line_of(self.text, dotted_key) or line_of(self.text, _leaf(dotted_key))
+        return f"{self.path}:{line}" if line else f"{self.path}"
+
+    def error(self, dotted_key: str, problem: str) -> InputError:
+        """`override 'k=v': key: problem` when an override set the key, else
+        `file:line: key: problem` (`where`)."""
+        leaf = _leaf(dotted_key)
+        matching = self.overrides_of(dotted_key)
+        # A problem of a whole section names its fields: blame an override of one of those
+        # (the last), not whichever override of the section came last.
+        named = [
+            (label, key)
+            for label, key in matching
+            if re.search(rf"\b{re.escape(_leaf(key))}\b", problem)
+        ]
+        if matching:
+            label = (named or matching)[-1][0]
+            return InputError(f"override '{label}': {leaf}: {problem}")
+        return InputError(f"{self.where(dotted_key)}: {leaf}: {problem}")
 
     def fail(self, dotted_key: str, problem: str) -> NoReturn:
         raise self.error(dotted_key, problem)
+
+
+class _Problem(Exception):
+    """The first problem a validation found: args (dotted key, problem)."""
+
+
+def _first_problem(
+    scenario: Scenario, folder: Path, experiments: Mapping[str, type] | None
+) -> tuple[str, str] | None:
+    """(dotted key, problem) of the first problem `validate_scenario` finds, or None."""
+
+    def record(dotted_key: str, problem: str) -> NoReturn:
+        raise _Problem(dotted_key, problem)
+
+    try:
+        validate_scenario(scenario, folder, record, experiments)
+    except _Problem as found:
+        return found.args
+    return None
 
 
 def _yaml_error(path, text, error) -> InputError:
@@ -563,7 +600,8 @@ def _load_text(
         except Exception as error:
             raise _yaml_error(variant_path, variant_text, error) from None
         scenario.name = f"{scenario.name}_{variant_path.stem}"
-    applied = []
+    applied: list[tuple[str, str]] = []
+    layers = [scenario]  # the scenario before the overrides, then after each one
     for override in overrides:
         for label, key, value in _parse_override(override):
             if re.fullmatch(r"\{\s*\}", value):
@@ -591,8 +629,25 @@ def _load_text(
                 message = " ".join(str(getattr(error, "problem", None) or error).split())
                 raise InputError(f"override '{label}': {message}") from None
             applied.append((label, key))
+            layers.append(scenario)
     source = _Source(path, text, applied, variant)
-    validate_scenario(scenario, path.parent, source.fail, experiments)
+    problem = _first_problem(scenario, path.parent, experiments)
+    if problem is not None:
+        key = problem[0]
+        if (
+            applied
+            and not source.overrides_of(key)
+            and _first_problem(layers[0], path.parent, experiments) != problem
+        ):
+            # A value the files set that an override made wrong (task=!SliderTask against
+            # the file's reference): the first override after which the problem appears.
+            for (label, _), after in zip(applied, layers[1:]):
+                if _first_problem(after, path.parent, experiments) == problem:
+                    raise InputError(
+                        f"override '{label}': {_leaf(key)}: {problem[1]} (as "
+                        f"{source.where(key)} sets it)"
+                    )
+        source.fail(*problem)
     if isinstance(scenario.reference, DemonstrationConfig):
         # Resolve the demonstration next to the scenario file, once, for every later user.
         scenario.reference.file = str((path.parent / scenario.reference.file).resolve())
