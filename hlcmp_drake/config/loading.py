@@ -631,23 +631,23 @@ def _load_text(
             applied.append((label, key))
             layers.append(scenario)
     source = _Source(path, text, applied, variant)
-    problem = _first_problem(scenario, path.parent, experiments)
-    if problem is not None:
-        key = problem[0]
+    found = _first_problem(scenario, path.parent, experiments)
+    if found is not None:
+        key, problem = found
         if (
             applied
             and not source.overrides_of(key)
-            and _first_problem(layers[0], path.parent, experiments) != problem
+            and _first_problem(layers[0], path.parent, experiments) != found
         ):
             # A value the files set that an override made wrong (task=!SliderTask against
             # the file's reference): the first override after which the problem appears.
             for (label, _), after in zip(applied, layers[1:]):
-                if _first_problem(after, path.parent, experiments) == problem:
+                if _first_problem(after, path.parent, experiments) == found:
                     raise InputError(
-                        f"override '{label}': {_leaf(key)}: {problem[1]} (as "
+                        f"override '{label}': {_leaf(key)}: {problem} (as "
                         f"{source.where(key)} sets it)"
                     )
-        source.fail(*problem)
+        source.fail(key, problem)
     if isinstance(scenario.reference, DemonstrationConfig):
         # Resolve the demonstration next to the scenario file, once, for every later user.
         scenario.reference.file = str((path.parent / scenario.reference.file).resolve())
