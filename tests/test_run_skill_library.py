@@ -177,6 +177,16 @@ def test_a_bad_query_exits_2_with_one_line_and_writes_nothing(tmp_path, queries,
     assert not (tmp_path / "s.npz").exists()
 
 
+def test_a_query_the_world_refuses_is_named_as_the_query(tmp_path):
+    folder = write_library(tmp_path, *GRID)
+    args = ("--query", f"{DEPTH}=1", "--query", f"{FRICTION}=90", "--extrapolate")
+    result = run_cli("generalize", folder, *args, "--out", tmp_path / "s.npz")
+    assert one_line_error(result).startswith(
+        f"hlcmp: error: --query {DEPTH}=1: puncture: depth_m must be in (0, thickness_m"
+    )
+    assert not (tmp_path / "s.npz").exists()
+
+
 def test_extrapolate_allows_a_query_beyond_the_margin_with_a_warning(tmp_path):
     folder = write_library(tmp_path, *GRID)
     inside = 120 + 0.9 * EXTRAPOLATION_MARGIN * 60

@@ -342,7 +342,15 @@ class SkillLibrary:
         base = self.skills[0]
         dmp_arrays = {f: prediction.mean[f] for f in DMP_FIELDS if f in prediction.mean}
         dmp = dc.replace(base.dmp, **dmp_arrays) if dmp_arrays else base.dmp
-        scenario, _ = load_scenario(self._scenario(), self.overrides(query))
+        try:
+            scenario, _ = load_scenario(self._scenario(), self.overrides(query))
+        except InputError as error:  # the query's values are overrides: say --query
+            message = str(error)
+            for key in self.parameters:
+                label = f"override '{key}={float(query[key])!r}'"
+                if message.startswith(label):
+                    message = f"--query {key}={query[key]:g}{message[len(label) :]}"
+            raise InputError(message) from None
         skill = Skill(
             dmp,
             prediction.mean["theta_k"],
