@@ -55,6 +55,12 @@ def test_report_scenarios_are_all_checked_before_the_first_runs(tmp_path):
     result = run_cli("report", "--out", out, "--scenarios", "one_dof", tmp_path / "nowhere.yaml")
     one_line_error(result)
     assert "nowhere.yaml" in result.stderr and not out.exists()
+    for variants, expected in (
+        (["nope"], "nope"),
+        (["real_arm"], "--variants real_arm: only arm scenarios run under a variant, and none"),
+    ):
+        result = run_cli("report", "--out", out, "--scenarios", "one_dof", "--variants", *variants)
+        assert expected in one_line_error(result) and not out.exists()
 
 
 def _reports_agree(tmp_path, other: dict):

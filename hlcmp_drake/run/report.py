@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 from typing import Callable, Sequence
 
-from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.config.loading import load_scenario, resolve_variant_path
 from hlcmp_drake.config.scenario import ArmTask
 from hlcmp_drake.experiments import experiment_of
 from hlcmp_drake.io.errors import InputError
@@ -192,6 +192,13 @@ def run_report(
     """
     out_dir = Path(out_dir)
     folders = report_folders(out_dir, scenarios)
+    for variant in variants:
+        resolve_variant_path(variant)  # a name or file that is no variant, before any run
+    if variants and not any(isinstance(load_scenario(entry)[0].task, ArmTask) for entry in folders):
+        raise InputError(
+            f"--variants {' '.join(variants)}: only arm scenarios run under a variant, and "
+            f"none of {', '.join(folders)} is one"
+        )
     work = [
         task for entry, folder in folders.items() for task in _report_work(entry, folder, variants)
     ]
