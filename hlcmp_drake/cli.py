@@ -357,6 +357,11 @@ def cmd_rollout(args):
             )
         dmp = dmp.with_goal(goal)
     tau = args.duration or dmp.tau
+    if args.dt > tau:
+        raise InputError(
+            f"--dt {args.dt:g} s: longer than the rollout ({tau:g} s), which would be its "
+            "start alone"
+        )
     if tau / args.dt > 2_000_000:
         raise InputError(f"--dt {args.dt} s over {tau} s would write more than 2,000,000 samples")
     t, p, v, _, s = dmp.rollout(dt=args.dt, tau=tau)

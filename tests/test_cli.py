@@ -105,6 +105,7 @@ def test_good_one_axis_demo_is_accepted(tmp_path):
             "--goal: expected comma-separated numbers",
         ),
         (["rollout", "SKILL", "--out", "T", "--dt", "-1"], "must be a positive number"),
+        (["rollout", "SKILL", "--out", "T", "--dt", "100"], "--dt 100 s: longer than the rollout"),
         (
             ["fit", "DEMO", "--out", "S", "--basis", "1"],
             "--basis: n_basis must be between 2 and 1000, got 1",
