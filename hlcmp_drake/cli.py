@@ -298,6 +298,11 @@ def cmd_probe(args):
         f"max lateral {readings['max_lateral_force_N']:.3f} N; {readings['status']}"
     )
     print(f"probe.json, probe.png in {result.out_dir}")
+    if readings["status"] == "ok" and not result.touched:
+        _warn(
+            "the tool touched nothing: no force along the whole path, so the probe measured "
+            "no contact (probe.start_m and probe.push_m miss the world)"
+        )
     return 0 if readings["status"] == "ok" else EXIT_UNSTABLE
 
 

@@ -61,6 +61,15 @@ def test_probe_command_writes_its_files(tmp_path):
     assert (tmp_path / "probe.png").read_bytes()[:4] == b"\x89PNG"
 
 
+def test_a_probe_that_touches_nothing_says_so(tmp_path, capsys):
+    above = "probe.start_m=[0.6, 0.0, 0.6]"  # 265 mm above the plank, pushed 50 mm down
+    assert main(["probe", "insertion", "--out", str(tmp_path), "--set", above]) == 0
+    warning = "hlcmp: warning: the tool touched nothing: no force along the whole path"
+    assert warning in capsys.readouterr().err
+    assert main(["probe", "insertion", "--out", str(tmp_path), "--speed", "0.3"]) == 0
+    assert "warning" not in capsys.readouterr().err
+
+
 def test_a_scenario_without_a_probe_is_one_clear_line(capsys):
     assert main(["probe", "one_dof"]) == 2
     assert "has no probe" in capsys.readouterr().err

@@ -26,10 +26,12 @@ if TYPE_CHECKING:
 
 @dc.dataclass
 class ProbeResult:
-    """What `run_probe` returns: the probe.json content and where the files went."""
+    """What `run_probe` returns: the probe.json content, where the files went, and
+    whether any force acted on the tool (False: the path missed the world)."""
 
     readings: dict
     out_dir: Path
+    touched: bool
 
 
 def simulate_probe(
@@ -222,4 +224,4 @@ def run_probe(
             probe_figure(scenario.name, distance, resisting, lateral, in_push, readings),
         )
         outputs.write_json(out_dir / "probe.json", result)
-    return ProbeResult(result, out_dir)
+    return ProbeResult(result, out_dir, bool(np.any(force)))
