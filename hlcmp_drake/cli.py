@@ -412,9 +412,11 @@ def _positive_count(text):
 def cmd_sweep(args):
     from pathlib import Path
 
-    from hlcmp_drake.run.sweep import plan_sweep, run_sweep
+    from hlcmp_drake.io.outputs import check_output_folder
+    from hlcmp_drake.run.sweep import check_engine, plan_sweep, run_sweep
 
     if args.dry_run:
+        check_engine(args.engine, args.workers, args.address)  # the command as it would run
         plan = plan_sweep(args.sweep, args.out)
         counts = {
             state: list(plan.states.values()).count(state) for state in ("done", "stale", "pending")
@@ -427,6 +429,10 @@ def cmd_sweep(args):
         )
         for task in plan.tasks:
             print(f"  {plan.states[task.id]:8s} {task.id}   " + " ".join(task.overrides))
+        try:  # a dry run writes nothing, so a folder it cannot write is only said
+            check_output_folder(plan.out_dir)
+        except InputError as error:
+            _warn(f"the sweep itself could not run: {error}")
         return 0
     _quiet_drake(args)
     try:

@@ -280,7 +280,14 @@ def test_fit_and_rollout_refuse_to_write_over_their_input(tmp_path):
 
 
 def test_a_dry_run_sweep_writes_nothing_so_needs_no_writable_folder(tmp_path):
-    assert run_cli("sweep", "tiny", "--dry-run", "--out", "/proc/hlcmp_sweep").returncode == 0
+    result = run_cli("sweep", "tiny", "--dry-run", "--out", "/proc/hlcmp_sweep")
+    assert result.returncode == 0
+    assert result.stderr.startswith("hlcmp: warning: the sweep itself could not run: --out")
+
+
+def test_a_dry_run_sweep_checks_the_engine_as_the_sweep_would(tmp_path):
+    line = one_line_error(run_cli("sweep", "tiny", "--dry-run", "--address", "auto"))
+    assert line == "hlcmp: error: --address: joins a Ray cluster, so it needs --engine ray"
 
 
 def test_the_cli_names_a_text_skill_in_one_line(tmp_path):

@@ -21,7 +21,7 @@ sweep.json and sweep.csv) and `orchestrate` (`run_sweep`, which ties them togeth
 names used elsewhere are imported from here.
 """
 
-from hlcmp_drake.run.sweep.engines import ENGINES
+from hlcmp_drake.run.sweep.engines import ENGINES, check_engine
 from hlcmp_drake.run.sweep.orchestrate import run_sweep
 from hlcmp_drake.run.sweep.planning import SweepPlan, default_out_dir, plan_sweep, task_state
 from hlcmp_drake.run.sweep.results import FINISHED, SweepResult, task_values
@@ -32,6 +32,7 @@ __all__ = [
     "FINISHED",
     "SweepPlan",
     "SweepResult",
+    "check_engine",
     "default_out_dir",
     "plan_sweep",
     "run_sweep",
