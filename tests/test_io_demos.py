@@ -81,6 +81,19 @@ def test_fast_moves_and_a_noisy_1khz_recording_are_not_jumps(tmp_path):
         read_demonstration(_write(tmp_path / "fast.csv", t, 3.5 * t))
 
 
+def test_a_time_column_in_milliseconds_is_refused_where_it_passes_an_hour(tmp_path):
+    t = 10.0 * np.arange(1000)  # 10 ms samples written in ms: 9990 "s"
+    path = _write(tmp_path / "ms.csv", t, 1e-5 * t)
+    with pytest.raises(InputError) as error:
+        read_demonstration(path)
+    assert str(error.value).startswith(
+        f"{path}:363: t = 3610 s is more than 3600 s after the first sample: t is in seconds "
+        "(a time in milliseconds?)"
+    )
+    t = 0.01 * np.arange(1000)
+    read_demonstration(_write(path, t, 0.01 * t))
+
+
 def test_the_bundled_demonstrations_pass_the_speed_bound():
     from hlcmp_drake.io.paths import DIAGRAMS_DIR
 

@@ -29,6 +29,7 @@ from hlcmp_drake.config.scenario import (
     StepReferenceConfig,
     check_number,
 )
+from hlcmp_drake.io.demos import MAX_DURATION_S
 from hlcmp_drake.io.paths import MODELS_DIR, PACKAGE_NAME
 
 # MultibodyPlantConfig's names that Drake reads as one of a list of options.
@@ -169,9 +170,6 @@ def validate_scenario(
             fail("probe.arm_model", problem)
 
 
-# The longest run a scenario may ask for [s]: an hour, half an hour or more of wall time in
-# the arm worlds, whose DMP forcing spline then holds 1.8 million samples.
-MAX_DURATION_S = 3600.0
 # The most samples a run logs: each is a row of every logged series (about 50 doubles),
 # and the simulator steps at least as often as it logs.
 MAX_LOG_SAMPLES = 1_000_000

@@ -2,7 +2,8 @@
 
 Format: a header line `t,x,y,z` -- `t` in seconds first, then 1 to 3 position columns
 named from x, y, z (metres, in that order) -- and one sample per line, time strictly
-increasing, at least MIN_SAMPLES samples, never faster than MAX_SPEED_M_PER_S (see there).
+increasing over at most MAX_DURATION_S, at least MIN_SAMPLES samples, never faster than
+MAX_SPEED_M_PER_S (see there).
 A pose adds the tool frame's orientation in the world frame after the positions,
 `t,x,y,z,qw,qx,qy,qz`: a unit quaternion, scalar first (Drake's `Quaternion(w, x, y, z)`
 order), either sign (see `read_orientation`). Trajectory files may add velocity columns
@@ -32,6 +33,10 @@ from hlcmp_drake.core.quaternion import geodesic_angle, hemisphere_continuous
 from hlcmp_drake.io.errors import InputError, located
 
 MIN_SAMPLES = 10
+# The longest demonstration, and the longest run a scenario may ask for [s]: an hour. A
+# run's DMP forcing is sampled every few ms over the run in memory (1.8 million samples an
+# hour), and half an hour or more of wall time goes into an hour of an arm world.
+MAX_DURATION_S = 3600.0
 AXES = ("x", "y", "z")
 
 # The fastest a demonstration may move [m/s], measured from each sample to the first one
@@ -167,6 +172,13 @@ def read_demonstration(
                 number,
                 f"time must increase strictly: t = {values[0]} after "
                 f"t = {rows[-1][1][0]} (line {rows[-1][0]})",
+            )
+        if rows and values[0] - rows[0][1][0] > MAX_DURATION_S:
+            raise located(
+                path,
+                number,
+                f"t = {values[0]:g} s is more than {MAX_DURATION_S:g} s after the first sample: "
+                "t is in seconds (a time in milliseconds?), and a run lasts at most that long",
             )
         rows.append((number, values))
     if len(rows) < MIN_SAMPLES:
