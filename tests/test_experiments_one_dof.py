@@ -135,6 +135,13 @@ def test_a_reference_of_one_step_has_no_return_and_no_verdict():
     assert one_dof.claims(metrics, scenario) == {}
 
 
+def test_c5s_evidence_names_the_references_own_return_time():
+    scenario, _ = load_scenario("one_dof", ["reference.times_s=[0.0, 8.0]"])
+    evidence = one_dof.claims(_ramp_metrics(scenario), scenario)["C5"]["evidence"]
+    assert evidence.startswith("Hl-CMP: x(8 s) = -0.1500 m (target -0.15 m), reach 0.97 s")
+    assert "return never after t = 8 s." in evidence and "10 s" not in evidence
+
+
 @pytest.mark.parametrize("kept", ["vic_fd_1.5", "hlcmp"])
 def test_c5_without_a_learner_or_a_force_tracking_run_is_not_judged(tmp_path, kept):
     """C5 compares the Hl-CMP with [21]: a scenario with only one of them has no C5."""

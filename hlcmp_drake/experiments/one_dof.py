@@ -126,7 +126,7 @@ def faster_than_force_tracking(given: ClaimInputs) -> Verdict | None:
         without a learner or a [21] run.
     """
     metrics, scenario = given.metrics, given.scenario
-    depth = _segments(scenario)[0]
+    depth, _, _, t_return = _segments(scenario)
     vic = {name: metrics[name] for name in labels_with_role(scenario, FORCE_TRACKING)}
     if given.learner is None or not vic:
         return None  # nothing to compare: C5 needs a learner and a [21] run
@@ -149,12 +149,13 @@ def faster_than_force_tracking(given: ClaimInputs) -> Verdict | None:
         f"{strongest}_too_deep": vic[strongest]["position_at_10s_m"] < depth - DEPTH_TOLERANCE_M,
     }
     lines = [
-        f"Hl-CMP: x(10 s) = {hl['position_at_10s_m']:.4f} m (target {depth} m), reach "
-        f"{_fmt(hl['reach_time_s'])}, return {_fmt(hl['return_time_s'])} after t = 10 s."
+        f"Hl-CMP: x({t_return:g} s) = {hl['position_at_10s_m']:.4f} m (target {depth} m), reach "
+        f"{_fmt(hl['reach_time_s'])}, return {_fmt(hl['return_time_s'])} after t = {t_return:g} s."
     ]
     for name, m in vic.items():
         lines.append(
-            f"{name}: x(10 s) = {m['position_at_10s_m']:.4f} m, reach {_fmt(m['reach_time_s'])}, "
+            f"{name}: x({t_return:g} s) = {m['position_at_10s_m']:.4f} m, "
+            f"reach {_fmt(m['reach_time_s'])}, "
             f"return {_fmt(m['return_time_s'])}."
         )
     lines.append(
