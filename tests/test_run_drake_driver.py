@@ -137,7 +137,7 @@ def test_served_in_real_time_against_drakes_own_driver(tmp_path, period, duratio
     time on a 2-core machine (docs/iiwa.md)."""
     client, record = _served_against_drakes_driver(tmp_path / "served", period, duration)
     statuses = round(duration / period) + 1
-    assert record["ticks"] + record["missed_ticks"] == statuses
+    assert record["ticks"] + record["missed_ticks"] == statuses, record  # says why it stopped
     assert record["status_period_s"] == pytest.approx(period, rel=0.01)
     too_many = record["missed_ticks"] > 0.01 * statuses or record["longest_missed_run"] >= 10
     assert record["status"] == ("degraded" if too_many else "ok"), record
