@@ -275,3 +275,6 @@ def test_the_insertion_is_done_when_the_tool_point_reaches_the_tear_depth():
     task = insertion.went_through(run, scenario)
     assert not task["done"] and task["tear_s"] is None
     assert "reached 10.0 mm below its top, the tear needs 15.0 mm" in task["evidence"]
+    run, scenario = _straight_down(-0.005)  # never down to the plank
+    task = insertion.went_through(run, scenario)
+    assert "the tool point stayed 5.0 mm above its top, the tear needs" in task["evidence"]

@@ -112,11 +112,17 @@ def went_through(run: RunResult, scenario: Scenario) -> dict:
     if torn.size:
         tear_s = float(run.t[torn[0]])
         return {"done": True, "evidence": f"tore the plank at {tear_s:.2f} s", "tear_s": tear_s}
+    deepest = float(np.max(depth))
+    reached = (
+        f"reached {1000 * deepest:.1f} mm below its top"
+        if deepest >= 0
+        else f"stayed {-1000 * deepest:.1f} mm above its top"
+    )
     return {
         "done": False,
         "evidence": (
-            f"did not go through the plank: the tool point reached {1000 * depth.max():.1f} mm "
-            f"below its top, the tear needs {1000 * tear_depth:.1f} mm"
+            f"did not go through the plank: the tool point {reached}, the tear needs "
+            f"{1000 * tear_depth:.1f} mm"
         ),
         "tear_s": None,
     }
