@@ -16,7 +16,6 @@ from conftest import one_line_error, run_cli, tiny
 
 from hlcmp_drake.config.loading import load_scenario_text
 from hlcmp_drake.config.sweep import load_sweep, plan_tasks
-from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.run.sweep import plan_sweep, run_sweep, task_state, task_values
 
 # --- loading -------------------------------------------------------------------------
@@ -444,6 +443,7 @@ def test_a_sweep_over_the_rotational_learning_rates_runs_with_the_6d_metrics(tmp
 
 
 def test_claims_and_kind_dependent_series_are_checked_against_every_task(tmp_path):
+    from hlcmp_drake.io.errors import InputError
     from hlcmp_drake.run.sweep.planning import check_metrics
 
     every = tmp_path / "every.yaml"  # every controller: the claims are judged
@@ -506,28 +506,3 @@ def test_a_ray_address_that_is_no_address_is_one_line(tmp_path):
     assert one_line_error(result).startswith(
         "hlcmp: error: --address notanaddress: cannot join a Ray cluster there"
     )
-
-
-def test_joining_an_unreachable_ray_cluster_ends_in_one_line_without_rays_retry_log(
-    monkeypatch,
-):
-    """Ray's core logs every failed try to reach a cluster (20 lines over 20 s, measured
-    with --address 10.255.255.1:6379) unless RAY_BACKEND_LOG_LEVEL says otherwise."""
-    from types import SimpleNamespace
-
-    from hlcmp_drake.run.sweep import engines
-
-    seen = {}
-
-    environment = {k: v for k, v in engines.os.environ.items() if k != "RAY_BACKEND_LOG_LEVEL"}
-    monkeypatch.setattr(engines.os, "environ", environment)  # this process's stays as it is
-
-    def init(**options):
-        seen["log_level"] = environment.get("RAY_BACKEND_LOG_LEVEL")
-        raise ConnectionError("Failed to connect to Ray cluster at 10.255.255.1:6379")
-
-    fake = SimpleNamespace(is_initialized=lambda: False, init=init)
-    monkeypatch.setattr(engines, "_import_ray", lambda: fake)
-    with pytest.raises(InputError, match="--address 10.255.255.1:6379: cannot join"):
-        engines.run_on_ray(print, [1], 1, print, address="10.255.255.1:6379")
-    assert seen["log_level"] == "error"

@@ -187,8 +187,6 @@ def run_on_ray(
             if address
             else {"num_cpus": workers or os.cpu_count() or 1, "include_dashboard": False}
         )
-        if address:  # Ray's core logs each failed try to reach it (20 lines in 20 s) otherwise
-            os.environ.setdefault("RAY_BACKEND_LOG_LEVEL", "error")
         try:
             ray.init(logging_level=logging.WARNING, **options)
         except (ConnectionError, ValueError) as error:  # ValueError: not an address at all
