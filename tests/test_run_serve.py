@@ -304,7 +304,15 @@ def test_saturated_torques_stop_the_client_after_max_saturation_s():
         (["serve", "insertion", "--lcm", "tcp://x:1"], "expected udpm://GROUP:PORT?ttl=0"),
         (
             ["serve", "insertion", "--lcm", "udpm://239.255.76.1:7667?ttl=abc"],
-            "ttl must be a whole number from 0 to 255, got 'abc'",
+            "ttl must be a whole number from 0 to 255 (decimal, no leading zero), got 'abc'",
+        ),
+        (
+            ["serve", "insertion", "--lcm", "udpm://239.255.76.1:7667?ttl=²"],
+            "ttl must be a whole number from 0 to 255 (decimal, no leading zero), got '²'",
+        ),
+        (
+            ["serve", "insertion", "--lcm", "udpm://239.255.76.1:7667?ttl=010"],
+            "got '010'",
         ),
         (
             ["sim-driver", "insertion", "--lcm", "udpm://239.255.76.1:7667?ttl=0,rcv_buf=9"],

@@ -288,9 +288,9 @@ def decode_wrench(data: bytes) -> tuple[int, np.ndarray, np.ndarray]:
     return message.timestamp, force, np.array([message.tx, message.ty, message.tz])
 
 
-# LCM's udpm options, each to the whole numbers it takes. LCM warns about any other value
-# and runs on, with no traffic or the default in its place.
-UDPM_OPTIONS = {"ttl": range(0, 256), "recv_buf_size": range(1, 2**31)}
+# LCM's udpm options, each to the whole numbers it takes (recv_buf_size 0: LCM's default).
+# LCM warns about any other value and runs on, with no traffic or the default in its place.
+UDPM_OPTIONS = {"ttl": range(0, 256), "recv_buf_size": range(0, 2**31)}
 
 
 def _udpm_options_problem(query: str) -> str | None:
@@ -301,10 +301,11 @@ def _udpm_options_problem(query: str) -> str | None:
         allowed = UDPM_OPTIONS.get(key)
         if allowed is None:
             return f"unknown option '{key}': udpm:// takes {' and '.join(UDPM_OPTIONS)}"
-        if not (value.isdigit() and int(value) in allowed):
+        # Plain decimal digits only: LCM reads a leading 0 as octal (010 is 8, 08 is 0).
+        if not (re.fullmatch("0|[1-9][0-9]*", value) and int(value) in allowed):
             return (
-                f"{key} must be a whole number from {allowed.start} to {allowed.stop - 1}, "
-                f"got '{value}'"
+                f"{key} must be a whole number from {allowed.start} to {allowed.stop - 1} "
+                f"(decimal, no leading zero), got '{value}'"
             )
     return None
 
