@@ -990,7 +990,7 @@ def build_parser():
         type=_step_count,
         help="plant steps between a status and the first step its command acts on "
         "(default 0, as in a simulated run; 1 is Drake's simulated driver), shorter in "
-        "time than --idle-timeout",
+        "time than the run",
     )
     sim_driver.add_argument(
         "--drake-driver",

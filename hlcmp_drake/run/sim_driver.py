@@ -420,7 +420,7 @@ def run_sim_driver(
         ``dotted.key=value`` overrides of the scenario.
     command_delay_steps : int
         As for `SimulatedIiwaDriver` (1: Drake's simulated driver's timing); in time,
-        shorter than `idle_timeout_s`.
+        shorter than the run (`duration`, else the scenario's `duration_s`).
 
     Returns
     -------
@@ -440,11 +440,12 @@ def run_sim_driver(
         )
     scenario, _ = load_scenario(name_or_path, overrides)
     delay_s = command_delay_steps * scenario.plant_config.time_step
-    if delay_s >= idle_timeout_s:
-        # No command would act before the driver's own watchdog called the client gone.
+    run_s = scenario.duration_s if duration is None else duration
+    if delay_s >= run_s:  # no command would act before the run ends
+        where = "the scenario's duration_s" if duration is None else "--duration"
         raise InputError(
             f"--command-delay {command_delay_steps}: {delay_s:g} s of plant steps must be "
-            f"shorter than --idle-timeout ({idle_timeout_s:g} s)"
+            f"shorter than the run ({run_s:g} s, {where})"
         )
     lcm = open_lcm(lcm_url)
     driver = SimulatedIiwaDriver(scenario, lcm, command_delay_steps=command_delay_steps)
