@@ -50,8 +50,9 @@ def test_an_arm_scenario_the_fast_path_cannot_run_is_refused_with_the_field_name
             "const_1000, const_2000)",
         ),
         ("experiment=one_dof", "experiment: 'one_dof' needs a !SliderTask task"),
-        ("controllers={}", "an empty map changes nothing: a map is merged into"),
-        ("recording={ }", "an empty map changes nothing"),
+        ("controllers={}", "controllers: an empty map changes nothing: a map is merged into"),
+        ("recording={ }", "recording: an empty map changes nothing"),
+        ("duration_s={}", "duration_s: must be a number, got a map"),
     ],
 )
 def test_the_issues_cases_exit_2_at_load_naming_the_override(tmp_path, override, expected):
@@ -85,6 +86,34 @@ def test_a_files_value_that_an_override_made_wrong_blames_the_override():
         "override 'task=!SliderTask {}': reference: the slider world follows a "
         f"!StepReferenceConfig reference (as {DIAGRAMS_DIR / 'insertion.yaml'}:{line} sets it)"
     )
+
+
+def test_the_override_that_alone_makes_the_problem_is_named_not_a_later_one():
+    overrides = ["duration_s=-1", "task=!SliderTask {}", "duration_s=3"]
+    with pytest.raises(InputError) as error:
+        load_scenario("insertion", overrides)
+    assert str(error.value).startswith("override 'task=!SliderTask {}': reference: ")
+
+
+def test_a_sections_problem_made_by_an_override_outside_it_names_that_override():
+    overrides = ["robot_imperfection.control_period_s=0.005", "task.control_path=modular"]
+    with pytest.raises(InputError) as error:
+        load_scenario("insertion", overrides, variant="real_arm")
+    assert str(error.value).startswith(
+        "override 'task.control_path=modular': robot_imperfection: "
+    ), error.value
+
+
+def test_a_files_problem_behind_another_is_the_files_though_an_override_fixed_the_first(
+    tmp_path,
+):
+    path, lines = _written(tmp_path, "duration_s: 9.5", "duration_s: -1")
+    text = path.read_text().replace("  spacing_m: 1.2", "  spacing_m: -1.0")
+    path.write_text(text)
+    with pytest.raises(InputError) as error:
+        load_scenario(path, ["duration_s=3"])
+    number = next(n for n, row in enumerate(text.splitlines(), 1) if "spacing_m: -1.0" in row)
+    assert str(error.value).startswith(f"{path}:{number}: spacing_m: must be")
 
 
 def test_a_bad_value_of_the_file_itself_is_still_the_files_with_overrides_given(tmp_path):
