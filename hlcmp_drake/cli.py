@@ -364,7 +364,7 @@ def cmd_rollout(args):
     tau = args.duration or dmp.tau
     if args.dt > tau:
         raise InputError(
-            f"--dt {args.dt:g} s: longer than the rollout ({tau:g} s), which would be its "
+            f"--dt {args.dt:.15g} s: longer than the rollout ({tau:.15g} s), which would be its "
             "start alone"
         )
     if tau / args.dt > 2_000_000:

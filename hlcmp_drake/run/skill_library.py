@@ -349,7 +349,7 @@ class SkillLibrary:
             for key in self.parameters:
                 label = f"override '{key}={float(query[key])!r}'"
                 if message.startswith(label):
-                    message = f"--query {key}={query[key]:g}{message[len(label) :]}"
+                    message = f"--query {key}={query[key]:.15g}{message[len(label) :]}"
             raise InputError(message) from None
         skill = Skill(
             dmp,
