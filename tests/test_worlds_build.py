@@ -11,6 +11,7 @@ from conftest import REPO_ROOT
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.experiments import experiment_of
+from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.run.benchmark import count_python_calls
 from hlcmp_drake.run.simulate import simulate
 from hlcmp_drake.systems.control_loop import ControlLoop
@@ -117,3 +118,12 @@ def test_the_prismatic_model_gives_the_general_models_terms():
                 getattr(b, field), getattr(a, field), rtol=1e-12, atol=1e-12, err_msg=field
             )
         assert not b.null_space.any() and b.joint_gravity.shape == (1,)
+
+
+def test_a_label_the_scenario_does_not_have_is_named_with_the_labels_it_has():
+    scenario, _ = load_scenario("one_dof", ["duration_s=0.2"])
+    with pytest.raises(InputError) as error:
+        diagram_factory(scenario)("hlcmpp")
+    assert str(error.value) == (
+        "no controller 'hlcmpp' (the scenario has: " + ", ".join(scenario.controllers) + ")"
+    )

@@ -123,7 +123,8 @@ def diagram_factory(
     -------
     callable(name, theta0=None) -> BuiltDiagram
         Builds a fresh diagram for the controller labelled `name`, a learner starting from
-        `theta0` (as `worlds.controllers.initial_theta` takes it) when given.
+        `theta0` (as `worlds.controllers.initial_theta` takes it) when given; a label the
+        scenario does not have is an InputError that lists the labels it has.
 
     Raises
     ------
@@ -132,4 +133,12 @@ def diagram_factory(
     """
     world = world_of(scenario)
     setup = world.prepare(scenario, dmp, orientation_dmp)
-    return lambda name, theta0=None: world.build(scenario, name, setup, theta0=theta0)
+
+    def build(name: str, theta0: Theta | None = None) -> BuiltDiagram:
+        if name not in scenario.controllers:
+            raise InputError(
+                f"no controller '{name}' (the scenario has: {', '.join(scenario.controllers)})"
+            )
+        return world.build(scenario, name, setup, theta0=theta0)
+
+    return build
