@@ -176,3 +176,15 @@ def test_files_from_a_remote_worker_are_stored_with_the_task_record_last(tmp_pat
     assert (tmp_path / TASK_RECORD).exists()
     store_files(tmp_path, files)
     assert order == ["scenario.yaml", "skill.npz", "metrics.json", TASK_RECORD]
+
+
+def test_a_ray_address_with_no_cluster_is_one_line_and_writes_nothing(tmp_path):
+    pytest.importorskip("ray")
+    out = tmp_path / "L"
+    result = run_cli(
+        "library", tiny(tmp_path), "--engine", "ray", "--address", "notanaddress", "--out", out
+    )
+    assert one_line_error(result).startswith(
+        "hlcmp: error: --address notanaddress: cannot join a Ray cluster there"
+    )
+    assert not out.exists()

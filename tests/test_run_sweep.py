@@ -506,3 +506,4 @@ def test_a_ray_address_that_is_no_address_is_one_line(tmp_path):
     assert one_line_error(result).startswith(
         "hlcmp: error: --address notanaddress: cannot join a Ray cluster there"
     )
+    assert not (tmp_path / "s").exists()  # joined before any run, so nothing is written

@@ -42,6 +42,7 @@ from hlcmp_drake.run.sweep.engines import (
     _run_ray,
     _terminate_is_interrupt,
     check_engine,
+    cluster_joined,
     run_in_processes,
 )
 from hlcmp_drake.run.sweep.tasks import run_in_temporary_folder
@@ -207,46 +208,47 @@ def build_library(
         On Ctrl-C or SIGTERM, after the workers are stopped; every learned skill is kept.
     """
     check_engine(engine, workers, address)  # before anything is written
-    start = time.perf_counter()
-    spec = load_library_spec(name_or_path)
-    out_dir = Path(out_dir)
-    tasks = plan_library_tasks(spec, out_dir)
-    check_learnable(spec, tasks[0])
-    states = {task.id: skill_state(task) for task in tasks}
-    errors: dict = {}
-    pending = [task for task in tasks if states[task.id] != "done"]
-    already_done = len(tasks) - len(pending)
-    outputs.write_json(out_dir / LIBRARY_FILE, library_record(spec, tasks, errors))
-    ran: list = []
-
-    def on_done(task, info, error):
-        ran.append(task.id)
-        if error is not None:
-            errors[task.id] = error
+    with cluster_joined(engine, address):  # no cluster at the address: nothing run or written
+        start = time.perf_counter()
+        spec = load_library_spec(name_or_path)
+        out_dir = Path(out_dir)
+        tasks = plan_library_tasks(spec, out_dir)
+        check_learnable(spec, tasks[0])
+        states = {task.id: skill_state(task) for task in tasks}
+        errors: dict = {}
+        pending = [task for task in tasks if states[task.id] != "done"]
+        already_done = len(tasks) - len(pending)
         outputs.write_json(out_dir / LIBRARY_FILE, library_record(spec, tasks, errors))
-        status = "error" if error else info["status"]
-        reporter.say(
-            f"[{already_done + len(ran)}/{len(tasks)}] {task.id}: {status}"
-            + (f" ({error})" if error else f", {info['wall_s']:.1f} s")
-        )
+        ran: list = []
 
-    if pending:
-        count = min(workers or os.cpu_count() or 1, len(pending))
-        reporter.say(
-            f"library {spec.path.stem}: {len(pending)} of {len(tasks)} skills to learn "
-            f"({already_done} already learned) on the {engine} engine"
+        def on_done(task, info, error):
+            ran.append(task.id)
+            if error is not None:
+                errors[task.id] = error
+            outputs.write_json(out_dir / LIBRARY_FILE, library_record(spec, tasks, errors))
+            status = "error" if error else info["status"]
+            reporter.say(
+                f"[{already_done + len(ran)}/{len(tasks)}] {task.id}: {status}"
+                + (f" ({error})" if error else f", {info['wall_s']:.1f} s")
+            )
+
+        if pending:
+            count = min(workers or os.cpu_count() or 1, len(pending))
+            reporter.say(
+                f"library {spec.path.stem}: {len(pending)} of {len(tasks)} skills to learn "
+                f"({already_done} already learned) on the {engine} engine"
+            )
+            with _terminate_is_interrupt():
+                if engine == "local":
+                    run_in_processes(run_library_task, pending, count, on_done)
+                else:
+                    _run_ray(pending, workers, address, on_done, run_library_task_returning_files)
+        record = library_record(spec, tasks, errors)
+        outputs.write_json(out_dir / LIBRARY_FILE, record)
+        unstable = [e["id"] for e in record["not_learned"] if e["status"] == "unstable"]
+        return LibraryResult(
+            record, out_dir, already_done, ran, errors, unstable, time.perf_counter() - start
         )
-        with _terminate_is_interrupt():
-            if engine == "local":
-                run_in_processes(run_library_task, pending, count, on_done)
-            else:
-                _run_ray(pending, workers, address, on_done, run_library_task_returning_files)
-    record = library_record(spec, tasks, errors)
-    outputs.write_json(out_dir / LIBRARY_FILE, record)
-    unstable = [e["id"] for e in record["not_learned"] if e["status"] == "unstable"]
-    return LibraryResult(
-        record, out_dir, already_done, ran, errors, unstable, time.perf_counter() - start
-    )
 
 
 def library_record(spec: LibrarySpec, tasks: list, errors: dict) -> dict:

@@ -14,7 +14,7 @@ import sys
 import threading
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
-from typing import Callable
+from typing import Callable, Iterator
 
 from hlcmp_drake.config.sweep import SweepTask
 from hlcmp_drake.io.errors import InputError
@@ -148,6 +148,55 @@ def _import_ray():
     return ray
 
 
+def _init_ray(ray, workers: int | None, address: str | None) -> None:
+    """Join the Ray cluster at `address`, else start a local one of `workers` CPUs (default
+    one per CPU); InputError when there is no cluster at `address`."""
+    options = (
+        {"address": address}
+        if address
+        else {"num_cpus": workers or os.cpu_count() or 1, "include_dashboard": False}
+    )
+    try:
+        ray.init(logging_level=logging.WARNING, **options)
+    except (ConnectionError, ValueError) as error:  # ValueError: not an address at all
+        raise InputError(
+            f"--address {address}: cannot join a Ray cluster there "
+            f"({' '.join(str(error).split())[:200]})"
+        ) from None
+
+
+@contextlib.contextmanager
+def cluster_joined(engine: str, address: str | None) -> Iterator[None]:
+    """For a Ray engine with an `address`: the cluster joined for the length of the block
+    (so that an address with no cluster is refused before anything is run or written),
+    and left at its end; otherwise nothing (a local Ray starts when there are tasks).
+
+    Parameters
+    ----------
+    engine : str
+        "local" or "ray".
+    address : str or None
+        The Ray cluster to join.
+
+    Raises
+    ------
+    InputError
+        There is no cluster at `address`.
+    """
+    if engine != "ray" or not address:
+        yield
+        return
+    ray = _import_ray()
+    if ray.is_initialized():
+        yield
+        return
+    _init_ray(ray, None, address)
+    try:
+        yield
+    finally:
+        ray.shutdown()
+
+
 def run_on_ray(
     function: Callable,
     items: list,
@@ -182,18 +231,7 @@ def run_on_ray(
     ray = _import_ray()
     started = not ray.is_initialized()
     if started:
-        options = (
-            {"address": address}
-            if address
-            else {"num_cpus": workers or os.cpu_count() or 1, "include_dashboard": False}
-        )
-        try:
-            ray.init(logging_level=logging.WARNING, **options)
-        except (ConnectionError, ValueError) as error:  # ValueError: not an address at all
-            raise InputError(
-                f"--address {address}: cannot join a Ray cluster there "
-                f"({' '.join(str(error).split())[:200]})"
-            ) from None
+        _init_ray(ray, workers, address)
     remote = ray.remote(num_cpus=1)(function)
     queue, in_flight = list(items), {}
     limit = workers or len(items)

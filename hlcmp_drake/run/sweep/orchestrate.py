@@ -17,6 +17,7 @@ from hlcmp_drake.run.sweep.engines import (
     _run_ray,
     _terminate_is_interrupt,
     check_engine,
+    cluster_joined,
 )
 from hlcmp_drake.run.sweep.planning import check_metrics, plan_sweep
 from hlcmp_drake.run.sweep.results import SweepResult, _summary, _wall_s, _write_tables, task_values
@@ -65,80 +66,85 @@ def run_sweep(
         kept and listed in sweep.csv.
     """
     check_engine(engine, workers, address)  # before anything is written
-    start = time.perf_counter()
-    plan = plan_sweep(name_or_path, out_dir)
-    reporter.say("checking the metrics on a short run of the scenario ...")
-    check_metrics(plan)  # a typo stops the sweep here, not after every task
-    metrics = plan.sweep.config.metrics
-    rows, missing = {}, []
+    with cluster_joined(engine, address):  # no cluster at the address: nothing run or written
+        start = time.perf_counter()
+        plan = plan_sweep(name_or_path, out_dir)
+        reporter.say("checking the metrics on a short run of the scenario ...")
+        check_metrics(plan)  # a typo stops the sweep here, not after every task
+        metrics = plan.sweep.config.metrics
+        rows, missing = {}, []
 
-    def finished(task: SweepTask, info: dict | None) -> dict:
-        values, absent = task_values(task.run_dir, metrics)
-        status = json.loads((Path(task.run_dir) / "metrics.json").read_text())["status"]
-        if status == "ok":
-            missing.extend(
-                f"{label} ({next(m.path or m.series for m in metrics if m.label == label)}): "
-                f"task {task.id}"
-                for label in absent
-            )
-        wall = info["wall_s"] if info else _wall_s(Path(task.run_dir))
-        return {"status": status, "values": values, "wall_s": wall}
+        def finished(task: SweepTask, info: dict | None) -> dict:
+            values, absent = task_values(task.run_dir, metrics)
+            status = json.loads((Path(task.run_dir) / "metrics.json").read_text())["status"]
+            if status == "ok":
+                missing.extend(
+                    f"{label} ({next(m.path or m.series for m in metrics if m.label == label)}): "
+                    f"task {task.id}"
+                    for label in absent
+                )
+            wall = info["wall_s"] if info else _wall_s(Path(task.run_dir))
+            return {"status": status, "values": values, "wall_s": wall}
 
-    pending = []
-    for task in plan.tasks:
-        if plan.states[task.id] == "done":
-            rows[task.id] = finished(task, None)
-        else:
-            rows[task.id] = {"status": "pending", "values": {}, "wall_s": None}
-            pending.append(task)
-    already_done = len(plan.tasks) - len(pending)
-    files = _write_tables(plan.out_dir, _summary(plan, rows))
-    ran, failed = [], {}
-
-    def on_done(task: SweepTask, info: dict | None, error: str | None) -> None:
-        ran.append(task.id)
-        if error is None:
-            rows[task.id] = finished(task, info)
-        else:
-            failed[task.id] = error
-            rows[task.id] = {"status": "error", "values": {}, "wall_s": None, "error": error}
-        _write_tables(plan.out_dir, _summary(plan, rows))
-        row = rows[task.id]
-        reporter.say(
-            f"[{already_done + len(ran)}/{len(plan.tasks)}] {task.id}: {row['status']}"
-            + (f" ({error})" if error else f", {row['wall_s']:.1f} s")
-        )
-
-    if pending:
-        # Local default: one worker per CPU. Each task is one single-threaded simulation, so
-        # that is the throughput a sweep is for; on a shared machine pass --workers.
-        count = workers or os.cpu_count() or 1
-        reporter.say(
-            f"sweep {plan.sweep.path.stem}: {len(pending)} of {len(plan.tasks)} tasks to run "
-            f"({already_done} already done) on the {engine} engine"
-            + (f", {min(count, len(pending))} at a time" if engine == "local" or workers else "")
-        )
-        with _terminate_is_interrupt():
-            if engine == "local":
-                _run_local(pending, min(count, len(pending)), on_done)
+        pending = []
+        for task in plan.tasks:
+            if plan.states[task.id] == "done":
+                rows[task.id] = finished(task, None)
             else:
-                _run_ray(pending, workers, address, on_done)
-    summary = _summary(plan, rows)
-    files = _write_tables(plan.out_dir, summary)
-    for file_name, figure in sweep_figures(summary).items():
-        files.append(outputs.save_figure(plan.out_dir / "plots" / file_name, figure))
-    unstable = [task.id for task in plan.tasks if rows[task.id]["status"] == "unstable"]
-    stale = sum(1 for state in plan.states.values() if state == "stale")
-    return SweepResult(
-        summary,
-        plan.out_dir,
-        sweep_table(summary),
-        already_done,
-        stale,
-        ran,
-        failed,
-        unstable,
-        missing,
-        time.perf_counter() - start,
-        files,
-    )
+                rows[task.id] = {"status": "pending", "values": {}, "wall_s": None}
+                pending.append(task)
+        already_done = len(plan.tasks) - len(pending)
+        files = _write_tables(plan.out_dir, _summary(plan, rows))
+        ran, failed = [], {}
+
+        def on_done(task: SweepTask, info: dict | None, error: str | None) -> None:
+            ran.append(task.id)
+            if error is None:
+                rows[task.id] = finished(task, info)
+            else:
+                failed[task.id] = error
+                rows[task.id] = {"status": "error", "values": {}, "wall_s": None, "error": error}
+            _write_tables(plan.out_dir, _summary(plan, rows))
+            row = rows[task.id]
+            reporter.say(
+                f"[{already_done + len(ran)}/{len(plan.tasks)}] {task.id}: {row['status']}"
+                + (f" ({error})" if error else f", {row['wall_s']:.1f} s")
+            )
+
+        if pending:
+            # Local default: one worker per CPU. Each task is one single-threaded simulation, so
+            # that is the throughput a sweep is for; on a shared machine pass --workers.
+            count = workers or os.cpu_count() or 1
+            reporter.say(
+                f"sweep {plan.sweep.path.stem}: {len(pending)} of {len(plan.tasks)} tasks to run "
+                f"({already_done} already done) on the {engine} engine"
+                + (
+                    f", {min(count, len(pending))} at a time"
+                    if engine == "local" or workers
+                    else ""
+                )
+            )
+            with _terminate_is_interrupt():
+                if engine == "local":
+                    _run_local(pending, min(count, len(pending)), on_done)
+                else:
+                    _run_ray(pending, workers, address, on_done)
+        summary = _summary(plan, rows)
+        files = _write_tables(plan.out_dir, summary)
+        for file_name, figure in sweep_figures(summary).items():
+            files.append(outputs.save_figure(plan.out_dir / "plots" / file_name, figure))
+        unstable = [task.id for task in plan.tasks if rows[task.id]["status"] == "unstable"]
+        stale = sum(1 for state in plan.states.values() if state == "stale")
+        return SweepResult(
+            summary,
+            plan.out_dir,
+            sweep_table(summary),
+            already_done,
+            stale,
+            ran,
+            failed,
+            unstable,
+            missing,
+            time.perf_counter() - start,
+            files,
+        )
