@@ -689,10 +689,13 @@ def _culprit(
         return None
     key, problem = found
     touching = {label for label, _ in source.overrides_of(key)}
-    if len(parsed) == 1:  # the overridden scenario is that override alone
-        label = parsed[0][0]
+
+    def blamed(label: str) -> InputError:
         where = "" if label in touching else f" (as {source.where(key)} sets it)"
         return InputError(f"override '{label}': {_leaf(key)}: {problem}{where}")
+
+    if len(parsed) == 1:  # the overridden scenario is that override alone
+        return blamed(parsed[0][0])
     # The overrides of the key itself first: mostly the culprit, found in one try.
     for label, override_key, value in sorted(parsed, key=lambda item: item[0] not in touching):
         try:
@@ -700,8 +703,7 @@ def _culprit(
         except InputError:  # needs another override first (a field of a new controller)
             continue
         if _first_problem(alone, folder, experiments) == found:
-            where = "" if label in touching else f" (as {source.where(key)} sets it)"
-            return InputError(f"override '{label}': {_leaf(key)}: {problem}{where}")
+            return blamed(label)
     return None
 
 

@@ -194,14 +194,14 @@ def run_report(
     folders = report_folders(out_dir, scenarios)
     for variant in variants:
         resolve_variant_path(variant)  # a name or file that is no variant, before any run
-    if variants and not any(isinstance(load_scenario(entry)[0].task, ArmTask) for entry in folders):
+    work = [
+        task for entry, folder in folders.items() for task in _report_work(entry, folder, variants)
+    ]
+    if variants and not any(task.variant for task in work):  # only arm scenarios take them
         raise InputError(
             f"--variants {' '.join(variants)}: only arm scenarios run under a variant, and "
             f"none of {', '.join(folders)} is one"
         )
-    work = [
-        task for entry, folder in folders.items() for task in _report_work(entry, folder, variants)
-    ]
     if jobs is not None and jobs < 1:
         raise InputError(f"--jobs: must be at least 1, got {jobs}")
     if engine not in ENGINES:
