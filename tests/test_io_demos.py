@@ -94,6 +94,38 @@ def test_a_time_column_in_milliseconds_is_refused_where_it_passes_an_hour(tmp_pa
     read_demonstration(_write(path, t, 0.01 * t))
 
 
+
+def test_a_short_recording_with_its_time_in_milliseconds_is_refused_by_its_sample_period(
+    tmp_path,
+):
+    t = 4.0 * np.arange(626)  # 2.5 s at 250 Hz written in ms: under an hour, a 2500 s run
+    path = _write(tmp_path / "ms.csv", t, 1e-5 * t)
+    with pytest.raises(InputError) as error:
+        read_demonstration(path)
+    assert str(error.value) == (
+        f"{path}: its samples are 4 s apart (the median; t from 0 to 2500 s): t is in seconds, "
+        "and a demonstration is sampled more often than every 0.5 s (a time in milliseconds?)"
+    )
+    t = 0.4 * np.arange(12)  # 2.5 Hz, sparse but in seconds
+    assert len(read_demonstration(_write(path, t, 0.01 * t))[0]) == 12
+
+
+def test_numpys_commented_header_is_read_and_a_row_index_is_named(tmp_path):
+    t = 0.01 * np.arange(20)
+    data = np.column_stack([t, 0.5 + 0.01 * t, 0 * t, 0.2 + 0 * t])
+    plain, commented = tmp_path / "plain.csv", tmp_path / "savetxt.csv"
+    np.savetxt(plain, data, delimiter=",", header="t,x,y,z", comments="")
+    np.savetxt(commented, data, delimiter=",", header="t,x,y,z")  # "# t,x,y,z"
+    assert commented.read_text().startswith("# t,x,y,z\n")
+    for got, expected in zip(read_demonstration(commented), read_demonstration(plain)):
+        np.testing.assert_array_equal(got, expected)
+    indexed = tmp_path / "indexed.csv"
+    indexed.write_text(
+        ",t,x,y,z\n" + "".join(f"{k},{row[0]},{row[1]},0,0.2\n" for k, row in enumerate(data))
+    )
+    with pytest.raises(InputError, match=r"indexed.csv:1: column 1 has no name \(a row index\?"):
+        read_demonstration(indexed)
+
 def test_the_bundled_demonstrations_pass_the_speed_bound():
     from hlcmp_drake.io.paths import DIAGRAMS_DIR
 

@@ -2,8 +2,9 @@
 
 Format: a header line `t,x,y,z` -- `t` in seconds first, then 1 to 3 position columns
 named from x, y, z (metres, in that order) -- and one sample per line, time strictly
-increasing over at most MAX_DURATION_S, at least MIN_SAMPLES samples, never faster than
-MAX_SPEED_M_PER_S (see there).
+increasing over at most MAX_DURATION_S, at least MIN_SAMPLES samples, less than
+MAX_SAMPLE_PERIOD_S apart (the median), never faster than MAX_SPEED_M_PER_S (see there). A
+'#' before the header's first name is ignored (numpy's `savetxt` writes one).
 A pose adds the tool frame's orientation in the world frame after the positions,
 `t,x,y,z,qw,qx,qy,qz`: a unit quaternion, scalar first (Drake's `Quaternion(w, x, y, z)`
 order), either sign (see `read_orientation`). Trajectory files may add velocity columns
@@ -37,6 +38,13 @@ MIN_SAMPLES = 10
 # run's DMP forcing is sampled every few ms over the run in memory (1.8 million samples an
 # hour), and half an hour or more of wall time goes into an hour of an arm world.
 MAX_DURATION_S = 3600.0
+# The median time between samples [s] from which a demonstration is refused. Kinesthetic
+# teaching is recorded at tens to a thousand samples per second (the iiwa's FRI at up to
+# 1 kHz, motion capture at 100-250 Hz), and the DMP's fit differentiates it, smoothed over
+# tens of ms. Samples this far apart are time in another unit: a recording at up to 2 kHz
+# with its time in milliseconds steps by 0.5 or more, and a short one stays under
+# MAX_DURATION_S, so that bound alone lets it through as a run of an hour.
+MAX_SAMPLE_PERIOD_S = 0.5
 AXES = ("x", "y", "z")
 
 # The fastest a demonstration may move [m/s], measured from each sample to the first one
@@ -126,11 +134,17 @@ def read_demonstration(
     if not lines:
         raise InputError(f"{path}: the file is empty (expected a header line 't,x,y,z')")
     header_line, header_text = lines[0]
-    header = [name.strip() for name in next(csv.reader([header_text]))]
+    header = [name.strip() for name in next(csv.reader([header_text.lstrip().removeprefix("#")]))]
     if "" in header:
         column = header.index("") + 1
-        trailing = " (a comma at the end of the line?)" if column == len(header) else ""
-        raise located(path, header_line, f"column {column} has no name{trailing}")
+        hint = (
+            " (a comma at the end of the line?)"
+            if column == len(header)
+            else " (a row index? write the file without it, e.g. pandas' index=False)"
+            if column == 1
+            else ""
+        )
+        raise located(path, header_line, f"column {column} has no name{hint}")
     kinematics, force_columns = _without_force(path, header_line, header)
     axes = _check_header(path, header_line, _without_orientation(path, header_line, kinematics))
     has_orientation = QUATERNION_COLUMNS[0] in header
@@ -186,6 +200,13 @@ def read_demonstration(
             f"{path}: {len(rows)} samples; a demonstration needs at least {MIN_SAMPLES}"
         )
     data = np.array([values for _, values in rows])
+    period = float(np.median(np.diff(data[:, 0])))
+    if period >= MAX_SAMPLE_PERIOD_S:
+        raise InputError(
+            f"{path}: its samples are {period:g} s apart (the median; t from {data[0, 0]:g} to "
+            f"{data[-1, 0]:g} s): t is in seconds, and a demonstration is sampled more often "
+            f"than every {MAX_SAMPLE_PERIOD_S:g} s (a time in milliseconds?)"
+        )
     numbers = [number for number, _ in rows]
     check_speed(path, data[:, 0], data[:, 1 : 1 + len(axes)], numbers)
     result: tuple = (data[:, 0], data[:, 1 : 1 + len(axes)], axes)
