@@ -408,6 +408,28 @@ def test_a_short_skill_runs_its_own_time_and_records_its_world(tmp_path):
         )
 
 
+@pytest.mark.slow
+def test_a_skill_learned_at_another_tau_is_saved_and_replayed_at_it(tmp_path):
+    """`learn --set reference.duration_s=1.5` replays the 2 s approach at tau = 1.5 s: the
+    skill it saves holds that tau, and its replay (no override) runs 1.5 + 1 s."""
+    from hlcmp_drake.io.demos import read_demonstration, write_trajectory
+
+    t, positions, axes = read_demonstration(INSERTION_DEMO)
+    keep = t <= 2.0 + 1e-9
+    demo = write_trajectory(tmp_path / "approach.csv", t[keep], positions[keep], axes)
+    world = ["--scenario", "insertion", "--quiet"]
+    faster = ["--set", "reference.duration_s=1.5"]
+    assert main(["learn", str(demo), *world, *faster, "--out", str(tmp_path / "learn")]) == 0
+    skill = load_skill(tmp_path / "learn" / "skill.npz")
+    assert skill.dmp.tau == pytest.approx(1.5)
+    replay = ["reproduce", str(tmp_path / "learn" / "skill.npz"), *world, "--freeze"]
+    assert main([*replay, "--out", str(tmp_path / "frozen")]) == 0
+    for out in ("learn", "frozen"):
+        metrics = json.loads((tmp_path / out / "metrics.json").read_text())
+        assert metrics["skill_duration_s"] == pytest.approx(1.5), out
+        assert metrics["duration_s"] == pytest.approx(2.5), out
+
+
 def test_a_pose_skill_is_refused_by_the_translational_scenarios(tmp_path):
     from conftest import tilted_turn
 

@@ -741,23 +741,24 @@ def _learn_or_reproduce(
         if not unstable and not freeze:
             saved = save_skill(
                 out_dir / "skill.npz",
-                _learned_skill(runs[-1], dmp, orientation, world, encoded_force),
+                _learned_skill(runs[-1], dmp, orientation, world, encoded_force, tau),
             )
         write_results(out_dir, scenario, {run.controller: run for run in runs}, metrics, figures)
     return LearningResult(metrics, runs, out_dir, saved, warnings)
 
 
-def _learned_skill(run, dmp, orientation, world, demo_force) -> Skill:
+def _learned_skill(run, dmp, orientation, world, demo_force, tau) -> Skill:
     """The skill a learner's last trial ended with: its DMPs and weights (a 6-D learner's
-    six), in the world it learned in."""
+    six), in the world it learned in, at the tau it ran at (the demonstration's, or the
+    scenario's `reference.duration_s`), so that a replay runs it as it was learned."""
     theta_k, theta_d, theta_v, *rotational = run.theta
     return Skill(
-        dmp,
+        dc.replace(dmp, tau=tau),
         theta_k,
         theta_d,
         theta_v,
         world=world,
-        orientation=orientation if rotational else None,
+        orientation=dc.replace(orientation, tau=tau) if rotational else None,
         demo_force=demo_force,
         **dict(zip(ROTATIONAL_FIELDS, rotational)),
     )
