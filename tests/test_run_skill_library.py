@@ -36,9 +36,12 @@ def _dmp(tmp_path):
     return Dmp.fit(t, p, axes, DmpSettings(n_basis=10))
 
 
-def write_library(tmp_path, depths, frictions, function=smooth, goal_shift=None):
+def write_library(
+    tmp_path, depths, frictions, function=smooth, goal_shift=None, demo_force=lambda depth: None
+):
     """library.json and one skill per grid point, theta_v = function(query) (theta_k, theta_d
-    scaled copies); with `goal_shift`, each skill's goal moves with the depth."""
+    scaled copies); with `goal_shift`, each skill's goal moves with the depth; each skill's
+    demonstration force is demo_force(depth)."""
     dmp = _dmp(tmp_path)
     entries = []
     for depth in depths:
@@ -48,7 +51,9 @@ def write_library(tmp_path, depths, frictions, function=smooth, goal_shift=None)
             skill_dmp = dmp
             if goal_shift is not None:
                 skill_dmp = dmp.with_goal(dmp.goal + np.array([0.0, 0.0, goal_shift * depth]))
-            skill = Skill(skill_dmp, 100 * values, 10 * values, values)
+            skill = Skill(
+                skill_dmp, 100 * values, 10 * values, values, demo_force=demo_force(depth)
+            )
             save_skill(tmp_path / "L" / "skills" / identifier / "skill.npz", skill)
             entries.append(
                 {
@@ -156,6 +161,25 @@ def test_the_written_skill_loads_and_records_the_querys_world(tmp_path):
         assert json.loads(str(data["generalized_query"])) == {DEPTH: 0.01125, FRICTION: 90.0}
         assert str(data["generalized_method"]) == "regression"
     assert f"--set {DEPTH}=0.01125" in result.stdout
+
+
+@pytest.mark.parametrize(
+    "force, kept",
+    [
+        (lambda depth: np.full((3, 10), 2.0), True),  # one demonstration's force: kept
+        (lambda depth: None, False),
+        (lambda depth: np.full((3, 10), depth), False),  # no one demonstration: none kept
+    ],
+)
+def test_the_generalized_skill_keeps_the_demonstrations_force(tmp_path, force, kept):
+    library = SkillLibrary.load(write_library(tmp_path, *GRID, demo_force=force))
+    skill, _, _ = library.generalize({DEPTH: 0.01125, FRICTION: 90.0})
+    if kept:
+        np.testing.assert_array_equal(skill.demo_force, np.full((3, 10), 2.0))
+        saved = load_skill(save_skill(tmp_path / "s.npz", skill))
+        np.testing.assert_array_equal(saved.demo_force, skill.demo_force)
+    else:
+        assert skill.demo_force is None
 
 
 @pytest.mark.parametrize(

@@ -357,8 +357,18 @@ class SkillLibrary:
             prediction.mean["theta_d"],
             prediction.mean["theta_v"],
             world=world_of_scenario(scenario),
+            demo_force=self._demonstration_force(),
         )
         return skill, prediction, notes
+
+    def _demonstration_force(self) -> np.ndarray | None:
+        """The force of the demonstration the library's skills were learned from (their
+        `demo_force`, one for all of them: a library follows one demonstration), None
+        where a skill has none or they differ."""
+        forces = [skill.demo_force for skill in self.skills]
+        if any(force is None for force in forces) or _varies(forces):
+            return None
+        return forces[0]
 
     def overrides(self, query: Mapping[str, float]) -> list[str]:
         """The --set overrides of the world at a query: the library's fixed ones, then
