@@ -80,7 +80,7 @@ def test_a_bad_override_or_controller_is_found_before_anything_runs(tmp_path):
     with pytest.raises(
         InputError,
         match=r":3: override 'controllers.hlcmp.pi=-2.0': pi: .*pi must be > 0.*"
-        r"\(task controllers.hlcmp.pi=-2.0\)",
+        r"\(in the task where controllers.hlcmp.pi=-2.0\)",
     ):
         plan_tasks(load_sweep(path), tmp_path / "out")
     path = write_sweep(tmp_path, "scenario: one_dof\ngrid:\n  controllers.hlcmp.nope: [1]\n")

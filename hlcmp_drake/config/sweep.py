@@ -681,6 +681,7 @@ def _load_task_scenario(sweep: _ScenarioFile, overrides: list, parameters: dict)
         message = str(error)
         key = re.match(r"override '([^=']+)=", message)
         line = _key_line(sweep.text, key.group(1)) if key else None
-        where = ", ".join(f"{k}={v}" for k, v in parameters.items()) or "every task"
-        raise located(sweep.path, line, f"{message} (task {where})") from None
+        values = ", ".join(f"{k}={v}" for k, v in parameters.items())
+        where = f"the task where {values}" if values else "every task"
+        raise located(sweep.path, line, f"{message} (in {where})") from None
     return scenario
