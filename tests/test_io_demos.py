@@ -94,7 +94,6 @@ def test_a_time_column_in_milliseconds_is_refused_where_it_passes_an_hour(tmp_pa
     read_demonstration(_write(path, t, 0.01 * t))
 
 
-
 def test_a_short_recording_with_its_time_in_milliseconds_is_refused_by_its_sample_period(
     tmp_path,
 ):
@@ -125,6 +124,7 @@ def test_numpys_commented_header_is_read_and_a_row_index_is_named(tmp_path):
     )
     with pytest.raises(InputError, match=r"indexed.csv:1: column 1 has no name \(a row index\?"):
         read_demonstration(indexed)
+
 
 def test_the_bundled_demonstrations_pass_the_speed_bound():
     from hlcmp_drake.io.paths import DIAGRAMS_DIR

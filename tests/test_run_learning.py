@@ -52,7 +52,11 @@ def test_two_trials_each_continuing_from_the_last(learned):
             "mean_abs_force_N",
             "force_smoothness_N",
             "effort_N",
+            "task",
         }
+        # Cut to 4.5 s, the run ends before the tool reaches the tear depth.
+        assert row["task"]["done"] is False and row["task"]["tear_s"] is None
+        assert "did not go through the plank" in row["task"]["evidence"]
     assert set(metrics["improves_over_trials"]) == {
         "position_error",
         "mean_force",

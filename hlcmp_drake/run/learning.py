@@ -367,7 +367,8 @@ ORIENTATION_TRIAL_MEASURES = ("mean_abs_orientation_error_rad", "max_abs_torque_
 
 def trial_metrics(runs: list[RunResult], scenario: Scenario) -> list[dict]:
     """Per trial: position error [m], mean force [N] and smoothness [N] per axis, and
-    effort [N]; and the ORIENTATION_TRIAL_MEASURES the experiment reports.
+    effort [N]; the ORIENTATION_TRIAL_MEASURES the experiment reports; and whether it did
+    the experiment's task (`task`, the experiment's `task_done`).
 
     Parameters
     ----------
@@ -389,6 +390,7 @@ def trial_metrics(runs: list[RunResult], scenario: Scenario) -> list[dict]:
                 "force_smoothness_N": m["force_smoothness_N"],
                 "effort_N": effort(run),
                 **{key: m[key] for key in ORIENTATION_TRIAL_MEASURES if key in m},
+                "task": experiment.task_done(run, scenario),
             }
         )
     return rows
@@ -458,13 +460,18 @@ def trials_table(metrics: dict, replay_metrics: dict | None = None) -> Table:
     replay_metrics : dict, optional
         The metrics.json of `hlcmp reproduce --freeze`, a row after the trials.
     """
-    table = Table(["run"] + [header for header, _ in TRIAL_MEASURES])
+    table = Table(["run"] + [header for header, _ in TRIAL_MEASURES] + ["task done"])
     rows = [(run_label(metrics, r["trial"]), r) for r in metrics["trials"]]
     if replay_metrics is not None:
         replay = {"command": "reproduce", **replay_metrics}
         rows.append((run_label(replay, 1), replay_metrics["trials"][0]))
     for label, row in rows:
-        table.add(label, *(number(value(row)) for _, value in TRIAL_MEASURES))
+        done = row["task"]["done"] if "task" in row else None  # unknown to an older file
+        table.add(
+            label,
+            *(number(value(row)) for _, value in TRIAL_MEASURES),
+            {True: "yes", False: "no", None: "-"}[done],
+        )
     return table
 
 
