@@ -22,6 +22,7 @@ from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.io.iiwa_lcm import (
     IiwaStatus,
     encode_status,
+    encode_wrench,
 )
 from hlcmp_drake.run import serve as serve_module
 from hlcmp_drake.run.serve import (
@@ -190,8 +191,12 @@ def _client_fed_by_hand(scenario_overrides=(), controller="hlcmp"):
     commands = []
     lcm.Subscribe(scenario.iiwa_driver.command_channel, commands.append)
 
-    def send(utime, q, v=None, torque_external=None):
+    def send(utime, q, v=None, torque_external=None, wrench=True):
         zeros = np.zeros(7)
+        if wrench and scenario.iiwa_driver.force_source == "wrist_sensor":  # reading nothing
+            lcm.Publish(
+                scenario.iiwa_driver.wrist_channel, encode_wrench(utime, zeros[:3], zeros[:3])
+            )
         lcm.Publish(
             scenario.iiwa_driver.status_channel,
             encode_status(
@@ -262,7 +267,60 @@ def test_watchdogs_name_the_problem():
     send(0, client.q0, torque_external=jacobian.T @ np.array([0.0, 0.0, 300.0]))
     assert (
         client.status == UNSAFE
-        and "contact force 300 N above max_contact_force_N" in client.stopped_because
+        and "contact force 300.0 N above max_contact_force_N" in client.stopped_because
+    )
+
+
+def test_a_wrist_sensor_that_is_silent_or_goes_quiet_stops_the_commands():
+    """The contact force comes from the wrist sensor (the default): with no wrench on its
+    channel by the end of the start guard (a sensor missing, a channel misspelt) nothing
+    is commanded, and one that stops publishing mid-run stops the commands at the next
+    check (100 Hz), as a driver that goes quiet does; neither is served as no force."""
+    client, send, commands = _client_fed_by_hand()
+    send(0, client.q0, wrench=False)
+    time.sleep(0.002)
+    send(1000, client.q0, wrench=False)
+    assert client.status == STOPPED and not commands
+    assert client.stopped_because.startswith(
+        "no wrench on IIWA_WRIST_FT during the start guard (0.001 s): is the wrist F/T sensor "
+        "publishing there (iiwa_driver.wrist_channel)?"
+    )
+
+    client, send, commands = _client_fed_by_hand()
+    send(0, client.q0)
+    time.sleep(0.002)
+    for k in range(12):
+        send(1000 * k, client.q0)
+    assert len(commands) == 12 and not client.done
+    time.sleep(0.06)  # the sensor's last wrench is older than stale_status_s (50 ms)
+    for k in range(12, 22):
+        send(1000 * k, client.q0, wrench=False)
+    # The check at t = 0.02 s follows that tick's command, as every check does: 21 in all.
+    assert client.status == STOPPED and len(commands) == 21
+    assert client.stopped_because == (
+        "no wrench on IIWA_WRIST_FT for 50 ms (the wrist F/T sensor went quiet: the contact "
+        "force is not checked) at t = 0.020 s"
+    )
+
+
+def test_statuses_whose_stamp_stops_advancing_stop_the_commands():
+    """A driver that keeps sending statuses but never takes a command (the client publishes
+    on a channel it does not read) never advances its stamp: after stale_status_s the
+    client stops and names the command channel, rather than resending its command until
+    the driver gives up and then blaming a silence that never was."""
+    client, send, commands = _client_fed_by_hand()
+    send(0, client.q0)
+    time.sleep(0.002)
+    send(0, client.q0)  # the first command
+    start = time.perf_counter()
+    while not client.done and time.perf_counter() - start < 1.0:
+        send(0, client.q0)  # the same status, again and again
+        time.sleep(0.001)
+    assert client.status == STOPPED
+    assert time.perf_counter() - start < 0.2
+    assert client.stopped_because == (
+        "the driver's statuses kept coming but stayed at utime 0 for 50 ms from t = 0.000 s: "
+        "it takes no command on IIWA_COMMAND (iiwa_driver.command_channel)?"
     )
 
 

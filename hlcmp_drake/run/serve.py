@@ -214,6 +214,7 @@ class TorqueClient:
         self._lower = plant.GetPositionLowerLimits() - 1e-3  # as arm_check tolerates
         self._upper = plant.GetPositionUpperLimits() + 1e-3
         self._wrist = None
+        self._wrist_wall: float | None = None  # when the last wrench came
         self._force_world, self._torque_tool = np.zeros(3), np.zeros(3)
         self._latest = None  # (received at, status bytes) not yet answered
         # The warm-up's state: the last answered status's tick inputs and stamp, the stamp
@@ -228,6 +229,10 @@ class TorqueClient:
         self.warm_up_overlaps = 0
         self.first_status_wall = None
         self.last_status_wall = None
+        # The newest stamp received, and when a status last brought a newer one: a driver
+        # that sends statuses without advancing its stamp takes no commands.
+        self._newest_stamp: int | None = None
+        self._advanced_wall: float | None = None
         self._utime0 = self._last_utime = None
         self._last_command = None
         self.ticks = self.missed_ticks = 0
@@ -276,6 +281,8 @@ class TorqueClient:
         self.last_status_wall = now
         self.first_status_wall = self.first_status_wall or now
         stamp = status_stamp(data)
+        if stamp is not None and (self._newest_stamp is None or stamp > self._newest_stamp):
+            self._newest_stamp, self._advanced_wall = stamp, now
         if stamp is not None:
             offset = now - stamp / 1e6
             previous = self._stamp_offset_s
@@ -332,7 +339,7 @@ class TorqueClient:
         self._stamp_steps += 1
 
     def _on_wrench(self, data: bytes) -> None:
-        self._wrist = data
+        self._wrist, self._wrist_wall = data, time.perf_counter()
 
     def stop(self, status: str, reason: str) -> None:
         """Stop commanding from now on.
@@ -350,7 +357,7 @@ class TorqueClient:
     def poll(self) -> None:
         """Answer the newest status received since the last poll (an older one not yet
         answered is skipped and counted as missed), and check that statuses still come."""
-        if self.done:
+        if self.done or self._stamps_stuck():
             return
         if self._latest is None:
             if (
@@ -373,6 +380,27 @@ class TorqueClient:
         if self._period_mismatch():
             return
         self._answer(status, received)
+
+    def _stamps_stuck(self) -> bool:
+        """Stop (True) when, since the first command, statuses keep coming but none has
+        advanced the driver's stamp for `stale_status_s`: the driver is not taking the
+        commands (a driver paced by its client stamps each status a period later only once
+        it has applied the command that answered the last)."""
+        stale = self.config.stale_status_s
+        now = time.perf_counter()
+        if (
+            self._utime0 is None
+            or now - self._advanced_wall <= stale
+            or now - self.last_status_wall > stale  # no status at all: `poll` says so
+        ):
+            return False
+        self.stop(
+            STOPPED,
+            f"the driver's statuses kept coming but stayed at utime {self._newest_stamp} "
+            f"for {stale * 1000:.0f} ms from t = {self._served_time():.3f} s: it takes no "
+            f"command on {self.config.command_channel} (iiwa_driver.command_channel)?",
+        )
+        return True
 
     def _period_mismatch(self) -> bool:
         """Stop (True) when the measured status period is not the configured one, since
@@ -491,7 +519,18 @@ class TorqueClient:
             return False
         if received - self.first_status_wall < self.config.start_guard_s:
             return False
+        if self.config.force_source == "wrist_sensor" and self._wrist is None:
+            self.stop(
+                STOPPED,
+                f"no wrench on {self.config.wrist_channel} during the start guard "
+                f"({self.config.start_guard_s:g} s): is the wrist F/T sensor publishing there "
+                "(iiwa_driver.wrist_channel)? Without it no contact force is checked; "
+                "--set iiwa_driver.force_source=external_torque reads the driver's external "
+                "torques instead",
+            )
+            return False
         self._utime0 = status.utime
+        self._advanced_wall = received
         return True
 
     def _wrist_wrench(self, status: IiwaStatus) -> tuple[np.ndarray, np.ndarray]:
@@ -508,7 +547,7 @@ class TorqueClient:
             # The wrench [τ; f] at the tool point, world, whose J^T is the external torque.
             wrench = np.linalg.lstsq(jacobian.T, status.torque_external, rcond=None)[0]
             return wrench[3:], rotation.inverse() @ wrench[:3]
-        if self._wrist is None:
+        if self._wrist is None:  # no sensor: `_check` stops the run
             return np.zeros(3), np.zeros(3)
         _, force_tool, torque_tool = decode_wrench(self._wrist)
         return rotation @ force_tool, torque_tool
@@ -517,6 +556,10 @@ class TorqueClient:
         """The run's safety checks (`arm_check` and the plant-state check) on this tick;
         False, and the client stopped, at a problem. Keeps the wrist wrench for the log."""
         self._force_world, self._torque_tool = self._wrist_wrench(status)
+        quiet = self._wrench_stale()
+        if quiet is not None:  # a sensor gone quiet, as a driver gone quiet: stopped
+            self.stop(STOPPED, f"{quiet} at t = {t:.3f} s")
+            return False
         problem = self._state_check(state)
         if problem is None and not np.all(np.isfinite(command)):
             problem = "a non-finite torque command"
@@ -531,6 +574,19 @@ class TorqueClient:
         if problem is not None:
             self.stop(UNSAFE, f"{problem} at t = {t:.3f} s")
         return problem is None
+
+    def _wrench_stale(self) -> str | None:
+        """Why the wrist wrench cannot be checked: none for `stale_status_s` from the
+        wrist sensor (the force source), which went quiet."""
+        stale = self.config.stale_status_s
+        if self.config.force_source != "wrist_sensor" or (
+            self._wrist_wall is not None and time.perf_counter() - self._wrist_wall <= stale
+        ):
+            return None
+        return (
+            f"no wrench on {self.config.wrist_channel} for {stale * 1000:.0f} ms (the wrist "
+            "F/T sensor went quiet: the contact force is not checked)"
+        )
 
     def _log(self, t, k, state, result) -> None:
         row = self.tick.log_row(result)

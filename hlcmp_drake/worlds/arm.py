@@ -701,7 +701,7 @@ def arm_check(plant: MultibodyPlant, task: ArmTask) -> Callable[[float, dict], s
         force = np.linalg.norm(values["contact_force"])
         if force > task.max_contact_force_N:
             return (
-                f"contact force {force:.0f} N above max_contact_force_N = "
+                f"contact force {force:.1f} N above max_contact_force_N = "
                 f"{task.max_contact_force_N} N"
             )
         q = values["plant_state"][:nq]
