@@ -50,6 +50,7 @@ EXIT_BAD_INPUT = 2
 EXIT_UNSTABLE = 3
 EXIT_DRIVER_ABORT = 4
 EXIT_DEGRADED = 5  # served to the end, but missed more ticks than iiwa_driver allows
+EXIT_INTERRUPTED = 130  # Ctrl-C, as a shell reports SIGINT
 
 
 class _Parser(argparse.ArgumentParser):
@@ -520,8 +521,8 @@ def cmd_serve(args):
     else:  # one line on stderr says why, as for every other failure
         print(f"hlcmp serve: {record['status']}: {record['stopped_because']}", file=sys.stderr)
     print(f"serve.json, metrics.json{served} in {result.out_dir}")
-    if record["status"] == "degraded":
-        return EXIT_DEGRADED
+    if record["status"] in ("degraded", "interrupted"):
+        return EXIT_DEGRADED if record["status"] == "degraded" else EXIT_INTERRUPTED
     return 0 if record["status"] == "ok" else EXIT_UNSTABLE
 
 
@@ -1174,7 +1175,7 @@ def main(argv=None):
             else "nothing was written"
         )
         print(f"hlcmp: interrupted; {done}; every other file is as it was before", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":

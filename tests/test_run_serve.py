@@ -7,6 +7,7 @@ import errno
 import json
 import os
 import random
+import signal
 import subprocess
 import sys
 import time
@@ -148,6 +149,30 @@ def test_two_processes_over_udpm(tmp_path):
     simulated = experiment_of(scenario).metrics_of(run, scenario.controllers["hlcmp"], scenario)
     served = json.loads((tmp_path / "serve" / "metrics.json").read_text())["controllers"]["hlcmp"]
     assert_metrics_match(served, json.loads(json.dumps(simulated)))
+
+
+def test_ctrl_c_while_serving_stops_it_and_writes_what_was_served(tmp_path, monkeypatch):
+    """SIGINT after the 100th tick: the client stops there, between two ticks, and the run
+    up to then is written (serve.json says so); the command exits 130 as for any Ctrl-C."""
+    from hlcmp_drake.cli import main
+
+    answer = TorqueClient._answer
+
+    def answer_then_interrupt(self, status, received):
+        answer(self, status, received)
+        if self.ticks == 100:
+            signal.raise_signal(signal.SIGINT)
+
+    monkeypatch.setattr(TorqueClient, "_answer", answer_then_interrupt)
+    out = tmp_path / "serve"
+    args = ["serve", "insertion", "--lcm", "memq://", "--duration", "1", "--quiet"]
+    assert main([*args, "--out", str(out)]) == 130
+    record = json.loads((out / "serve.json").read_text())
+    assert record["status"] == "interrupted" and record["ticks"] == 100
+    assert record["stopped_because"] == "Ctrl-C at t = 0.099 s"
+    assert json.loads((out / "metrics.json").read_text())["status"] == "interrupted"
+    assert len(np.load(out / "timeseries.npz")["t"]) == 10  # logged at 100 Hz up to then
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # put back
 
 
 def test_a_stale_status_stops_the_commands(tmp_path, monkeypatch):

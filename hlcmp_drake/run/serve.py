@@ -25,6 +25,8 @@ import contextlib
 import dataclasses as dc
 import gc
 import os
+import signal
+import threading
 import time
 from pathlib import Path
 from typing import Callable, Iterator, Sequence
@@ -63,8 +65,11 @@ from hlcmp_drake.worlds.models import load_models, scoped_frame
 from hlcmp_drake.worlds.pose import LOGGED_REFERENCE
 
 # The statuses a served run may end with: "ok" (served its duration), "unstable" (a
-# safety watchdog), "stopped" (the driver went quiet or sent something unreadable).
+# safety watchdog), "stopped" (the driver or the wrist sensor went quiet, or sent something
+# unreadable), "degraded" (served to the end, missing too many ticks), "interrupted" (the
+# user stopped it, Ctrl-C: what was served up to then is written all the same).
 FINISHED, UNSAFE, STOPPED, DEGRADED = "ok", "unstable", "stopped", "degraded"
+INTERRUPTED = "interrupted"
 # Steps between statuses the period is measured over before a mismatch is called: the
 # smallest of them is the period unless every one spans a lost datagram.
 PERIOD_EVIDENCE_STEPS = 10
@@ -347,7 +352,7 @@ class TorqueClient:
         Parameters
         ----------
         status : str
-            FINISHED, UNSAFE or STOPPED.
+            FINISHED, UNSAFE, STOPPED or INTERRUPTED.
         reason : str
             Why, for serve.json.
         """
@@ -367,7 +372,7 @@ class TorqueClient:
                 self.stop(
                     STOPPED,
                     f"no status for {self.config.stale_status_s * 1000:.0f} ms (stale) "
-                    f"at t = {self._served_time():.3f} s",
+                    f"at t = {self.served_time():.3f} s",
                 )
             return
         received, data = self._latest
@@ -397,7 +402,7 @@ class TorqueClient:
         self.stop(
             STOPPED,
             f"the driver's statuses kept coming but stayed at utime {self._newest_stamp} "
-            f"for {stale * 1000:.0f} ms from t = {self._served_time():.3f} s: it takes no "
+            f"for {stale * 1000:.0f} ms from t = {self.served_time():.3f} s: it takes no "
             f"command on {self.config.command_channel} (iiwa_driver.command_channel)?",
         )
         return True
@@ -440,7 +445,8 @@ class TorqueClient:
                 f"iiwa_driver.max_consecutive_missed = {config.max_consecutive_missed}"
             )
 
-    def _served_time(self) -> float:
+    def served_time(self) -> float:
+        """The time served from the first command to the last answered status [s]."""
         return 0.0 if self._last_utime is None else (self._last_utime - self._utime0) / 1e6
 
     def _answer(self, status: IiwaStatus, received: float) -> None:
@@ -617,7 +623,7 @@ class TorqueClient:
             for name, rows in self.log_rows.items()
         }
         theta = self.law.unflatten(self.theta) if self.theta is not None else None
-        stop_time = None if self.status == FINISHED else self._served_time()
+        stop_time = None if self.status == FINISHED else self.served_time()
         return RunResult(
             self.controller,
             np.array(self.log_t),
@@ -667,7 +673,7 @@ class TorqueClient:
             "missed_ticks": self.missed_ticks,
             "longest_missed_run": self.longest_missed_run,
             "tick_us": percentiles,
-            "served_s": self._served_time(),
+            "served_s": self.served_time(),
             "status": self.status,
             "stopped_because": self.stopped_because,
         }
@@ -688,7 +694,7 @@ def serve(client: TorqueClient, lcm: DrakeLcm, lcm_url: str, reporter: Progress 
     config = client.config
     reporter.say(f"serve: {client.controller} waiting for {config.status_channel} at {lcm_url}")
     start = time.perf_counter()
-    with without_garbage_collection():
+    with without_garbage_collection(), interruptible(client):
         while not client.done:
             client.warm_up()  # with iiwa_driver.warm_up_lead_s; may take the next status
             # Sleep until a status comes: polling without sleeping (busy_wait) starts the
@@ -825,6 +831,27 @@ def without_garbage_collection() -> Iterator[None]:
         gc.unfreeze()
 
 
+@contextlib.contextmanager
+def interruptible(client: TorqueClient) -> Iterator[None]:
+    """Ctrl-C (SIGINT) while serving stops the client (INTERRUPTED) instead of ending the
+    command: on an arm it is how a run is stopped, and what was served up to then is
+    written. The handler only marks the client stopped, so the loop ends between two ticks
+    and no log is left half-appended. Elsewhere than in the main thread, where Python
+    takes no signal handler, Ctrl-C ends the command as usual."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def stop(signum, frame):
+        client.stop(INTERRUPTED, f"Ctrl-C at t = {client.served_time():.3f} s")
+
+    previous = signal.signal(signal.SIGINT, stop)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def write_served(client: TorqueClient, out_dir: str | Path, lcm_url: str) -> ServeResult:
     """Evaluate the served run and write timeseries.npz, recording.html, metrics.json (as
     `hlcmp run` does, for the one controller: no claims, which compare controllers) and
@@ -881,7 +908,7 @@ def lockstep(driver: SimulatedIiwaDriver, client: TorqueClient, lcm: DrakeLcm) -
     """
     start = time.perf_counter()
     steps = 0
-    with without_garbage_collection():
+    with without_garbage_collection(), interruptible(client):
         while not client.done:
             driver.publish_status()
             lcm.HandleSubscriptions(0)  # the status reaches the client
