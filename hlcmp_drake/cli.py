@@ -743,8 +743,8 @@ def build_parser():
     run.add_argument(
         "--variant",
         help="layer a variant over the scenario before --set: a bundled one "
-        f"({', '.join(bundled_variants())}; real_arm: a real iiwa's imperfections, "
-        "docs/worlds.md) or a .yaml of your own; the runs go to out/SCENARIO_VARIANT",
+        f"from diagrams/variants/ ({', '.join(bundled_variants())}; docs/worlds.md says what "
+        "each changes) or a .yaml of your own; the runs go to out/SCENARIO_VARIANT",
     )
     run.set_defaults(func=cmd_run)
 
@@ -937,17 +937,20 @@ def build_parser():
     )
     sweep.set_defaults(func=cmd_sweep)
 
-    lcm_help = (
-        "LCM URL, e.g. 'udpm://239.255.76.67:7667?ttl=0' (this machine only); memq:// runs "
-        "the scenario's simulated driver in the same process"
-    )
+    lcm_help = "LCM URL, e.g. 'udpm://239.255.76.67:7667?ttl=0' (ttl=0: this machine only)"
+    arm_scenario_help = "an arm scenario (insertion, cutting, peg_in_hole) or a YAML path"
     serve = sub.add_parser(
         "serve",
         parents=[common, quiet, overrides],
         help="serve a scenario's controller to an iiwa driver over LCM (torque-only)",
     )
-    serve.add_argument("scenario", help="an arm scenario (insertion, cutting) or a YAML path")
-    serve.add_argument("--lcm", required=True, help=lcm_help)
+    serve.add_argument("scenario", help=arm_scenario_help)
+    serve.add_argument(
+        "--lcm",
+        required=True,
+        help=f"{lcm_help}; memq:// runs the scenario's simulated driver in this process, in "
+        "lockstep",
+    )
     serve.add_argument(
         "--controller", help="the controller's label (default: the scenario's Hl-CMP)"
     )
@@ -972,8 +975,12 @@ def build_parser():
         help="a scenario's simulated iiwa, driven over LCM like drake-iiwa-driver "
         "in torque-only mode (status every 1 ms)",
     )
-    sim_driver.add_argument("scenario", help="an arm scenario (insertion, cutting) or a YAML path")
-    sim_driver.add_argument("--lcm", required=True, help=lcm_help)
+    sim_driver.add_argument("scenario", help=arm_scenario_help)
+    sim_driver.add_argument(
+        "--lcm",
+        required=True,
+        help=f"{lcm_help}; the client (hlcmp serve) in another process must reach it",
+    )
     sim_driver.add_argument(
         "--realtime",
         action="store_true",

@@ -84,7 +84,7 @@ def build(scenario, setup, meshcat):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", type=Path, default=Path("out/by_hand"))
     parser.add_argument(
         "--duration", type=float, default=None, help="seconds (default: the scenario's)"

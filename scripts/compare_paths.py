@@ -41,7 +41,7 @@ def verdicts(tree, path=""):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("first", type=Path, help="a run's output folder (metrics.json)")
     parser.add_argument("second", type=Path, help="the other run's output folder")
     args = parser.parse_args()

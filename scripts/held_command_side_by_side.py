@@ -45,7 +45,7 @@ class EvaluatingLoop(ControlLoop):
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("scenario")
     parser.add_argument("seconds", type=float)
     parser.add_argument("controllers", help="comma-separated labels")

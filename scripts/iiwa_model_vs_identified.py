@@ -75,7 +75,7 @@ def identified_gravity(q, step=1e-6):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--poses", type=int, default=200)
     args = parser.parse_args()
     plant = MultibodyPlant(0.0)

@@ -59,7 +59,7 @@ def flat(metrics, prefix=""):
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--period", type=float, default=0.005)
     parser.add_argument("--duration", type=float, default=3.0)
     parser.add_argument("--seeds", type=int, default=5)

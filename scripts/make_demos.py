@@ -135,7 +135,7 @@ def tremor(t, rng, amplitude=2e-4):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--task", choices=[*WAYPOINTS, "all"], default="all")
     parser.add_argument("--out-dir", type=Path, default=ROOT / "diagrams" / "demos")
     parser.add_argument("--seed", type=int, default=2022)

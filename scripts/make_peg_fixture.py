@@ -63,7 +63,7 @@ def signed_volume(vertices: np.ndarray, faces: list) -> float:
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", type=Path, default=ROOT / "models" / "peg_fixture.obj")
     args = parser.parse_args()
     vertices = rings().reshape(-1, 3)

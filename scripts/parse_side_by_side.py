@@ -35,7 +35,7 @@ def parse_ms(scenario, by_drake: bool) -> float:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("scenarios", nargs="*", default=bundled_scenarios())
     parser.add_argument("--rounds", type=int, default=20)
     args = parser.parse_args()

@@ -78,7 +78,7 @@ def with_acceleration_fit(dmp, t, quaternions):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=int, default=12)
     parser.add_argument("--noise-deg", type=float, default=0.2)
     args = parser.parse_args()

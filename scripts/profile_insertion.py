@@ -14,7 +14,7 @@ from hlcmp_drake.worlds.build import diagram_factory
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seconds", type=float, default=5.0)
     parser.add_argument("--top", type=int, default=15)
     parser.add_argument(

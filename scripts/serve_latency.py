@@ -97,7 +97,7 @@ def row(pair: str, k: int, record: dict) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--scenario", default="insertion")
     parser.add_argument("--runs", type=int, default=3, help="runs per pair")
     parser.add_argument("--duration", type=float, default=3.0, help="served seconds per run")

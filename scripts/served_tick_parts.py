@@ -84,7 +84,7 @@ def stamped_client(client: serve.TorqueClient, rows: list) -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--pair", choices=PAIRS, default="realtime")
     parser.add_argument("--duration", type=float, default=3.0)
     args = parser.parse_args()

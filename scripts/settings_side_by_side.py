@@ -27,7 +27,7 @@ CHUNK_S = 0.1
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("scenario")
     parser.add_argument("controller")
     parser.add_argument("--a", nargs="*", default=[], help="side a's settings")

@@ -57,7 +57,7 @@ def other_class(checkout: Path, file: str, name: str) -> type:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("system", choices=SYSTEMS)
     parser.add_argument("other", type=Path, help="the other checkout's folder")
     parser.add_argument("scenario")

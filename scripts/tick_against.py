@@ -184,7 +184,7 @@ def control_plant(scenario):
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("rev", help="the git revision to compare with, e.g. main")
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--insertion-s", type=float, default=3.0)

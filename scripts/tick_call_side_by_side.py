@@ -73,7 +73,7 @@ def slices_every_tick(self, state, reference, theta, time, external_force):
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("scenario")
     parser.add_argument("seconds", type=float)
     parser.add_argument("controllers", help="comma-separated labels")

@@ -33,7 +33,7 @@ def percentiles(tick, before, samples: int) -> tuple[float, float]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--samples", type=int, default=2000)
     args = parser.parse_args()
     scenario, _ = load_scenario("insertion")

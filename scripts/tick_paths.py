@@ -36,7 +36,7 @@ def timed(built, scenario):
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--insertion-s", type=float, default=3.0)
     parser.add_argument("--one-dof-s", type=float, default=5.0)

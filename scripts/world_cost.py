@@ -139,7 +139,7 @@ def _per_call_us(function, calls=300):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--world", choices=("insertion", "cutting"), default="insertion")
     parser.add_argument("--rounds", type=int, default=3)
     args = parser.parse_args()

@@ -383,6 +383,28 @@ def test_saturated_torques_stop_the_client_after_max_saturation_s():
             "has no controller 'nope'",
         ),
         (["serve", "insertion", "--lcm", "memq://", "--freeze"], "--freeze needs --skill"),
+        (
+            [
+                "serve",
+                "insertion",
+                "--lcm",
+                "memq://",
+                "--set",
+                "robot_imperfection.link_mass_error=-0.03",
+            ],
+            "robot_imperfection is set: hlcmp serve drives an iiwa as its model is",
+        ),
+        (
+            [
+                "sim-driver",
+                "cutting",
+                "--lcm",
+                "udpm://239.255.76.1:7667?ttl=0",
+                "--set",
+                "robot_imperfection.link_mass_error=-0.03",
+            ],
+            "robot_imperfection is set: the simulated iiwa driver drives an arm as its model is",
+        ),
         (["serve", "insertion", "--lcm", "memq://", "--any-scenario"], "--any-scenario needs"),
         (["serve", "insertion", "--lcm", "tcp://x:1"], "expected udpm://GROUP:PORT?ttl=0"),
         (

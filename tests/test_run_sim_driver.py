@@ -21,3 +21,18 @@ def test_the_driver_aborts_on_a_command_within_its_start_guard():
     )
     with pytest.raises(DriverAbort, match="within 0.25 s of the driver's first status"):
         lcm.HandleSubscriptions(0)
+
+
+def test_both_drivers_abort_alike_when_no_command_comes():
+    """With no client, the project's driver and Drake's both give up after their first
+    command timeout (60 s by default) with the same reason (`hlcmp sim-driver` exits 4)."""
+    from hlcmp_drake.run.drake_driver import DrakeDrivenWorld
+    from hlcmp_drake.run.sim_driver import drive
+
+    scenario, _ = load_scenario("insertion", ["duration_s=1.0"])
+    lcm = DrakeLcm("memq://")
+    with pytest.raises(DriverAbort, match=r"^no command on IIWA_COMMAND within 0.1 s$"):
+        drive(SimulatedIiwaDriver(scenario, lcm), lcm, first_command_timeout_s=0.1)
+    lcm = DrakeLcm("memq://")
+    with pytest.raises(DriverAbort, match=r"^no command on IIWA_COMMAND within 0.1 s$"):
+        DrakeDrivenWorld(scenario, lcm, 0.005).run(first_command_timeout_s=0.1)

@@ -231,7 +231,7 @@ class DrakeDrivenWorld:
         Raises
         ------
         DriverAbort
-            When the simulation fails.
+            When the simulation fails, or no command came within `first_command_timeout_s`.
         """
         reporter.say(
             f"sim-driver (Drake's iiwa driver): publishing {STATUS_CHANNEL} every "
@@ -254,8 +254,10 @@ class DrakeDrivenWorld:
                 raise DriverAbort(f"the simulation failed at t = {now:.3f} s: {message}") from None
             wall = time.perf_counter()
             if self.last_command_wall is None:
-                if wall - start > first_command_timeout_s:
-                    stopped = f"no command on {COMMAND_CHANNEL} in {first_command_timeout_s:g} s"
+                if wall - start > first_command_timeout_s:  # as the project's driver aborts
+                    raise DriverAbort(
+                        f"no command on {COMMAND_CHANNEL} within {first_command_timeout_s:g} s"
+                    )
             elif wall - self.last_command_wall > idle_timeout_s:
                 stopped = f"no command for {idle_timeout_s:g} s (the client stopped)"
         return DrakeDriverSummary(

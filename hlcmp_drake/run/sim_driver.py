@@ -284,7 +284,7 @@ def wait_for_first_command(driver: SimulatedIiwaDriver, lcm: DrakeLcm, timeout_s
         _handle_until(lcm, time.perf_counter() + driver.period)
         if time.perf_counter() - start > timeout_s:
             raise DriverAbort(
-                f"no command on {driver.config.command_channel} within {timeout_s:.0f} s"
+                f"no command on {driver.config.command_channel} within {timeout_s:g} s"
             )
 
 

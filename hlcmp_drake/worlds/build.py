@@ -89,13 +89,20 @@ def driven_world_of(scenario: Scenario, who: str) -> World:
     Raises
     ------
     InputError
-        For a world without an arm to drive.
+        For a world without an arm to drive, or with a robot's imperfections set (those
+        are simulated runs' only: a driven arm has its own).
     """
     world = world_of(scenario)
     if world.build_driven is None:
         raise InputError(
             f"scenario '{scenario.name}' has no arm: {who}, use an arm scenario such as "
             "insertion or cutting"
+        )
+    if not scenario.robot_imperfection.perfect:
+        raise InputError(
+            f"robot_imperfection is set: {who} as its model is (a served run meets a real "
+            "arm's own imperfections); simulated ones are for hlcmp run and report "
+            "(--variant real_arm)"
         )
     return world
 
