@@ -495,6 +495,7 @@ def cmd_serve(args):
             args.out or _default_out(args),
             controller=args.controller,
             skill=skill,
+            skill_path=args.skill,
             freeze=args.freeze,
             any_scenario=args.any_scenario,
             overrides=overrides,

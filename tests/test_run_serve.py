@@ -599,6 +599,9 @@ def test_serve_in_one_process_from_the_command_line(tmp_path, capsys):
     assert all((out / name).is_file() for name in last.split(" in ")[0].split(", "))
     record = json.loads((out / "serve.json").read_text())
     assert record["ticks"] == 301 and record["missed_ticks"] == 0 and record["status"] == "ok"
+    # What was served: the skill file, frozen, and the overrides (--duration is one).
+    assert record["skill"] == str(tmp_path / "skill.npz") and record["adaptation"] == "frozen"
+    assert record["overrides"] == ["duration_s=0.3"]
     arrays = np.load(out / "timeseries.npz")
     assert arrays["t"][-1] == pytest.approx(0.3)
     assert np.all(arrays[f"{record['controller']}/Ks"] == 0.0)  # frozen: no adaptation

@@ -852,7 +852,9 @@ def interruptible(client: TorqueClient) -> Iterator[None]:
         signal.signal(signal.SIGINT, previous)
 
 
-def write_served(client: TorqueClient, out_dir: str | Path, lcm_url: str) -> ServeResult:
+def write_served(
+    client: TorqueClient, out_dir: str | Path, lcm_url: str, served: dict | None = None
+) -> ServeResult:
     """Evaluate the served run and write timeseries.npz, recording.html, metrics.json (as
     `hlcmp run` does, for the one controller: no claims, which compare controllers) and
     serve.json, each atomically.
@@ -863,13 +865,16 @@ def write_served(client: TorqueClient, out_dir: str | Path, lcm_url: str) -> Ser
         After `serve`.
     out_dir : str or Path
     lcm_url : str
+    served : dict, optional
+        What was served, for serve.json beside the client's record (`serve_scenario`'s
+        skill file, adaptation and overrides).
 
     Returns
     -------
     ServeResult
     """
     run = client.run_result()
-    record = client.record(lcm_url)
+    record = {**client.record(lcm_url), **(served or {})}
     out_dir = Path(out_dir)
     experiment = experiment_of(client.scenario)
     scenario = dc.replace(
@@ -932,6 +937,7 @@ def serve_scenario(
     *,
     controller: str | None = None,
     skill: Skill | None = None,
+    skill_path: str | Path | None = None,
     freeze: bool = False,
     any_scenario: bool = False,
     overrides: Sequence[str] = (),
@@ -953,6 +959,8 @@ def serve_scenario(
         Where timeseries.npz, metrics.json, recording.html and serve.json go.
     controller, skill, freeze
         What to serve (see `served_scenario`).
+    skill_path : str or Path, optional
+        Where `skill` was read from (recorded in serve.json).
     any_scenario : bool
         Serve a skill learned in another world all the same (refused otherwise, before
         the LCM is opened: `run.learning.check_skill_world`).
@@ -985,4 +993,9 @@ def serve_scenario(
     else:
         with realtime_scheduling(served_priority(scenario.iiwa_driver, lcm_url)):
             serve(client, lcm, lcm_url, reporter)
-    return write_served(client, out_dir, lcm_url)
+    served = {
+        "skill": None if skill_path is None else str(skill_path),
+        "adaptation": "frozen" if freeze else "on" if client.law.learns else "none",
+        "overrides": [str(override) for override in overrides],
+    }
+    return write_served(client, out_dir, lcm_url, served)
