@@ -73,6 +73,10 @@ INTERRUPTED = "interrupted"
 # Steps between statuses the period is measured over before a mismatch is called: the
 # smallest of them is the period unless every one spans a lost datagram.
 PERIOD_EVIDENCE_STEPS = 10
+# Statuses with no newer stamp, over stale_status_s, before a driver counts as taking no
+# commands: one at 1 kHz sends 50; a status repeated after a slow tick, or a lockstep
+# driver's resend of an unanswered status (every 20 ms), is no such evidence.
+STUCK_EVIDENCE_STATUSES = 10
 
 
 def served_scenario(
@@ -238,6 +242,7 @@ class TorqueClient:
         # that sends statuses without advancing its stamp takes no commands.
         self._newest_stamp: int | None = None
         self._advanced_wall: float | None = None
+        self._statuses_since_advance = 0
         self._utime0 = self._last_utime = None
         self._last_command = None
         self.ticks = self.missed_ticks = 0
@@ -288,6 +293,9 @@ class TorqueClient:
         stamp = status_stamp(data)
         if stamp is not None and (self._newest_stamp is None or stamp > self._newest_stamp):
             self._newest_stamp, self._advanced_wall = stamp, now
+            self._statuses_since_advance = 0
+        else:
+            self._statuses_since_advance += 1
         if stamp is not None:
             offset = now - stamp / 1e6
             previous = self._stamp_offset_s
@@ -387,14 +395,16 @@ class TorqueClient:
         self._answer(status, received)
 
     def _stamps_stuck(self) -> bool:
-        """Stop (True) when, since the first command, statuses keep coming but none has
-        advanced the driver's stamp for `stale_status_s`: the driver is not taking the
-        commands (a driver paced by its client stamps each status a period later only once
-        it has applied the command that answered the last)."""
+        """Stop (True) when, since the first command, statuses keep coming (at least
+        STUCK_EVIDENCE_STATUSES) but none has advanced the driver's stamp for
+        `stale_status_s`: the driver is not taking the commands (a driver paced by its
+        client stamps each status a period later only once it has applied the command
+        that answered the last)."""
         stale = self.config.stale_status_s
         now = time.perf_counter()
         if (
             self._utime0 is None
+            or self._statuses_since_advance < STUCK_EVIDENCE_STATUSES
             or now - self._advanced_wall <= stale
             or now - self.last_status_wall > stale  # no status at all: `poll` says so
         ):
@@ -536,7 +546,7 @@ class TorqueClient:
             )
             return False
         self._utime0 = status.utime
-        self._advanced_wall = received
+        self._advanced_wall, self._statuses_since_advance = received, 0
         return True
 
     def _wrist_wrench(self, status: IiwaStatus) -> tuple[np.ndarray, np.ndarray]:
