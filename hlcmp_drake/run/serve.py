@@ -847,7 +847,13 @@ def interruptible(client: TorqueClient) -> Iterator[None]:
     command: on an arm it is how a run is stopped, and what was served up to then is
     written. The handler only marks the client stopped, so the loop ends between two ticks
     and no log is left half-appended. Elsewhere than in the main thread, where Python
-    takes no signal handler, Ctrl-C ends the command as usual."""
+    takes no signal handler, Ctrl-C ends the command as usual.
+
+    Parameters
+    ----------
+    client : TorqueClient
+        The client Ctrl-C stops.
+    """
     if threading.current_thread() is not threading.main_thread():
         yield
         return
