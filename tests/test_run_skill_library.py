@@ -163,6 +163,34 @@ def test_the_written_skill_loads_and_records_the_querys_world(tmp_path):
     assert f"--set {DEPTH}=0.01125" in result.stdout
 
 
+def test_a_prediction_that_is_only_the_librarys_mean_says_so(tmp_path):
+    """Four skills whose weights are noise in the task parameters: at the grid's middle the
+    regression gives their mean, and says so; a smooth library's prediction says nothing."""
+    rng = np.random.default_rng(0)
+    (tmp_path / "noisy").mkdir()
+    (tmp_path / "smooth").mkdir()
+    noisy = SkillLibrary.load(
+        write_library(
+            tmp_path / "noisy",
+            [0.010, 0.015],
+            [60.0, 120.0],
+            function=lambda depth, friction: 5.0 + rng.normal(0.0, 1.0, (3, 10)),
+        )
+    )
+    skill, prediction, notes = noisy.generalize({DEPTH: 0.0125, FRICTION: 90.0})
+    np.testing.assert_allclose(
+        skill.theta_v, np.mean([s.theta_v for s in noisy.skills], axis=0), atol=1e-12
+    )
+    assert notes == [
+        "the skill is the library's mean: the query is beyond the reach of every library "
+        "skill as the fitted kernels see it (their length scales; too few skills, or skills "
+        "that vary as noise with the task parameters); a denser library, or --method "
+        f"nearest for skill {prediction.nearest}"
+    ]
+    smooth_library = SkillLibrary.load(write_library(tmp_path / "smooth", *GRID))
+    assert smooth_library.generalize({DEPTH: 0.0125, FRICTION: 90.0})[2] == []
+
+
 @pytest.mark.parametrize(
     "force, kept",
     [

@@ -339,6 +339,13 @@ class SkillLibrary:
         """
         _, notes = self.query_vector(query, extrapolate)
         prediction = self.predict(query, method)
+        if method == "regression" and self._predicts_the_mean(prediction):
+            notes.append(
+                "the skill is the library's mean: the query is beyond the reach of every "
+                "library skill as the fitted kernels see it (their length scales; too few "
+                "skills, or skills that vary as noise with the task parameters); a denser "
+                f"library, or --method nearest for skill {prediction.nearest}"
+            )
         base = self.skills[0]
         dmp_arrays = {f: prediction.mean[f] for f in DMP_FIELDS if f in prediction.mean}
         dmp = dc.replace(base.dmp, **dmp_arrays) if dmp_arrays else base.dmp
@@ -360,6 +367,19 @@ class SkillLibrary:
             demo_force=self._demonstration_force(),
         )
         return skill, prediction, notes
+
+    def _predicts_the_mean(self, prediction: Prediction) -> bool:
+        """Whether every regressed field's prediction is the library's mean of it (to
+        rounding): the fitted kernels found nothing but noise to regress."""
+        return all(
+            np.allclose(
+                prediction.mean[field],
+                np.mean([_array(skill, field) for skill in self.skills], axis=0),
+                rtol=1e-9,
+                atol=1e-12,
+            )
+            for field in self.fields
+        )
 
     def _demonstration_force(self) -> np.ndarray | None:
         """The force of the demonstration the library's skills were learned from (their
