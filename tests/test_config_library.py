@@ -39,6 +39,26 @@ def test_the_bundled_libraries_plan_six_skills_over_two_physical_parameters(tmp_
     assert units == {"per_step" if name.endswith("per_step") else "per_second"}
 
 
+def test_demo_force_needs_a_demonstration_with_force_columns(tmp_path):
+    from conftest import INSERTION_DEMO
+
+    from hlcmp_drake.io.demos import read_demonstration, write_trajectory
+
+    forced = GOOD.replace("trials: 2", "trials: 2\ndemo_force: true")
+    tasks = plan_library_tasks(load_library_spec(write(tmp_path, forced)), tmp_path / "out")
+    assert all(task.demo_force for task in tasks)  # the bundled demonstration has its force
+    t, positions, axes = read_demonstration(INSERTION_DEMO)
+    plain = write_trajectory(tmp_path / "positions.csv", t, positions, axes)
+    text = forced.replace("set:\n", f"set:\n  reference.file: {plain}\n")
+    path = write(tmp_path, text)
+    result = run_cli("library", path, "--out", tmp_path / "L")
+    assert one_line_error(result) == (
+        f"hlcmp: error: {path}:3: demo_force: the demonstration {plain} has no force columns "
+        "(fx,fy,fz) to start the feed-forward from"
+    )
+    assert not (tmp_path / "L").exists()
+
+
 def test_a_library_file_plans_every_combination_with_numbers_as_queries(tmp_path):
     spec = load_library_spec(write(tmp_path, GOOD))
     tasks = plan_library_tasks(spec, tmp_path / "out")

@@ -20,6 +20,7 @@ DEPTH = "task.puncture.depth_m"
 TINY = """\
 scenario: insertion
 trials: {trials}
+demo_force: {demo_force}
 set:
   duration_s: 0.3
 grid:
@@ -27,9 +28,9 @@ grid:
 """
 
 
-def tiny(folder, trials=1):
+def tiny(folder, trials=1, demo_force=False):
     path = Path(folder) / "tiny_library.yaml"
-    path.write_text(TINY.format(trials=trials))
+    path.write_text(TINY.format(trials=trials, demo_force=str(demo_force).lower()))
     return path
 
 
@@ -79,6 +80,14 @@ def test_a_tiny_library_is_learned_indexed_and_resumed(tiny_library, tmp_path):
     more = build_library(tiny(tmp_path, trials=2), out, workers=2)
     assert sorted(more.ran) == ["depth_m=0.01", "depth_m=0.015"]
     assert all(e["metrics"]["trial"] == 2 for e in more.record["skills"])
+
+    # Learned from the demonstration's force: relearned, and each skill says so.
+    forced = build_library(tiny(tmp_path, trials=2, demo_force=True), out, workers=2)
+    assert sorted(forced.ran) == ["depth_m=0.01", "depth_m=0.015"]
+    assert forced.record["demo_force"] is True
+    for entry in forced.record["skills"]:
+        metrics = json.loads((out / "skills" / entry["id"] / "metrics.json").read_text())
+        assert metrics["feedforward_from_demo_force"] is True
 
 
 @pytest.mark.slow

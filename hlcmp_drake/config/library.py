@@ -6,6 +6,8 @@ A library file (``diagrams/libraries/*.yaml``)::
 
     scenario: insertion      # a bundled scenario, or a .yaml path relative to this file
     trials: 3                # learning trials per skill, as `hlcmp learn --trials`
+    demo_force: false        # start each skill's feed-forward from the demonstration's
+                             #   force, as `hlcmp learn --demo-force` (default false)
     set:                     # fixed overrides, every skill
       controllers.hlcmp.q_units: per_step
     grid:                    # task parameter (any --set key) -> numbers; every combination
@@ -28,6 +30,7 @@ import yaml
 from hlcmp_drake.config.loading import dump_scenario, resolve_yaml
 from hlcmp_drake.config.sweep import (
     _KEY,
+    _key_line,
     _load_task_scenario,
     _scenario_path,
     read_typed_file,
@@ -55,6 +58,9 @@ class LibraryConfig:
     trials : int
         Learning trials per skill, each starting from the theta the previous one ended
         with (the first from theta = 0), as `hlcmp learn --trials`.
+    demo_force : bool
+        Start each skill's first trial's feed-forward from the demonstration's force, as
+        `hlcmp learn --demo-force` (the demonstration must carry force columns).
     set : dict of str to str
         Fixed overrides, every skill (YAML value text).
     grid : dict of str to list of str
@@ -64,6 +70,7 @@ class LibraryConfig:
 
     scenario: str = ""
     trials: int = 3
+    demo_force: bool = False
     set: dict[str, str] = dc.field(default_factory=dict)
     grid: dict[str, list[str]] = dc.field(default_factory=dict)
 
@@ -115,6 +122,8 @@ class LibraryTask:
         The scenario file it came from (for messages and a relative demonstration).
     trials : int
         Learning trials.
+    demo_force : bool
+        The feed-forward starts from the demonstration's force (`LibraryConfig`).
     run_dir : str
         The skill's folder, OUT/skills/ID.
     """
@@ -125,6 +134,7 @@ class LibraryTask:
     scenario_yaml: str
     scenario_path: str
     trials: int
+    demo_force: bool
     run_dir: str
 
 
@@ -214,6 +224,22 @@ def _check(config: LibraryConfig, fail) -> dict:
     return values
 
 
+def _check_demonstration_force(spec: LibrarySpec, scenario) -> None:
+    """`demo_force: true` needs a demonstration with force columns (fx,fy,fz)."""
+    from hlcmp_drake.io.demos import read_demonstration
+
+    reference = scenario.reference
+    *_, force = read_demonstration(reference.file, with_orientation=True, with_force=True)
+    if force is None:
+        line = _key_line(spec.text, "demo_force")
+        raise located(
+            spec.path,
+            line,
+            f"demo_force: the demonstration {reference.file} has no force columns "
+            "(fx,fy,fz) to start the feed-forward from",
+        )
+
+
 def plan_library_tasks(spec: LibrarySpec, out_dir: str | Path) -> list[LibraryTask]:
     """Every skill of a library, each scenario loaded with its overrides (so every bad
     value is found before anything runs) and dumped as YAML text.
@@ -243,6 +269,8 @@ def plan_library_tasks(spec: LibrarySpec, out_dir: str | Path) -> list[LibraryTa
         overrides = [f"{k}={v}" for k, v in config.set.items()]
         overrides += [f"{k}={v}" for k, v in texts.items()]
         scenario = _load_task_scenario(spec, overrides, texts)
+        if config.demo_force and not tasks:  # one demonstration for every skill
+            _check_demonstration_force(spec, scenario)
         identifier = task_id(texts)
         if identifier in seen:
             raise located(spec.path, None, f"two skills would share the id '{identifier}'")
@@ -255,6 +283,7 @@ def plan_library_tasks(spec: LibrarySpec, out_dir: str | Path) -> list[LibraryTa
                 dump_scenario(scenario),
                 str(spec.scenario_path),
                 config.trials,
+                config.demo_force,
                 str(Path(out_dir) / "skills" / identifier),
             )
         )

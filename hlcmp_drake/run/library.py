@@ -13,7 +13,7 @@ interrupted library loses none, and the same command again learns only what is m
 library.json::
 
     {"format_version": 1, "scenario": NAME, "scenario_path": PATH, "library_file": PATH,
-     "set": {KEY: YAML}, "trials": K, "parameters": [KEY, ...],
+     "set": {KEY: YAML}, "trials": K, "demo_force": BOOL, "parameters": [KEY, ...],
      "skills": [{"id": ID, "query": {KEY: VALUE}, "skill": "skills/ID/skill.npz",
                  "metrics": {the last trial's row of the skill's metrics.json}}],
      "not_learned": [{"id": ID, "query": {...}, "status": "unstable|error|pending", ...}]}
@@ -71,11 +71,18 @@ def run_library_task(task: LibraryTask) -> dict:
     start = time.perf_counter()
     # The overrides again over the dumped scenario (which holds them already): `learn`
     # sets a trial's duration from the skill unless they set duration_s.
-    result = learn(scenario_file, run_dir, trials=task.trials, overrides=task.overrides)
+    result = learn(
+        scenario_file,
+        run_dir,
+        trials=task.trials,
+        demo_force=task.demo_force,
+        overrides=task.overrides,
+    )
     info = {
         "id": task.id,
         "query": task.query,
         "trials": task.trials,
+        "demo_force": task.demo_force,
         "overrides": task.overrides,
         "status": result.metrics["status"],
         "wall_s": round(time.perf_counter() - start, 3),
@@ -117,7 +124,10 @@ def skill_state(task: LibraryTask) -> str:
         same = (run_dir / "scenario.yaml").read_text() == task.scenario_yaml
     except (OSError, UnicodeDecodeError):
         same = False
-    return "done" if same and record.get("trials") == task.trials else "stale"
+    learned_alike = record.get("trials") == task.trials and (
+        record.get("demo_force", False) == task.demo_force
+    )
+    return "done" if same and learned_alike else "stale"
 
 
 @dc.dataclass
@@ -297,6 +307,7 @@ def library_record(spec: LibrarySpec, tasks: list, errors: dict) -> dict:
         "library_file": str(spec.path.resolve()),
         "set": dict(spec.config.set),
         "trials": spec.config.trials,
+        "demo_force": spec.config.demo_force,
         "parameters": list(spec.parameters),
         "skills": skills,
         "not_learned": not_learned,
