@@ -263,7 +263,8 @@ def plan_library_tasks(spec: LibrarySpec, out_dir: str | Path) -> list[LibraryTa
         loader found) or two skills whose ids collide.
     """
     config = spec.config
-    tasks, seen = [], set()
+    tasks: list[LibraryTask] = []
+    seen: set[str] = set()
     for point in itertools.product(*config.grid.values()):
         texts = dict(zip(config.grid, point))
         overrides = [f"{k}={v}" for k, v in config.set.items()]
