@@ -663,11 +663,17 @@ def cmd_generalize(args):
         else f"the nearest skill ({prediction.nearest})"
     )
     print(f"skill at {where} by {how} -> {args.out}")
+    scales = library.length_scales() if prediction.std is not None else {}
     for field, std in (prediction.std or {}).items():
         mean = prediction.mean[field]
+        reach = ", ".join(
+            f"{key.rsplit('.', 1)[-1]} {scale:.3g}"
+            for key, scale in zip(library.parameters, scales[field])
+        )
         print(
             f"  {field}: |weights| max {np.max(np.abs(mean)):.3g}, predictive std mean "
-            f"{np.mean(std):.3g}, max {np.max(std):.3g} (saved as std_{field})"
+            f"{np.mean(std):.3g}, max {np.max(std):.3g} (saved as std_{field}); length "
+            f"scales {reach}"
         )
     uses = " ".join(f"--set {shlex.quote(o)}" for o in library.overrides(query))
     print(f"use it with: --skill {shlex.quote(str(args.out))} {uses}")

@@ -4,6 +4,7 @@ task parameters, its standard deviation grows away from the data, nearest picks 
 nearest skill, a query is checked (each refusal exit 2, one line), and the written skill
 records the world of the query, so `learn --skill` with those --set values accepts it."""
 
+import dataclasses
 import json
 
 import numpy as np
@@ -163,32 +164,30 @@ def test_the_written_skill_loads_and_records_the_querys_world(tmp_path):
     assert f"--set {DEPTH}=0.01125" in result.stdout
 
 
-def test_a_prediction_that_is_only_the_librarys_mean_says_so(tmp_path):
-    """Four skills whose weights are noise in the task parameters: at the grid's middle the
-    regression gives their mean, and says so; a smooth library's prediction says nothing."""
-    rng = np.random.default_rng(0)
-    (tmp_path / "noisy").mkdir()
-    (tmp_path / "smooth").mkdir()
-    noisy = SkillLibrary.load(
-        write_library(
-            tmp_path / "noisy",
-            [0.010, 0.015],
-            [60.0, 120.0],
-            function=lambda depth, friction: 5.0 + rng.normal(0.0, 1.0, (3, 10)),
-        )
-    )
-    skill, prediction, notes = noisy.generalize({DEPTH: 0.0125, FRICTION: 90.0})
-    np.testing.assert_allclose(
-        skill.theta_v, np.mean([s.theta_v for s in noisy.skills], axis=0), atol=1e-12
-    )
-    assert notes == [
-        "the skill is the library's mean: the query is beyond the reach of every library "
-        "skill as the fitted kernels see it (their length scales; too few skills, or skills "
-        "that vary as noise with the task parameters); a denser library, or --method "
-        f"nearest for skill {prediction.nearest}"
-    ]
-    smooth_library = SkillLibrary.load(write_library(tmp_path / "smooth", *GRID))
-    assert smooth_library.generalize({DEPTH: 0.0125, FRICTION: 90.0})[2] == []
+def test_a_library_over_the_skills_tau_regresses_it(tmp_path):
+    """A library whose grid varies reference.duration_s: each skill is saved at the tau it
+    learned at, and the skill at a query between two has the tau between them."""
+    folder = write_library(tmp_path, *GRID)
+    for k, path in enumerate(sorted((folder / "skills").glob("*/skill.npz"))):
+        skill = load_skill(path)
+        slower = dataclasses.replace(skill.dmp, tau=6.0 + 0.5 * (k // 3))  # by depth
+        save_skill(path, dataclasses.replace(skill, dmp=slower))
+    library = SkillLibrary.load(folder)
+    assert "tau" in library.fields
+    skill, _, _ = library.generalize({DEPTH: 0.01125, FRICTION: 90.0})
+    assert 6.0 < skill.dmp.tau < 6.5 and isinstance(skill.dmp.tau, float)
+
+
+def test_generalize_prints_the_length_scales(tmp_path):
+    folder = write_library(tmp_path, *GRID)
+    result = run_cli(
+        "generalize", folder, "--query", f"{DEPTH}=0.01125", "--query", f"{FRICTION}=90",
+        "--out", tmp_path / "s.npz",
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    lines = [line for line in result.stdout.splitlines() if line.startswith("  theta_v:")]
+    assert len(lines) == 1 and "; length scales depth_m " in lines[0]
+    assert ", hole_friction_N_per_m " in lines[0]
 
 
 @pytest.mark.parametrize(

@@ -52,9 +52,10 @@ KERNEL_DESCRIPTION = (
     "inputs) + WhiteKernel; hyperparameters by maximum marginal likelihood"
 )
 # The skill's arrays a library regresses: the learned profiles always, the DMP's where
-# the library's skills differ (a query that moves the goal).
+# the library's skills differ (a query that moves the goal, or its tau: a skill is saved
+# at the tau it learned at, e.g. a grid over reference.duration_s).
 PROFILE_FIELDS = ("theta_k", "theta_d", "theta_v")
-DMP_FIELDS = ("theta_p", "start", "goal", "amplitude")
+DMP_FIELDS = ("theta_p", "start", "goal", "amplitude", "tau")
 
 
 @dc.dataclass(frozen=True)
@@ -229,6 +230,20 @@ class SkillLibrary:
         """
         return {field: str(model.kernel_) for field, model in (self._models or {}).items()}
 
+    def length_scales(self) -> dict:
+        """The fitted RBF length scale of each regressed field, per task parameter, on the
+        [0, 1]-normalised range (after `fit`): how far a skill's influence reaches (at
+        the bounds 0.1 or 100: none beyond the skill itself, or the same everywhere).
+
+        Returns
+        -------
+        dict of str to (P,) array
+        """
+        return {
+            field: np.broadcast_to(model.kernel_.k1.k2.length_scale, (len(self.parameters),))
+            for field, model in (self._models or {}).items()
+        }
+
     def query_vector(self, query: Mapping[str, float], extrapolate: bool = False) -> tuple:
         """Check a query against the library and order its values as `parameters`.
 
@@ -339,15 +354,10 @@ class SkillLibrary:
         """
         _, notes = self.query_vector(query, extrapolate)
         prediction = self.predict(query, method)
-        if method == "regression" and self._predicts_the_mean(prediction):
-            notes.append(
-                "the skill is the library's mean: the query is beyond the reach of every "
-                "library skill as the fitted kernels see it (their length scales; too few "
-                "skills, or skills that vary as noise with the task parameters); a denser "
-                f"library, or --method nearest for skill {prediction.nearest}"
-            )
         base = self.skills[0]
         dmp_arrays = {f: prediction.mean[f] for f in DMP_FIELDS if f in prediction.mean}
+        if "tau" in dmp_arrays:
+            dmp_arrays["tau"] = float(dmp_arrays["tau"])
         dmp = dc.replace(base.dmp, **dmp_arrays) if dmp_arrays else base.dmp
         try:
             scenario, _ = load_scenario(self._scenario(), self.overrides(query))
@@ -367,19 +377,6 @@ class SkillLibrary:
             demo_force=self._demonstration_force(),
         )
         return skill, prediction, notes
-
-    def _predicts_the_mean(self, prediction: Prediction) -> bool:
-        """Whether every regressed field's prediction is the library's mean of it (to
-        rounding): the fitted kernels found nothing but noise to regress."""
-        return all(
-            np.allclose(
-                prediction.mean[field],
-                np.mean([_array(skill, field) for skill in self.skills], axis=0),
-                rtol=1e-9,
-                atol=1e-12,
-            )
-            for field in self.fields
-        )
 
     def _demonstration_force(self) -> np.ndarray | None:
         """The force of the demonstration the library's skills were learned from (their
@@ -471,7 +468,9 @@ def _require_sklearn() -> None:
 
 
 def _array(skill: Skill, field: str) -> np.ndarray:
-    return getattr(skill, field) if field in PROFILE_FIELDS else getattr(skill.dmp, field)
+    return np.asarray(
+        getattr(skill, field) if field in PROFILE_FIELDS else getattr(skill.dmp, field)
+    )
 
 
 def _varies(arrays: list) -> bool:
@@ -479,18 +478,17 @@ def _varies(arrays: list) -> bool:
 
 
 def _check_same_dmp(skills: list, path: Path) -> None:
-    """The skills' DMPs must share what is not regressed: settings, tau, axes, scaling."""
+    """The skills' DMPs must share what is not regressed: settings, axes, scaling."""
     first = skills[0].dmp
     for skill in skills[1:]:
         dmp = skill.dmp
         same = (
             dmp.settings == first.settings
-            and dmp.tau == first.tau
             and dmp.axis_names == first.axis_names
             and np.array_equal(dmp.goal_scaled, first.goal_scaled)
         )
         if not same:
             raise InputError(
-                f"{path}: the skills' DMPs differ in their basis, duration or axes, which "
-                "cannot be regressed (learn every skill from one demonstration's DMP settings)"
+                f"{path}: the skills' DMPs differ in their basis or axes, which cannot be "
+                "regressed (learn every skill from one demonstration's DMP settings)"
             )
