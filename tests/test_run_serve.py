@@ -344,8 +344,9 @@ def test_statuses_whose_stamp_stops_advancing_stop_the_commands():
     assert client.status == STOPPED
     assert time.perf_counter() - start < 0.2
     assert client.stopped_because == (
-        "the driver's statuses kept coming but stayed at utime 0 for 50 ms from t = 0.000 s: "
-        "it takes no command on IIWA_COMMAND (iiwa_driver.command_channel)?"
+        "the driver's statuses kept coming but none newer than utime 0 for 50 ms from t = "
+        "0.000 s: it takes no command on IIWA_COMMAND (iiwa_driver.command_channel), or it "
+        "restarted?"
     )
 
 

@@ -1094,7 +1094,12 @@ class IiwaDriverConfig:
         The wait after the first status before the first command [s], > 0. Default 0.3.
     stale_status_s : float
         The longest time without a status [s], > 0, before the client stops commanding
-        (once statuses have come). Default 0.05.
+        (once statuses have come); also without a status newer than the last (at least
+        10 of them) from the first command on. Default 0.05.
+    stale_wrench_s : float
+        With `force_source` "wrist_sensor": the longest time without a wrench [s], > 0,
+        before the client stops commanding (the contact force can no longer be
+        checked); raise it for a sensor that publishes slower than 20 Hz. Default 0.05.
     first_status_timeout_s : float
         How long the client waits for the first status [s], > 0, before it stops (is the
         driver running?). Default 30.
@@ -1142,6 +1147,7 @@ class IiwaDriverConfig:
     period_s: float = 0.001
     start_guard_s: float = 0.3
     stale_status_s: float = 0.05
+    stale_wrench_s: float = 0.05
     first_status_timeout_s: float = 30.0
     start_tolerance_rad: float = 0.05
     force_source: str = "wrist_sensor"
@@ -1180,6 +1186,7 @@ class IiwaDriverConfig:
             "period_s",
             "start_guard_s",
             "stale_status_s",
+            "stale_wrench_s",
             "first_status_timeout_s",
             "start_tolerance_rad",
         ):

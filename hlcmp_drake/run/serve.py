@@ -411,9 +411,10 @@ class TorqueClient:
             return False
         self.stop(
             STOPPED,
-            f"the driver's statuses kept coming but stayed at utime {self._newest_stamp} "
-            f"for {stale * 1000:.0f} ms from t = {self.served_time():.3f} s: it takes no "
-            f"command on {self.config.command_channel} (iiwa_driver.command_channel)?",
+            f"the driver's statuses kept coming but none newer than utime "
+            f"{self._newest_stamp} for {stale * 1000:.0f} ms from t = "
+            f"{self.served_time():.3f} s: it takes no command on "
+            f"{self.config.command_channel} (iiwa_driver.command_channel), or it restarted?",
         )
         return True
 
@@ -572,10 +573,6 @@ class TorqueClient:
         """The run's safety checks (`arm_check` and the plant-state check) on this tick;
         False, and the client stopped, at a problem. Keeps the wrist wrench for the log."""
         self._force_world, self._torque_tool = self._wrist_wrench(status)
-        quiet = self._wrench_stale()
-        if quiet is not None:  # a sensor gone quiet, as a driver gone quiet: stopped
-            self.stop(STOPPED, f"{quiet} at t = {t:.3f} s")
-            return False
         problem = self._state_check(state)
         if problem is None and not np.all(np.isfinite(command)):
             problem = "a non-finite torque command"
@@ -589,12 +586,16 @@ class TorqueClient:
         )
         if problem is not None:
             self.stop(UNSAFE, f"{problem} at t = {t:.3f} s")
-        return problem is None
+            return False
+        quiet = self._wrench_stale()
+        if quiet is not None:  # a sensor gone quiet, as a driver gone quiet: stopped
+            self.stop(STOPPED, f"{quiet} at t = {t:.3f} s")
+        return quiet is None
 
     def _wrench_stale(self) -> str | None:
-        """Why the wrist wrench cannot be checked: none for `stale_status_s` from the
+        """Why the wrist wrench cannot be checked: none for `stale_wrench_s` from the
         wrist sensor (the force source), which went quiet."""
-        stale = self.config.stale_status_s
+        stale = self.config.stale_wrench_s
         if self.config.force_source != "wrist_sensor" or (
             self._wrist_wall is not None and time.perf_counter() - self._wrist_wall <= stale
         ):
@@ -847,14 +848,18 @@ def interruptible(client: TorqueClient) -> Iterator[None]:
     command: on an arm it is how a run is stopped, and what was served up to then is
     written. The handler only marks the client stopped, so the loop ends between two ticks
     and no log is left half-appended. Elsewhere than in the main thread, where Python
-    takes no signal handler, Ctrl-C ends the command as usual.
+    takes no signal handler, Ctrl-C ends the command as usual; where SIGINT is ignored (a
+    process started in the background by a script) it stays ignored.
 
     Parameters
     ----------
     client : TorqueClient
         The client Ctrl-C stops.
     """
-    if threading.current_thread() is not threading.main_thread():
+    if (
+        threading.current_thread() is not threading.main_thread()
+        or signal.getsignal(signal.SIGINT) is signal.SIG_IGN  # started with `&`: not ours
+    ):
         yield
         return
 
@@ -1010,7 +1015,7 @@ def serve_scenario(
         with realtime_scheduling(served_priority(scenario.iiwa_driver, lcm_url)):
             serve(client, lcm, lcm_url, reporter)
     served = {
-        "skill": None if skill_path is None else str(skill_path),
+        "skill": None if skill_path is None else str(Path(skill_path).resolve()),
         "adaptation": "frozen" if freeze else "on" if client.law.learns else "none",
         "overrides": [str(override) for override in overrides],
     }
