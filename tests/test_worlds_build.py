@@ -127,3 +127,25 @@ def test_a_label_the_scenario_does_not_have_is_named_with_the_labels_it_has():
     assert str(error.value) == (
         "no controller 'hlcmpp' (the scenario has: " + ", ".join(scenario.controllers) + ")"
     )
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (
+            lambda s: setattr(s.controllers["hlcmp"], "gain_l", [-10.0, -10.0, -10.0]),
+            "controllers.hlcmp.gain_l: controller 'hlcmp': every value must be non-negative",
+        ),
+        (  # built, Drake's Integrator asserted its size and ended the process
+            lambda s: setattr(s.controllers["hlcmp"], "q_k", [300.0, 300.0]),
+            "controllers.hlcmp.q_k: controller 'hlcmp' needs 3 value(s), one per axis, got 2",
+        ),
+        (lambda s: setattr(s, "duration_s", -1.0), "duration_s: must be finite and > 0"),
+    ],
+)
+def test_a_scenario_changed_in_python_is_checked_as_a_loaded_one(change, message):
+    scenario, _ = load_scenario("insertion", ["duration_s=2"])
+    change(scenario)
+    with pytest.raises(InputError) as error:
+        diagram_factory(scenario)
+    assert str(error.value).startswith(f"scenario 'insertion': {message}")

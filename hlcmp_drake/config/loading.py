@@ -628,6 +628,29 @@ def _load_text(
     return scenario
 
 
+def check_scenario(scenario: Scenario) -> None:
+    """The checks `load_scenario` makes, again, on a scenario changed in Python since it was
+    loaded (a field set, a controller replaced): a value it would refuse is refused here
+    too, before a diagram is built, rather than built into a run (a negative gain) or into
+    a Drake assertion that ends the process (a vector of the wrong length).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        As `load_scenario` returned it, maybe changed since (its demonstration's file
+        resolved).
+
+    Raises
+    ------
+    InputError
+        "scenario 'NAME': KEY: PROBLEM" for the first problem found.
+    """
+    found = _first_problem(scenario, Path.cwd(), None)
+    if found is not None:
+        key, problem = found
+        raise InputError(f"scenario '{scenario.name}': {key}: {problem}")
+
+
 def _overridden(scenario: Scenario, label: str, key: str, value: str) -> Scenario:
     """`scenario` with one override applied; InputError naming the override when it names
     no field, or its value has the wrong shape or does not load."""

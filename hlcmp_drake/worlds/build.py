@@ -13,6 +13,7 @@ from __future__ import annotations
 import dataclasses as dc
 from typing import Any, Callable
 
+from hlcmp_drake.config.loading import check_scenario
 from hlcmp_drake.config.scenario import ArmTask, Scenario, SliderTask
 from hlcmp_drake.core.dmp import Dmp
 from hlcmp_drake.core.orientation_dmp import OrientationDmp
@@ -136,8 +137,11 @@ def diagram_factory(
     Raises
     ------
     InputError
-        From the world's preparation (the demonstration, the models, the inverse kinematics).
+        For a value `load_scenario` would refuse (`check_scenario`: the scenario may have
+        been changed in Python since it was loaded), or from the world's preparation (the
+        demonstration, the models, the inverse kinematics).
     """
+    check_scenario(scenario)
     world = world_of(scenario)
     setup = world.prepare(scenario, dmp, orientation_dmp)
 
