@@ -377,6 +377,11 @@ grid:
         ("series: hlcmp/Kss", "series 'hlcmp/Kss': hlcmp logs no 'Kss' (x, xd, f_ext"),
         ("series: vic_fd_0.5/x", "no controller 'vic_fd_0.5' runs in the tasks (hlcmp)"),
         ("{series: hlcmp/x, column: 1}", "column 1: hlcmp/x has 1 column(s)"),
+        (
+            "{series: hlcmp/Ks, reduce: max, window_s: [2.0, 3.0]}",
+            "window_s [2.0, 3.0] begins after every task's run has ended (the longest lasts "
+            "0.1 s): nothing to reduce",
+        ),
     ],
 )
 def test_a_metric_no_task_will_write_stops_the_sweep_before_the_first_task(

@@ -296,10 +296,20 @@ def check_metrics(plan: SweepPlan) -> None:
     if not plan.sweep.config.metrics or not plan.tasks:
         return
     kinds = {}
+    longest = 0.0  # the longest task's run [s]
     for task in plan.tasks:  # one short run per set of controller kinds
         scenario = load_scenario_text(task.scenario_yaml, task.scenario_path)
         key = tuple((label, type(scenario.controllers[label])) for label in task.controllers)
         kinds.setdefault(key, task)
+        longest = max(longest, scenario.duration_s)
+    for index, metric in enumerate(plan.sweep.config.metrics):
+        if metric.series and metric.window_s and metric.window_s[0] >= longest:
+            raise located(
+                plan.sweep.path,
+                metric_line(plan.sweep, index),
+                f"metrics: entry {index + 1}: window_s {metric.window_s} begins after every "
+                f"task's run has ended (the longest lasts {longest:g} s): nothing to reduce",
+            )
     found = [task_outputs(task) for task in kinds.values()]
     for index, metric in enumerate(plan.sweep.config.metrics):
         problems = [
