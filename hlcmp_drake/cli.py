@@ -302,7 +302,7 @@ def cmd_probe(args):
         f"{readings['residual_force_N']:.2f} N, "
         f"max lateral {readings['max_lateral_force_N']:.3f} N; {readings['status']}"
     )
-    print(f"probe.json, probe.png in {result.out_dir}")
+    print(f"probe.json, probe.png, probe.npz in {result.out_dir}")
     if readings["status"] == "ok" and not result.touched:
         _warn(
             "the tool touched nothing: no force along the whole path, so the probe measured "

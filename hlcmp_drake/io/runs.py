@@ -23,7 +23,9 @@ class RunResult:
         Log sample times [s].
     series : dict of str to (T, k) arrays
         The logged series: "x", "xd", "f_ext", "fc", "plant_state", "saturated_joints",
-        and for a learning controller "Ks", "Kd", "v", "u", "eps".
+        in an arm world "tau_ext" (the wrist torque about the tool point, tool frame),
+        and for a learning controller "Ks", "Kd", "v", "u", "eps" (a 6-D controller's
+        rotational ones besides).
     status : str
         "ok", or "unstable" when the run was stopped (see `reason`, `stop_time`).
     reason : str
