@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 import pytest
-from conftest import DEMO_CSV, one_line_error, run_cli, tilted_turn
+from conftest import DEMO_CSV, REPO_ROOT, one_line_error, run_cli, tilted_turn
 
 from hlcmp_drake.core import quaternion as quat
 from hlcmp_drake.io.demos import read_demonstration
@@ -438,3 +438,33 @@ def test_pose_inputs_refused_with_one_line(tmp_path, smooth_demo):
         )
         assert problem in line
     assert not (tmp_path / "t.csv").exists()
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (
+            ["run", "diagrams/sweeps/tiny.yaml"],
+            "a sweep file (its keys labels, metrics), not a scenario file: give it to hlcmp sweep",
+        ),
+        (
+            ["sweep", "diagrams/one_dof.yaml", "--dry-run"],
+            "a scenario file (its keys directives, plant_config, simulator_config, task), not a "
+            "sweep file: give it to hlcmp run",
+        ),
+        (
+            ["library", "diagrams/sweeps/tiny.yaml", "--out", "L"],
+            "a sweep file (its keys labels, metrics), not a library file: give it to hlcmp sweep",
+        ),
+        (
+            ["sweep", "diagrams/libraries/insertion.yaml", "--dry-run"],
+            "a library file (its key trials), not a sweep file: give it to hlcmp library",
+        ),
+    ],
+)
+def test_a_file_of_another_kind_is_named_as_such(tmp_path, args, message):
+    args = [str(REPO_ROOT / a) if a.startswith("diagrams/") else a for a in args]
+    args = [str(tmp_path / a) if a == "L" else a for a in args]
+    result = run_cli(*args)
+    assert result.returncode == 2 and result.stderr.strip().endswith(message), result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1

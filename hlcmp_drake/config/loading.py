@@ -591,6 +591,7 @@ def _load_text(
 ) -> Scenario:
     """`load_scenario` after the files are read: parse, layer the variant, override,
     validate, resolve."""
+    check_file_kind(path, text, "scenario")
     for file, content in [(path, text), *([variant] if variant else [])]:
         if not _has_content(content):
             raise InputError(f"{file}: holds no YAML (it is empty or only comments)")
@@ -649,6 +650,45 @@ def check_scenario(scenario: Scenario) -> None:
     if found is not None:
         key, problem = found
         raise InputError(f"scenario '{scenario.name}': {key}: {problem}")
+
+
+# The top-level keys that only one kind of the project's YAML files has, and the command
+# that takes that kind.
+FILE_KINDS = {
+    "scenario": ({"directives", "plant_config", "simulator_config", "task"}, "hlcmp run"),
+    "sweep": ({"metrics", "cases", "repetitions", "labels"}, "hlcmp sweep"),
+    "library": ({"trials", "demo_force"}, "hlcmp library"),
+}
+
+
+def check_file_kind(path: Path, text: str, kind: str) -> None:
+    """Refuse a YAML file of another kind than `kind` (a sweep given to `hlcmp run`, a
+    scenario given to `hlcmp sweep`), told by the top-level keys only that kind has,
+    before its keys are read as the wrong schema's.
+
+    Parameters
+    ----------
+    path : Path
+    text : str
+        The file's text.
+    kind : str
+        A key of FILE_KINDS: what the command takes.
+
+    Raises
+    ------
+    InputError
+        "FILE: a sweep file (its keys labels, metrics), not a scenario file: give it to
+        hlcmp sweep".
+    """
+    keys = set(re.findall(r"^([A-Za-z_]\w*)[ \t]*:", text, flags=re.MULTILINE))
+    for other, (marks, command) in FILE_KINDS.items():
+        found = sorted(keys & marks)
+        if other != kind and found and not keys & FILE_KINDS[kind][0]:
+            raise InputError(
+                f"{path}: a {other} file (its key{'s' * (len(found) > 1)} {', '.join(found)}), "
+                f"not a {kind} file: "
+                f"give it to {command}"
+            )
 
 
 def _overridden(scenario: Scenario, label: str, key: str, value: str) -> Scenario:

@@ -42,6 +42,7 @@ import yaml
 from pydrake.common.yaml import yaml_load_typed
 
 from hlcmp_drake.config.loading import (
+    check_file_kind,
     check_unique_keys,
     dump_scenario,
     line_of,
@@ -377,6 +378,7 @@ def read_typed_file(path: Path, schema: type) -> tuple:
         )
         raise located(path, line, problem)
 
+    check_file_kind(path, text, schema.__name__.removesuffix("Config").lower())
     check_unique_keys(path, text)
     try:
         raw = yaml.safe_load(text)
