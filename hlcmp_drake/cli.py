@@ -522,9 +522,8 @@ def cmd_serve(args):
     else:  # one line on stderr says why, as for every other failure
         print(f"hlcmp serve: {record['status']}: {record['stopped_because']}", file=sys.stderr)
     print(f"serve.json, metrics.json{served} in {result.out_dir}")
-    if record["status"] in ("degraded", "interrupted"):
-        return EXIT_DEGRADED if record["status"] == "degraded" else EXIT_INTERRUPTED
-    return 0 if record["status"] == "ok" else EXIT_UNSTABLE
+    exits = {"ok": 0, "degraded": EXIT_DEGRADED, "interrupted": EXIT_INTERRUPTED}
+    return exits.get(record["status"], EXIT_UNSTABLE)  # stopped or unstable: 3
 
 
 def cmd_sim_driver(args):

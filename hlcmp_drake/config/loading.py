@@ -684,9 +684,9 @@ def check_file_kind(path: Path, text: str, kind: str) -> None:
     for other, (marks, command) in FILE_KINDS.items():
         found = sorted(keys & marks)
         if other != kind and found and not keys & FILE_KINDS[kind][0]:
+            keys_named = f"key{'s' * (len(found) > 1)} {', '.join(found)}"
             raise InputError(
-                f"{path}: a {other} file (its key{'s' * (len(found) > 1)} {', '.join(found)}), "
-                f"not a {kind} file: "
+                f"{path}: a {other} file (its {keys_named}), not a {kind} file: "
                 f"give it to {command}"
             )
 
