@@ -8,6 +8,7 @@ current phase.
 import numpy as np
 
 from hlcmp_drake.core.kernels import jitable
+from hlcmp_drake.core.small_linalg import matmul
 
 
 @jitable
@@ -29,7 +30,7 @@ def compliant_profiles(
     k_s, k_d, v : (M,) arrays
         Diagonals of K_s [N/m] and K_d [N s/m], and the feed-forward force v [N].
     """
-    return theta_k @ g, theta_d @ g, theta_v @ g
+    return matmul(theta_k, g), matmul(theta_d, g), matmul(theta_v, g)
 
 
 @jitable

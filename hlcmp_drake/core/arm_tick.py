@@ -23,6 +23,7 @@ from hlcmp_drake.core.operational_space import (
     polarized_coriolis,
     task_joint_torque,
 )
+from hlcmp_drake.core.small_linalg import matmul
 
 
 @jitable
@@ -87,11 +88,11 @@ def arm_tick_start(
     m = position.shape[0]
     jacobian = np.ascontiguousarray(spatial_jacobian[first_row : first_row + m])
     inertia, jbar, gravity, null_space = operational_space_terms(mass, jacobian, joint_gravity)
-    xdot = jacobian @ velocities
+    xdot = matmul(jacobian, velocities)
     motion = impedance_motion(position, xdot, xd, xd_dot, xd_ddot, pi)
     return np.concatenate(
         (
-            jbar @ motion[3 * m : 4 * m],
+            matmul(jbar, motion[3 * m : 4 * m]),
             xdot,
             inertia.ravel(),
             jbar.ravel(),

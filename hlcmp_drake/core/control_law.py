@@ -8,6 +8,7 @@ function is `jitable`: numba compiles it into the tick's kernels (`core.kernels`
 import numpy as np
 
 from hlcmp_drake.core.kernels import jitable
+from hlcmp_drake.core.small_linalg import matmul
 
 
 @jitable
@@ -125,7 +126,7 @@ def nominal_force(
     f0 : (M,) array
         Nominal force [N].
     """
-    return inertia @ xe_ddot + coriolis_term + gravity - gain_l * eps
+    return matmul(inertia, xe_ddot) + coriolis_term + gravity - gain_l * eps
 
 
 @jitable

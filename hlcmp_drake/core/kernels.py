@@ -8,7 +8,9 @@ it is the function itself, unchanged (the numpy path); called from a compiled fu
 numba compiles it inline. `implementation` gives a composed function (a law's command, the
 task-space terms) as the one or the other, so both paths run the same source and a tick
 makes a handful of compiled calls instead of about 80 numpy operations on 3- and
-7-vectors.
+7-vectors. A few operations, not equations, have a second implementation for the compiled
+path (`compiled_by`): `small_linalg`'s products and solves as plain loops, where numba's
+BLAS and LAPACK calls cost more than the arithmetic of a 7x7 system.
 
 Which path: `kernel_path` -- the one asked for, else the environment variable
 ``HLCMP_KERNEL`` (``compiled`` or ``numpy``), else compiled when numba imports. numba is
@@ -39,6 +41,7 @@ CORE_DIR = Path(__file__).parent
 F = TypeVar("F", bound=Callable)
 _compiled: dict[Callable, Callable] = {}
 _jitable: list[Callable] = []  # marked, not yet registered with numba
+_compiled_by: list[tuple[Callable, Callable]] = []  # (function, numba typing), not yet registered
 _numba: list[Any] = []  # the numba module once imported, or None where it cannot be
 
 
@@ -62,11 +65,40 @@ def jitable(func: F) -> F:
     return func
 
 
+def compiled_by(typing: Callable) -> Callable[[F], F]:
+    """Mark a numpy helper whose compiled path is another implementation of the same
+    operation (not an equation: a dense solve, say), for where numba's own compilation of
+    the numpy call is slow; Python callers get the function itself, unchanged.
+
+    Parameters
+    ----------
+    typing : callable
+        Called by numba with the arguments' numba types (same parameters as the marked
+        function); returns the plain-loop function numba compiles in its place.
+
+    Returns
+    -------
+    callable
+        The decorator.
+    """
+
+    def mark(func: F) -> F:
+        _compiled_by.append((func, typing))
+        if _numba and _numba[0] is not None:
+            _register_marked()
+        return func
+
+    return mark
+
+
 def _register_marked() -> None:
-    from numba.extending import register_jitable
+    from numba.extending import overload, register_jitable
 
     while _jitable:
         register_jitable(_jitable.pop())
+    while _compiled_by:
+        func, typing = _compiled_by.pop()
+        overload(func)(typing)
 
 
 def numba_available() -> bool:

@@ -10,6 +10,7 @@ import numpy as np
 
 from hlcmp_drake.core.kernels import jitable
 from hlcmp_drake.core.quaternion import cross
+from hlcmp_drake.core.small_linalg import inverse, matmul, solve
 from hlcmp_drake.core.task_inertia import conditioned_task_inertia
 
 
@@ -40,8 +41,8 @@ def operational_space_terms(
     null_space : (nv, nv) array
         N^T [-].
     """
-    minv_jt = np.linalg.solve(mass, jacobian.T)
-    inertia = np.linalg.inv(jacobian @ minv_jt)
+    minv_jt = solve(mass, jacobian.T)
+    inertia = inverse(matmul(jacobian, minv_jt))
     jbar, gravity, null_space = dynamically_consistent_terms(
         minv_jt, inertia, jacobian, joint_gravity
     )
@@ -75,9 +76,9 @@ def dynamically_consistent_terms(
     null_space : (nv, nv) array
         N^T [-].
     """
-    jbar = minv_jt @ inertia
-    null_space = np.eye(jacobian.shape[1]) - jacobian.T @ jbar.T
-    return jbar, jbar.T @ joint_gravity, null_space
+    jbar = matmul(minv_jt, inertia)
+    null_space = np.eye(jacobian.shape[1]) - matmul(jacobian.T, jbar.T)
+    return jbar, matmul(jbar.T, joint_gravity), null_space
 
 
 @jitable
@@ -105,7 +106,7 @@ def spatial_operational_space_terms(
     floored : int
         The eigenvalues raised to the floor.
     """
-    minv_jt = np.linalg.solve(mass, jacobian.T)
+    minv_jt = solve(mass, jacobian.T)
     inertia, floored = conditioned_task_inertia(jacobian @ minv_jt, 2, floor)
     jbar, gravity, null_space = dynamically_consistent_terms(
         minv_jt, inertia, jacobian, joint_gravity
@@ -142,7 +143,9 @@ def polarized_coriolis(
     (M,) array
         C_x w [N].
     """
-    return (jbar.T @ (bias_plus - bias_minus) - inertia @ (accel_plus - accel_minus)) / 4.0
+    return (
+        matmul(jbar.T, bias_plus - bias_minus) - matmul(inertia, accel_plus - accel_minus)
+    ) / 4.0
 
 
 @jitable
@@ -308,13 +311,14 @@ def below_task_torque(
         τ_0 [N m].
     """
     moment = -orientation_stiffness * rotation_vector(
-        rotation @ desired_inverse
-    ) - orientation_damping * (angular_jacobian @ velocities)
-    return projector @ (
+        matmul(rotation, desired_inverse)
+    ) - orientation_damping * matmul(angular_jacobian, velocities)
+    return matmul(
+        projector,
         joint_gravity
-        + angular_jacobian.T @ moment
+        + matmul(angular_jacobian.T, moment)
         - posture_stiffness * (positions - nominal_positions)
-        - posture_damping * velocities
+        - posture_damping * velocities,
     )
 
 
@@ -366,4 +370,4 @@ def task_joint_torque(
     saturated : int
         The number of joints at their limit.
     """
-    return saturate(jacobian.T @ force + below_task, limits)
+    return saturate(matmul(jacobian.T, force) + below_task, limits)

@@ -1,0 +1,72 @@
+"""hlcmp_drake.core.small_linalg: the compiled path's loops give numpy's solve, inverse and
+product to 1e-12 (the tick's sizes and a few others, well and badly conditioned), and a
+singular matrix is refused on both paths."""
+
+import numpy as np
+import pytest
+
+from hlcmp_drake.core.kernels import numba_available
+from hlcmp_drake.core.small_linalg import inverse, matmul, solve
+
+needs_numba = pytest.mark.skipif(not numba_available(), reason="numba is not installed")
+
+
+def compiled_calls():
+    """solve (vector and matrix right-hand sides), inverse and matmul (matrix and vector),
+    as a compiled caller sees them."""
+    import numba
+
+    @numba.njit
+    def calls(matrix, vector, columns, wide):
+        return (
+            solve(matrix, vector),
+            solve(matrix, columns),
+            inverse(matrix),
+            matmul(wide, columns),
+            matmul(wide, vector),
+        )
+
+    return calls
+
+
+def mass_like(rng, n, condition):
+    """A symmetric positive definite matrix with eigenvalues from 1 to `condition`."""
+    q, _ = np.linalg.qr(rng.normal(size=(n, n)))
+    return (q * np.geomspace(1.0, condition, n)) @ q.T
+
+
+@needs_numba
+@pytest.mark.parametrize("n", [1, 3, 6, 7])
+@pytest.mark.parametrize("condition", [1.0, 1e4])
+def test_compiled_loops_agree_with_numpy(n, condition):
+    calls, rng = compiled_calls(), np.random.default_rng(n)
+    for matrix in (mass_like(rng, n, condition), rng.normal(size=(n, n)) + n * np.eye(n)):
+        vector, columns = rng.normal(size=n), rng.normal(size=(3, n)).T  # a transposed view
+        wide = rng.normal(size=(4, n))
+        expected = (
+            np.linalg.solve(matrix, vector),
+            np.linalg.solve(matrix, columns),
+            np.linalg.inv(matrix),
+            wide @ columns,
+            wide @ vector,
+        )
+        for got, want in zip(calls(matrix, vector, columns, wide), expected):
+            scale = max(1.0, float(np.max(np.abs(want))))
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * condition * scale)
+
+
+@needs_numba
+def test_a_pivot_is_taken_where_the_diagonal_is_zero():
+    matrix = np.array([[0.0, 2.0], [3.0, 1.0]])
+    solution = compiled_calls()(matrix, np.array([4.0, 5.0]), np.eye(2), np.eye(2))[0]
+    np.testing.assert_allclose(solution, [1.0, 2.0], rtol=0, atol=1e-15)
+
+
+@pytest.mark.parametrize("compiled", [False, pytest.param(True, marks=needs_numba)])
+def test_a_singular_matrix_is_refused(compiled):
+    singular = np.array([[1.0, 2.0], [2.0, 4.0]])
+    with pytest.raises(np.linalg.LinAlgError):
+        if compiled:
+            compiled_calls()(singular, np.ones(2), np.eye(2), np.eye(2))
+        else:
+            inverse(singular)
