@@ -98,16 +98,20 @@ def test_readme_results_come_from_this_run(run_dir):
 
 def test_a_run_shorter_than_the_return_command_has_no_x_at_10s_and_no_verdict():
     """--set duration_s=2 ends before t = 10 s: x(10 s) is not the last value held, and C5
-    (which compares x(10 s) and the return) is not judged."""
+    (which compares x(10 s) and the return) is not judged, saying why."""
     scenario, _ = load_scenario("one_dof", ["duration_s=2"])
     t = np.linspace(0.0, 2.0, 201)
     run = SimpleNamespace(t=t, series={"x": -0.1 * t[:, None] / 2.0})
     metrics = {
-        name: one_dof.controller_metrics(run, config, scenario)
+        name: one_dof.EXPERIMENT.metrics_of(run, config, scenario)
         for name, config in scenario.controllers.items()
     }
     assert all(m["position_at_10s_m"] is None for m in metrics.values())
-    assert one_dof.claims(metrics, scenario) == {}
+    c5 = one_dof.claims(metrics, scenario)["C5"]
+    assert c5["holds"] is None and "parts" not in c5
+    assert c5["evidence"].startswith("hlcmp: ran 2.00 s, ended before the return command at 10 s;")
+    for name in ("hlcmp", "vic_fd_0.5", "vic_fd_1.5", "vic_fd_5.0"):  # the runs C5 compares
+        assert f"{name}: ran 2.00 s, ended before the return command at 10 s" in c5["evidence"]
     assert "n/a" in one_dof.table(metrics).rows[0]
 
 
@@ -132,7 +136,8 @@ def test_a_reference_of_one_step_has_no_return_and_no_verdict():
             "done": False,
             "evidence": "the reference has one step: no return command",
         }
-    assert one_dof.claims(metrics, scenario) == {}
+    c5 = one_dof.claims(metrics, scenario)["C5"]
+    assert c5["holds"] is None and "the reference has one step" in c5["evidence"]
 
 
 def test_c5s_evidence_names_the_references_own_return_time():

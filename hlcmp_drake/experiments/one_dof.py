@@ -122,8 +122,8 @@ def faster_than_force_tracking(given: ClaimInputs) -> Verdict | None:
     Returns
     -------
     Verdict or None
-        With its six parts; None when a run ends before the return command at 10 s, or
-        without a learner or a [21] run.
+        With its six parts; not judged (`holds` None) when a run ends before the return
+        command; None without a learner or a [21] run.
     """
     metrics, scenario = given.metrics, given.scenario
     depth, _, _, t_return = _segments(scenario)
@@ -132,7 +132,9 @@ def faster_than_force_tracking(given: ClaimInputs) -> Verdict | None:
         return None  # nothing to compare: C5 needs a learner and a [21] run
     hl = metrics[given.learner]
     if any(m["position_at_10s_m"] is None for m in metrics.values()):
-        return None  # a run shorter than the return command at 10 s: C5 cannot be judged
+        # A run that ended before the return command did not do the 1-DOF task
+        # (`reached_the_return`): `judge_claims` says "not judged" with its evidence.
+        return Verdict(holds=None, evidence="a run ended before the return command")
     by_force = sorted(vic, key=lambda n: sum(scenario.controllers[n].desired_force_N))
     weakest, strongest = by_force[0], by_force[-1]
     proper = min(vic, key=lambda n: abs(vic[n]["position_at_10s_m"] - depth))
@@ -185,7 +187,8 @@ CLAIMS = (C5,)
 def claims(
     metrics: dict, scenario: Scenario, runs: dict | None = None, learner_name: str | None = None
 ) -> dict:
-    """C5 (see `faster_than_force_tracking`); not judged when a run ends before 10 s.
+    """C5 (see `faster_than_force_tracking`); not judged (task not done) when a run ends
+    before the return command at 10 s.
 
     Parameters
     ----------
@@ -201,7 +204,8 @@ def claims(
     Returns
     -------
     dict
-        {"C5": {"holds", "paper_says", "parts", "evidence"}}, or {} when not judged.
+        {"C5": {"holds", "paper_says", "parts", "evidence"}} ("holds" None when not
+        judged), or {} without a learner or a [21] run.
     """
     return judge_claims(CLAIMS, metrics, scenario, runs, learner_name)
 
