@@ -230,3 +230,30 @@ def test_the_driver_channels_must_differ():
         load_scenario("insertion", ["iiwa_driver.wrist_channel=IIWA_STATUS"])
     with pytest.raises(InputError, match="command_channel: must differ from status_channel"):
         load_scenario("insertion", ["iiwa_driver.command_channel=IIWA_STATUS"])
+
+
+def test_a_copied_scenario_finds_the_bundled_demonstration_by_package_url(tmp_path):
+    """A scenario copied out of diagrams/ names the bundled demonstration as
+    package://hlcmp_drake/diagrams/demos/...; a relative path would look beside the copy."""
+    text = (DIAGRAMS_DIR / "insertion.yaml").read_text()
+    assert "file: demos/insertion_demo.csv" in text
+    copy = tmp_path / "my_insertion.yaml"
+    copy.write_text(
+        text.replace(
+            "file: demos/insertion_demo.csv",
+            "file: package://hlcmp_drake/diagrams/demos/insertion_demo.csv",
+        )
+    )
+    scenario, _ = load_scenario(copy)
+    assert INSERTION_DEMO.samefile(scenario.reference.file)
+    copy.write_text(
+        text.replace(
+            "file: demos/insertion_demo.csv", "file: package://hlcmp_drake/diagrams/demos/nope.csv"
+        )
+    )
+    with pytest.raises(
+        InputError,
+        match=r"my_insertion.yaml:\d+: file: demonstration file "
+        r"'package://hlcmp_drake/diagrams/demos/nope.csv' not found \(looked for ",
+    ):
+        load_scenario(copy)

@@ -23,7 +23,7 @@ from hlcmp_drake.config.scenario import ControllerConfig, DemonstrationConfig, S
 from hlcmp_drake.config.shapes import composed, misshapen_value
 from hlcmp_drake.config.validation import validate_scenario
 from hlcmp_drake.io.errors import InputError, located
-from hlcmp_drake.io.paths import DIAGRAMS_DIR, VARIANTS_DIR
+from hlcmp_drake.io.paths import DIAGRAMS_DIR, VARIANTS_DIR, data_file
 
 
 def resolve_yaml(name_or_path: str | Path, folder: Path, kind: str) -> Path:
@@ -625,7 +625,7 @@ def _load_text(
         source.fail(*found)
     if isinstance(scenario.reference, DemonstrationConfig):
         # Resolve the demonstration next to the scenario file, once, for every later user.
-        scenario.reference.file = str((path.parent / scenario.reference.file).resolve())
+        scenario.reference.file = str(data_file(scenario.reference.file, path.parent).resolve())
     return scenario
 
 

@@ -30,7 +30,7 @@ from hlcmp_drake.config.scenario import (
     check_number,
 )
 from hlcmp_drake.io.demos import MAX_DURATION_S
-from hlcmp_drake.io.paths import MODELS_DIR, PACKAGE_NAME
+from hlcmp_drake.io.paths import MODELS_DIR, PACKAGE_NAME, data_file
 
 # MultibodyPlantConfig's names that Drake reads as one of a list of options.
 PLANT_OPTIONS = (
@@ -202,7 +202,7 @@ def _check_reference(scenario: Scenario, folder: Path, fail: Fail) -> None:
                 f"every position must be finite, got {reference.positions_m}",
             )
     if isinstance(reference, DemonstrationConfig):
-        demo = Path(folder) / reference.file
+        demo = data_file(reference.file, Path(folder))
         if not reference.file or not demo.is_file():
             fail(
                 "reference.file",

@@ -41,6 +41,29 @@ def register_package(package_map: Any) -> None:
         package_map.AddPackageXml(str(PACKAGE_XML))
 
 
+def data_file(file: str, folder: Path) -> Path:
+    """A data file a scenario names (its demonstration): package://hlcmp_drake/PATH is
+    PATH in the bundled data (e.g. package://hlcmp_drake/diagrams/demos/insertion_demo.csv,
+    so that a copied scenario still finds the bundled demonstration), anything else a path
+    relative to `folder`, the scenario file's own (an absolute path stays as it is).
+
+    Parameters
+    ----------
+    file : str
+        As the scenario gives it.
+    folder : Path
+        The scenario file's folder.
+
+    Returns
+    -------
+    Path
+    """
+    prefix = f"package://{PACKAGE_NAME}/"
+    if file.startswith(prefix):
+        return DATA_ROOT / file[len(prefix) :]
+    return Path(folder) / file
+
+
 def bundled_scenarios() -> list[str]:
     """Names of the bundled scenarios (diagrams/NAME.yaml), sorted."""
     return sorted(p.stem for p in DIAGRAMS_DIR.glob("*.yaml"))
