@@ -78,3 +78,24 @@ def test_the_done_criterion_is_2_mm_of_the_demonstrated_depth(scenario):
         assert peg_in_hole.inserted(run, scenario)["done"] is done
     stopped = SimpleNamespace(t=t[:3], series={"x": reference[:3], "xd": reference[:3]})
     assert peg_in_hole.inserted(stopped, scenario)["done"] is False  # the reference never got in
+
+
+def test_the_tables_peak_force_is_the_norms_peak_which_p2_compares():
+    """The run's table shows max ‖f‖ (the peak of the force's norm, P2's and the sweeps'),
+    not the largest of the per-axis peaks, which may come from different instants."""
+    axes = {"x": 30.0, "y": 5.0, "z": 20.0}
+    metrics = {
+        "hlcmp_6d": {
+            "depth_reached_m": 0.0113,
+            "depth_demonstrated_m": 0.02,
+            "max_force_norm_N": 40.3,
+            "max_abs_force_N": axes,
+            "max_abs_torque_Nm": [0.05, 0.29, 0.01],
+            "mean_abs_orientation_error_rad": [0.001, 0.002, 0.001],
+            "mean_abs_position_error_m": axes,
+            "mean_abs_force_N": axes,
+            "force_smoothness_N": axes,
+        }
+    }
+    table = peg_in_hole.table(metrics)
+    assert table.rows[0][table.headers.index("max ‖f‖ [N]")] == "40.3"
