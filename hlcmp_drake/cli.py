@@ -264,10 +264,12 @@ def _print_learning(result):
     from hlcmp_drake.run.learning import trials_table
 
     _print_table(trials_table(result.metrics))
-    last = result.metrics["trials"][-1]
+    metrics = result.metrics
+    last = metrics["trials"][-1]
     task = last["task"]
     verdict = "done" if task["done"] else "NOT done"
-    print(f"task in trial {last['trial']}: {verdict} -- {task['evidence']}")
+    which = "" if metrics["command"] == "reproduce" else f" in trial {last['trial']}"
+    print(f"task{which} ({metrics['controller']}): {verdict} -- {task['evidence']}")
     if result.skill_path is not None:
         print(f"skill: {result.skill_path}")
     print(f"status: {result.metrics['status']}; results in {result.out_dir}")

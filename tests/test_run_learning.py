@@ -72,7 +72,7 @@ def test_two_trials_each_continuing_from_the_last(learned):
 
 
 @pytest.mark.slow
-def test_frozen_reproduction_keeps_the_learned_profiles(learned, short_world, tmp_path):
+def test_frozen_reproduction_keeps_the_learned_profiles(learned, short_world, tmp_path, capsys):
     out = tmp_path / "replay"
     assert (
         main(
@@ -90,6 +90,11 @@ def test_frozen_reproduction_keeps_the_learned_profiles(learned, short_world, tm
     )
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["adaptation"] == "frozen" and not (out / "skill.npz").exists()
+    assert metrics["controller"] == "hlcmp" and metrics["overrides"] == ["duration_s=4.5"]
+    task_line = next(
+        line for line in capsys.readouterr().out.splitlines() if line.startswith("task")
+    )
+    assert task_line.startswith("task (hlcmp): NOT done -- ")  # one replay: no trial number
     skill = load_skill(learned / "skill.npz")
     data = np.load(out / "timeseries.npz")
     centers, widths = basis_centers_and_widths(

@@ -721,6 +721,8 @@ def _learn_or_reproduce(
     metrics = {
         "command": command,
         "scenario": scenario.name,
+        "controller": learner(scenario),
+        "overrides": [str(override) for override in overrides],
         "world": dc.asdict(world),
         "status": "unstable" if unstable else "ok",
         "demonstration": None if demo is None else str(demo),
