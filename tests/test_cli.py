@@ -298,7 +298,7 @@ def test_the_cli_names_a_text_skill_in_one_line(tmp_path):
     )
     assert line == (
         f"hlcmp: error: {text}: not a skill file (a .npz written by hlcmp fit/learn); "
-        "this is a text file (a demonstration CSV becomes a skill with hlcmp fit)"
+        "this is a demonstration CSV (hlcmp fit makes a skill of it)"
     )
     folder = one_line_error(run_cli("rollout", tmp_path, "--out", tmp_path / "t.csv"))
     assert "is a folder, not a skill file" in folder

@@ -9,6 +9,7 @@ from conftest import DEMO_CSV, mutations
 from hlcmp_drake.core import quaternion as quat
 from hlcmp_drake.io.demos import read_demonstration, write_trajectory
 from hlcmp_drake.io.errors import InputError
+from hlcmp_drake.io.paths import DIAGRAMS_DIR
 
 
 def test_a_byte_order_mark_is_invisible_to_the_reader(tmp_path):
@@ -252,3 +253,23 @@ def test_a_turn_faster_than_the_bound_is_refused_with_its_line(tmp_path):
     )
     path.write_text("t,x,y,z,qw,qx,qy,qz\n" + rows)
     read_demonstration(path, with_orientation=True)
+
+
+@pytest.mark.parametrize(
+    "content, says",
+    [
+        ((DIAGRAMS_DIR / "insertion.yaml").read_bytes(), "a scenario file (give it to hlcmp run"),
+        ((DIAGRAMS_DIR / "sweeps" / "tiny.yaml").read_bytes(), "a sweep file (give it to hlcmp"),
+        (b'{"scenario": "insertion", "status": "ok"}\n', "a JSON file (a run's metrics.json?)"),
+        (b"PK\x03\x04" + bytes(range(128, 256)), "an .npz archive (a skill, which hlcmp repro"),
+        (bytes(range(128, 256)), "not text (UnicodeDecodeError)"),
+    ],
+)
+def test_a_file_of_another_kind_is_named_as_what_it_is(tmp_path, content, says):
+    path = tmp_path / "demo.csv"
+    path.write_bytes(content)
+    with pytest.raises(InputError) as error:
+        read_demonstration(path)
+    message = str(error.value)
+    assert message.startswith(f"{path}: {says}") and "\n" not in message
+    assert message.endswith("not a demonstration CSV 't,x,y,z'")

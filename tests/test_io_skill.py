@@ -11,6 +11,7 @@ from conftest import DEMO_CSV, tilted_turn
 from hlcmp_drake.core.dmp import Dmp, DmpSettings
 from hlcmp_drake.core.orientation_dmp import OrientationDmp
 from hlcmp_drake.io.errors import InputError
+from hlcmp_drake.io.paths import DIAGRAMS_DIR
 from hlcmp_drake.io.skill import (
     FORMAT_VERSION,
     POSE_FORMAT_VERSION,
@@ -120,10 +121,17 @@ def test_truncated_and_missing_files(tmp_path, skill):
 @pytest.mark.parametrize(
     "content, extra",
     [
+        (DEMO_CSV.encode(), "; this is a demonstration CSV (hlcmp fit makes a skill of it)"),
         (
-            DEMO_CSV.encode(),
-            "; this is a text file (a demonstration CSV becomes a skill with hlcmp fit)",
+            (DIAGRAMS_DIR / "insertion.yaml").read_bytes(),
+            "; this is a scenario file (give it to hlcmp run, or as --scenario)",
         ),
+        (
+            (DIAGRAMS_DIR / "sweeps" / "tiny.yaml").read_bytes(),
+            "; this is a sweep file (give it to hlcmp sweep)",
+        ),
+        (b'{"scenario": "insertion"}', "; this is a JSON file (a run's metrics.json?)"),
+        (b"some notes\n", "; this is a text file"),
         (b"\x93NUMPY\x01\x00" + b"\x00" * 40, ""),  # a .npy, not a .npz
         (b"", ""),
     ],

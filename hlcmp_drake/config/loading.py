@@ -23,6 +23,7 @@ from hlcmp_drake.config.scenario import ControllerConfig, DemonstrationConfig, S
 from hlcmp_drake.config.shapes import composed, misshapen_value
 from hlcmp_drake.config.validation import validate_scenario
 from hlcmp_drake.io.errors import InputError, located
+from hlcmp_drake.io.file_kinds import FILE_KINDS, top_level_keys
 from hlcmp_drake.io.paths import DIAGRAMS_DIR, VARIANTS_DIR, data_file
 
 
@@ -652,15 +653,6 @@ def check_scenario(scenario: Scenario) -> None:
         raise InputError(f"scenario '{scenario.name}': {key}: {problem}")
 
 
-# The top-level keys that only one kind of the project's YAML files has, and the command
-# that takes that kind.
-FILE_KINDS = {
-    "scenario": ({"directives", "plant_config", "simulator_config", "task"}, "hlcmp run"),
-    "sweep": ({"metrics", "cases", "repetitions", "labels"}, "hlcmp sweep"),
-    "library": ({"trials", "demo_force"}, "hlcmp library"),
-}
-
-
 def check_file_kind(path: Path, text: str, kind: str) -> None:
     """Refuse a YAML file of another kind than `kind` (a sweep given to `hlcmp run`, a
     scenario given to `hlcmp sweep`), told by the top-level keys only that kind has,
@@ -680,7 +672,7 @@ def check_file_kind(path: Path, text: str, kind: str) -> None:
         "FILE: a sweep file (its keys labels, metrics), not a scenario file: give it to
         hlcmp sweep".
     """
-    keys = set(re.findall(r"^([A-Za-z_]\w*)[ \t]*:", text, flags=re.MULTILINE))
+    keys = top_level_keys(text)
     for other, (marks, command) in FILE_KINDS.items():
         found = sorted(keys & marks)
         if other != kind and found and not keys & FILE_KINDS[kind][0]:

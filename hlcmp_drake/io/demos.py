@@ -32,6 +32,7 @@ import numpy as np
 
 from hlcmp_drake.core.quaternion import geodesic_angle, hemisphere_continuous
 from hlcmp_drake.io.errors import InputError, located
+from hlcmp_drake.io.file_kinds import what_it_is
 
 MIN_SAMPLES = 10
 # The longest demonstration, and the longest run a scenario may ask for [s]: an hour. A
@@ -128,8 +129,15 @@ def read_demonstration(
         raise InputError(f"{path}: is a directory, not a CSV file")
     try:
         text = path.read_text(encoding="utf-8-sig")  # a BOM, invisible to the user, is dropped
-    except (OSError, UnicodeDecodeError) as error:
+    except OSError as error:
         raise InputError(f"{path}: cannot be read as text ({error.__class__.__name__})") from None
+    except UnicodeDecodeError:
+        with open(path, "rb") as stream:
+            binary = what_it_is(stream.read(4)) or "not text (UnicodeDecodeError)"
+        raise InputError(f"{path}: {binary}, not a demonstration CSV 't,x,y,z'") from None
+    kind = what_it_is(text[:4096].encode())
+    if kind is not None and not kind.startswith("a demonstration"):
+        raise InputError(f"{path}: {kind}, not a demonstration CSV 't,x,y,z'")
     lines = [(n, line) for n, line in enumerate(text.splitlines(), start=1) if line.strip()]
     if not lines:
         raise InputError(f"{path}: the file is empty (expected a header line 't,x,y,z')")

@@ -41,6 +41,7 @@ import numpy as np
 from hlcmp_drake.core.dmp import Dmp, DmpSettings
 from hlcmp_drake.core.orientation_dmp import OrientationDmp
 from hlcmp_drake.io.errors import InputError
+from hlcmp_drake.io.file_kinds import ZIP_MAGIC, what_it_is
 
 FORMAT_VERSION = 2
 # A skill with an orientation DMP.
@@ -67,7 +68,6 @@ WORLD_FIELDS = ("world_scenario", "world_kind", "world_digest")
 # Optional from format 2 on: the demonstration's force as feed-forward weights.
 DEMO_FORCE_FIELD = "demo_force"
 NOT_A_SKILL = "not a skill file (a .npz written by hlcmp fit/learn)"
-_ZIP_MAGIC = (b"PK\x03\x04", b"PK\x05\x06")  # a .npz is a zip archive
 
 
 @dc.dataclass(frozen=True)
@@ -501,10 +501,10 @@ def _check_is_zip(path, fail):
         raise fail(f"is a folder, {NOT_A_SKILL}")
     try:
         with open(path, "rb") as stream:
-            head = stream.read(512)
+            head = stream.read(4096)
     except OSError as error:
         raise fail(f"cannot be read ({error.strerror or error})") from None
-    if head[:4] in _ZIP_MAGIC:
+    if head[:4] in ZIP_MAGIC:
         return
     hint = ""
     if head and b"\0" not in head:
@@ -512,7 +512,7 @@ def _check_is_zip(path, fail):
             codecs.getincrementaldecoder("utf-8")().decode(
                 head, final=False
             )  # may end mid-character
-            hint = "; this is a text file (a demonstration CSV becomes a skill with hlcmp fit)"
+            hint = f"; this is {what_it_is(head) or 'a text file'}"
         except UnicodeDecodeError:
             pass
     raise fail(("the file is empty, " if not head else "") + NOT_A_SKILL + hint)
