@@ -257,3 +257,20 @@ def test_a_copied_scenario_finds_the_bundled_demonstration_by_package_url(tmp_pa
         r"'package://hlcmp_drake/diagrams/demos/nope.csv' not found \(looked for ",
     ):
         load_scenario(copy)
+
+
+@pytest.mark.parametrize(
+    "override, nearest",
+    [
+        ("duration=4", "duration_s"),
+        ("controllers.hlcmp.q_kk=[1,1,1]", "q_k"),
+        ("plant_config.time_stepp=0.002", "time_step"),  # a Drake config struct's field
+        ("zzz=1", None),
+    ],
+)
+def test_a_misspelt_override_names_the_nearest_field(override, nearest):
+    with pytest.raises(InputError) as error:
+        load_scenario("insertion", [override])
+    part = override.split("=")[0].split(".")[-1]
+    message = f"override '{override}': no field '{part}' in the scenario"
+    assert str(error.value) == message + (f" (did you mean '{nearest}'?)" if nearest else "")

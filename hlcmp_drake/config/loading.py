@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses as dc
+import difflib
 import functools
 import re
 import typing
@@ -342,7 +343,7 @@ def override_yaml(scenario: Scenario, dotted_key: str, value_yaml: str) -> str:
     Raises
     ------
     KeyError
-        With the part (its only argument) that names no field of a dataclass.
+        With the part that names no field of a dataclass, and the fields there are.
     InputError
         When the key goes into a controller the scenario does not have (a whole new
         controller, ``controllers.NAME=!Kind {...}``, is fine).
@@ -365,15 +366,16 @@ def override_yaml(scenario: Scenario, dotted_key: str, value_yaml: str) -> str:
             )
         elif owner is not None and hasattr(owner, "__dataclass_fields__"):
             if key not in owner.__dataclass_fields__:
-                raise KeyError(key)
+                raise KeyError(key, list(owner.__dataclass_fields__))
             node = getattr(owner, key)
             members = _union_members(type(owner), key)
         elif owner is not None and hasattr(type(owner), "__fields__"):  # Drake's config structs
-            if key not in (field.name for field in type(owner).__fields__):
-                raise KeyError(key)
+            names = [field.name for field in type(owner).__fields__]
+            if key not in names:
+                raise KeyError(key, names)
             node, members = getattr(owner, key), ()
         else:
-            raise KeyError(key)
+            raise KeyError(key, [])
         last = i == len(parts)
         if last and re.fullmatch(r"\{\s*\}", value_yaml) and _merged_into(node, members):
             raise InputError(
@@ -689,9 +691,10 @@ def _overridden(scenario: Scenario, label: str, key: str, value: str) -> Scenari
     try:
         data = override_yaml(scenario, key, value)
     except KeyError as error:
-        raise InputError(
-            f"override '{label}': no field '{error.args[0]}' in the scenario"
-        ) from None
+        part, fields = error.args
+        nearest = difflib.get_close_matches(part, fields, n=1)
+        hint = f" (did you mean '{nearest[0]}'?)" if nearest else ""
+        raise InputError(f"override '{label}': no field '{part}' in the scenario{hint}") from None
     except InputError as error:
         raise InputError(f"override '{label}': {error}") from None
     misshapen = misshapen_value(data, Scenario)
