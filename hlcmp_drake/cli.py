@@ -708,7 +708,9 @@ def build_parser():
 
     world = argparse.ArgumentParser(add_help=False)  # where learn and reproduce run
     world.add_argument(
-        "--scenario", required=True, help="the world: insertion, cutting, or a YAML path"
+        "--scenario",
+        required=True,
+        help="the world: an arm scenario (insertion, cutting, peg_in_hole) or a YAML path",
     )
     world.add_argument(
         "--any-scenario",
@@ -811,8 +813,9 @@ def build_parser():
     )
     learn.add_argument(
         "demo",
-        help="demonstration CSV (t,x,y,z; world frame of the scenario, metres; optionally "
-        "fx,fy,fz, the force on the tool in N)",
+        help="demonstration CSV (t,x,y,z; world frame of the scenario, metres; for a 6-D "
+        "learner also qw,qx,qy,qz, the tool's orientation; optionally fx,fy,fz, the force "
+        "on the tool in N)",
     )
     learn.add_argument(
         "--out",
@@ -823,7 +826,8 @@ def build_parser():
         "--trials",
         type=_trial_count,
         default=1,
-        help="reproductions, each continuing from the previous one's learned profiles (default 1)",
+        help="reproductions, each continuing from the previous one's learned profiles "
+        "(1-100, default 1)",
     )
     learn.add_argument(
         "--skill", help="start from this saved skill's profiles instead of theta = 0"
