@@ -99,3 +99,25 @@ def test_the_tables_peak_force_is_the_norms_peak_which_p2_compares():
     }
     table = peg_in_hole.table(metrics)
     assert table.rows[0][table.headers.index("max ‖f‖ [N]")] == "40.3"
+
+
+def test_a_tip_beside_the_hole_never_entered_it_however_deep(scenario):
+    """The task is the tip in the hole: below the entrance's plane but beside the fixture's
+    bore (here 20 mm off its axis) is not in it."""
+    entrance, axis = peg_in_hole.hole_axis(scenario)
+    across = np.cross(axis, [1.0, 0.0, 0.0])
+    across /= np.linalg.norm(across)
+    path = np.linspace(-0.02, 0.025, 50)[:, None] * axis  # down the axis to 25 mm deep
+    reference = entrance + np.linspace(-0.02, 0.02, 50)[:, None] * axis
+    on_axis = SimpleNamespace(series={"x": entrance + path, "xd": reference})
+    beside = SimpleNamespace(series={"x": entrance + path + 0.02 * across, "xd": reference})
+    assert peg_in_hole.inserted(on_axis, scenario)["done"] is True
+    task = peg_in_hole.inserted(beside, scenario)
+    assert task["done"] is False
+    assert task["evidence"].startswith(
+        "the tip never entered the hole (at its deepest 25.0 mm below the entrance's plane, "
+        "20.0 mm off the axis)"
+    )
+    assert peg_in_hole.deepest_in_hole(beside.series["x"], entrance, axis)[0] == 0.0
+    at_the_rim = entrance + path + (peg_in_hole.ENTRANCE_RADIUS_M - 1e-4) * across
+    assert peg_in_hole.deepest_in_hole(at_the_rim, entrance, axis)[0] == pytest.approx(0.025)

@@ -28,6 +28,10 @@ HOLE_FRAME = "peg_fixture::hole"  # the entrance's centre, +z out of the block a
 # Done: within 2 mm (a tenth of the 20 mm bore the demonstration enters) of the demonstrated
 # depth. A peg that jams at the chamfer or in the bore's mouth stops 4-5 mm short.
 DEPTH_TOLERANCE_M = 0.002
+# The hole's entrance radius, its chamfer included (models/peg_fixture.sdf: a 12.2 mm bore
+# chamfered 1 mm x 45 degrees): a tip farther than this from the axis is beside the hole,
+# however far below the entrance's plane it goes.
+ENTRANCE_RADIUS_M = 0.0061 + 0.001
 # P1: "small about the peg's own axis" is at most this share of the largest learned
 # tilting stiffness.
 OWN_AXIS_SHARE = 0.25
@@ -65,6 +69,30 @@ def depth_in_hole(points: np.ndarray, entrance: np.ndarray, axis: np.ndarray) ->
         The entrance's centre [m] and the unit axis into the block.
     """
     return (points - entrance) @ axis
+
+
+def deepest_in_hole(points: np.ndarray, entrance: np.ndarray, axis: np.ndarray) -> tuple:
+    """How deep the points got into the hole: the largest depth (`depth_in_hole`) of those
+    within ENTRANCE_RADIUS_M of its axis, a point beside the hole counting as at most at
+    the entrance (0); and the deepest point's own depth and distance from the axis, to say
+    where a tip that never entered was.
+
+    Parameters
+    ----------
+    points : (T, 3) array
+        World points [m].
+    entrance, axis : (3,) arrays
+        The entrance's centre [m] and the unit axis into the block.
+
+    Returns
+    -------
+    (depth in the hole [m], the deepest point's depth [m], its distance from the axis [m])
+    """
+    depth = depth_in_hole(points, entrance, axis)
+    off_axis = np.linalg.norm(points - entrance - np.outer(depth, axis), axis=1)
+    in_hole = np.where(off_axis <= ENTRANCE_RADIUS_M, depth, np.minimum(depth, 0.0))
+    deepest = int(np.argmax(depth))
+    return float(np.max(in_hole)), float(depth[deepest]), float(off_axis[deepest])
 
 
 def tool_orientations(run: RunResult, scenario: Scenario) -> np.ndarray:
@@ -135,7 +163,7 @@ def controller_metrics(run: RunResult, config: ControllerConfig, scenario: Scena
     entrance, axis = hole_axis(scenario)
     metrics = {
         **translational_metrics(run, config, scenario),
-        "depth_reached_m": float(np.max(depth_in_hole(run.series["x"], entrance, axis))),
+        "depth_reached_m": deepest_in_hole(run.series["x"], entrance, axis)[0],
         "depth_demonstrated_m": float(np.max(depth_in_hole(run.series["xd"], entrance, axis))),
         "mean_abs_orientation_error_rad": np.mean(
             np.abs(orientation_errors(run, scenario)), axis=0
@@ -206,19 +234,27 @@ def inserted(run: RunResult, scenario: Scenario) -> dict:
         {"done", "evidence"}.
     """
     entrance, axis = hole_axis(scenario)
-    reached = float(np.max(depth_in_hole(run.series["x"], entrance, axis)))
+    reached, deepest, off_axis = deepest_in_hole(run.series["x"], entrance, axis)
     target = float(np.max(depth_in_hole(run.series["xd"], entrance, axis)))
+    if reached > 0.0:
+        tip = f"the tip reached {1000 * reached:.1f} mm into the hole"
+    else:
+        side = "below" if deepest > 0.0 else "above"
+        tip = (
+            f"the tip never entered the hole (at its deepest {1000 * abs(deepest):.1f} mm "
+            f"{side} the entrance's plane, {1000 * off_axis:.1f} mm off the axis)"
+        )
     if target <= 0.0:  # a run stopped before its reference got to the hole
         return {
             "done": False,
             "evidence": f"the run ended before its reference entered the hole (the reference "
-            f"{1000 * -target:.1f} mm above it, the tip {1000 * reached:.1f} mm into it)",
+            f"{1000 * -target:.1f} mm above it); {tip}",
         }
     done = reached >= target - DEPTH_TOLERANCE_M
     return {
         "done": bool(done),
-        "evidence": f"the tip reached {1000 * reached:.1f} mm into the hole, the reference "
-        f"{1000 * target:.1f} mm (done within {1000 * DEPTH_TOLERANCE_M:.0f} mm)",
+        "evidence": f"{tip}, the reference {1000 * target:.1f} mm "
+        f"(done within {1000 * DEPTH_TOLERANCE_M:.0f} mm)",
     }
 
 
