@@ -3,6 +3,7 @@ to 1e-12 on random instants; the path is chosen as documented; and without numba
 package runs the numpy path and says what the compiled one needs."""
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -224,7 +225,8 @@ print(" ".join(sorted(f.__name__ for f, compiled in kernels._compiled.items()
 
 def test_every_jitable_function_is_in_core():
     """The kernels' cache folder is named by core's sources (`kernel_cache_folder`): that
-    covers a kernel only if every function it may inline is defined there."""
+    covers a kernel only if every function it may inline (`jitable`, or compiled by another
+    implementation, `compiled_by`) is defined there."""
     import hlcmp_drake
     from hlcmp_drake.core.kernels import CORE_DIR
 
@@ -232,9 +234,11 @@ def test_every_jitable_function_is_in_core():
     marked = {
         path.relative_to(package)
         for path in package.rglob("*.py")
-        if "@jitable" in path.read_text(encoding="utf-8") and path.name != "kernels.py"
+        if re.search(r"@(jitable|compiled_by)\b", path.read_text(encoding="utf-8"))
+        and path.name != "kernels.py"
     }
-    assert marked and all(path.parent == CORE_DIR.relative_to(package) for path in marked)
+    assert Path("core/small_linalg.py") in marked  # compiled_by's, found too
+    assert all(path.parent == CORE_DIR.relative_to(package) for path in marked)
 
 
 def test_an_edited_equation_gets_a_cache_folder_of_its_own(tmp_path):

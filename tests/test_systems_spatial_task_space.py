@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from hlcmp_drake.core import quaternion as quat
-from hlcmp_drake.core.kernels import kernel_chosen
+from hlcmp_drake.core.kernels import kernel_chosen, numba_available
 from hlcmp_drake.core.operational_space import task_joint_torque
 from hlcmp_drake.core.task_inertia import EIGENVALUE_FLOOR, conditioned_task_inertia
 from hlcmp_drake.systems.spatial_task_space import SpatialTaskSpaceModel
@@ -81,11 +81,21 @@ def _near_stretched(angle):
 
 
 def test_near_the_stretched_arm_lambda_stays_bounded_and_exact_off_the_singular_directions(
-    arm, model
+    arm,
 ):
+    # numpy's solve to the bit on the numpy path: there Φ's condition (up to 1e15) amplifies
+    # the compiled path's other rounding (it agrees to 1e-12 of scale:
+    # tests/test_systems_pose_control.py)
+    with kernel_chosen("numpy"):
+        model = SpatialTaskSpaceModel(arm.plant, arm.tip)
+    compiled = SpatialTaskSpaceModel(arm.plant, arm.tip) if numba_available() else None
     bounds = []
     for angle in (0.03, 0.01, 1e-4, 0.0):
         terms = _at_rest(arm, model, _near_stretched(angle))
+        if compiled is not None:
+            theirs = _at_rest(arm, compiled, _near_stretched(angle)).inertia
+            scale = np.abs(terms.inertia).max()
+            np.testing.assert_allclose(theirs, terms.inertia, rtol=0, atol=1e-12 * scale)
         jac, mass = terms.jacobian, _mass(arm, model)
         phi = jac @ np.linalg.solve(mass, jac.T)
         assert np.linalg.cond(phi) > 1e4 and terms.floored >= 1

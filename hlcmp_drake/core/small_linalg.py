@@ -13,6 +13,7 @@ import numpy as np
 from hlcmp_drake.core.kernels import compiled_by, jitable
 
 SINGULAR = "Matrix is singular to machine precision."
+SIZES = "incompatible array sizes"  # numba raises only constant messages
 
 
 @jitable
@@ -35,8 +36,12 @@ def _eliminate(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     ------
     numpy.linalg.LinAlgError
         If a pivot is exactly zero (A singular), as numpy's solve raises.
+    ValueError
+        If A is not square with as many rows as B, as numpy's solve raises.
     """
     n, k = rhs.shape
+    if matrix.shape[0] != n or matrix.shape[1] != n:
+        raise ValueError(SIZES + " (solve: A must be square, with as many rows as b)")
     a = np.empty((n, n))
     x = np.empty((n, k))
     for i in range(n):
@@ -115,6 +120,8 @@ def solve(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     ------
     numpy.linalg.LinAlgError
         If A is singular.
+    ValueError
+        If the sizes do not fit.
     """
     return np.linalg.solve(matrix, rhs)
 
@@ -143,6 +150,8 @@ def inverse(matrix: np.ndarray) -> np.ndarray:
 def _matrix_matrix(left: np.ndarray, right: np.ndarray) -> np.ndarray:
     """The product of two matrices, in loops."""
     rows, inner = left.shape
+    if right.shape[0] != inner:
+        raise ValueError(SIZES + " (matmul: the left's columns are not the right's rows)")
     out = np.zeros((rows, right.shape[1]))
     for i in range(rows):
         for k in range(inner):
@@ -155,6 +164,8 @@ def _matrix_matrix(left: np.ndarray, right: np.ndarray) -> np.ndarray:
 def _matrix_vector(left: np.ndarray, right: np.ndarray) -> np.ndarray:
     """A matrix times a vector, in loops."""
     rows, inner = left.shape
+    if right.shape[0] != inner:
+        raise ValueError(SIZES + " (matmul: the matrix's columns are not the vector's length)")
     out = np.empty(rows)
     for i in range(rows):
         total = 0.0
@@ -185,5 +196,10 @@ def matmul(left: np.ndarray, right: np.ndarray) -> np.ndarray:
     Returns
     -------
     (n, m) or (n,) array
+
+    Raises
+    ------
+    ValueError
+        If left's columns are not right's rows.
     """
     return left @ right
