@@ -342,7 +342,12 @@ def cmd_fit(args):
     print(
         f"fitted {len(axes)} axis DMP ({','.join(axes)}){turn}, N = {args.basis}, "
         f"tau = {dmp.tau:.3f} s"
-        + (f"; g ~ p0 on {','.join(flat)}: amplitude = demonstration range" if flat else "")
+        + (
+            f"; {','.join(flat)} ends where it starts (g ~ p0): its forcing term is scaled "
+            "by the demonstration's range there, not by g - p0 (README, 'g ≈ p0')"
+            if flat
+            else ""
+        )
         + ("" if force is None else "; the demonstration's force encoded as feed-forward")
         + f" -> {args.out}"
     )
