@@ -2,6 +2,8 @@
 product to 1e-12 (the tick's sizes and a few others, well and badly conditioned), and a
 singular matrix is refused on both paths."""
 
+import functools
+
 import numpy as np
 import pytest
 
@@ -11,9 +13,10 @@ from hlcmp_drake.core.small_linalg import inverse, matmul, solve
 needs_numba = pytest.mark.skipif(not numba_available(), reason="numba is not installed")
 
 
+@functools.cache
 def compiled_calls():
     """solve (vector and matrix right-hand sides), inverse and matmul (matrix and vector),
-    as a compiled caller sees them."""
+    as a compiled caller sees them (compiled once a process)."""
     import numba
 
     @numba.njit
