@@ -406,7 +406,7 @@ def figures(runs: dict, scenario: Scenario) -> dict:
         torque.plot(run.t, tilting, f"C{k}", label=name)
     first = next(iter(runs.values()))
     depth.plot(first.t, 1000 * depth_in_hole(first.series["xd"], entrance, axis), "k--", lw=0.8)
-    depth.set_ylabel("tip depth in the hole [mm]")
+    depth.set_ylabel("tip below the entrance's plane [mm]")
     force.set_ylabel("force against the insertion [N]")
     torque.set_ylabel("tilting torque |τ_x, τ_y| [N m]")
     torque.set_xlabel("t [s]")

@@ -32,7 +32,8 @@ import numpy as np
 
 from hlcmp_drake.core.quaternion import geodesic_angle, hemisphere_continuous
 from hlcmp_drake.io.errors import InputError, located
-from hlcmp_drake.io.file_kinds import what_it_is
+from hlcmp_drake.io.file_kinds import ZIP_MAGIC, what_it_is
+from hlcmp_drake.io.paths import data_file
 
 MIN_SAMPLES = 10
 # The longest demonstration, and the longest run a scenario may ask for [s]: an hour. A
@@ -96,7 +97,8 @@ def read_demonstration(
     Parameters
     ----------
     path : str or Path
-        The CSV file (format in the module docstring).
+        The CSV file (format in the module docstring); a bundled one may be named
+        package://hlcmp_drake/diagrams/demos/NAME.csv.
     with_lines : bool
         Also return the line number of each sample.
     with_orientation : bool
@@ -122,7 +124,7 @@ def read_demonstration(
     lines : list of T int
         Only with `with_lines`: each sample's 1-based line number in the file.
     """
-    path = Path(path)
+    path = data_file(str(path), Path())  # package://hlcmp_drake/... names a bundled one
     if not path.exists():
         raise InputError(f"{path}: no such file")
     if path.is_dir():
@@ -131,10 +133,14 @@ def read_demonstration(
         text = path.read_text(encoding="utf-8-sig")  # a BOM, invisible to the user, is dropped
     except OSError as error:
         raise InputError(f"{path}: cannot be read as text ({error.__class__.__name__})") from None
-    except UnicodeDecodeError:
+    except UnicodeDecodeError as error:
         with open(path, "rb") as stream:
-            binary = what_it_is(stream.read(4)) or "not text (UnicodeDecodeError)"
-        raise InputError(f"{path}: {binary}, not a demonstration CSV 't,x,y,z'") from None
+            head = stream.read(4)
+        if head in ZIP_MAGIC:
+            raise InputError(f"{path}: {what_it_is(head)}, not a demonstration CSV") from None
+        raise InputError(
+            f"{path}: not UTF-8 text ({error.reason} at byte {error.start}); save the CSV as UTF-8"
+        ) from None
     kind = what_it_is(text[:4096].encode())
     if kind is not None and not kind.startswith("a demonstration"):
         raise InputError(f"{path}: {kind}, not a demonstration CSV 't,x,y,z'")
