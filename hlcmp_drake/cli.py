@@ -343,8 +343,9 @@ def cmd_fit(args):
         f"fitted {len(axes)} axis DMP ({','.join(axes)}){turn}, N = {args.basis}, "
         f"tau = {dmp.tau:.3f} s"
         + (
-            f"; {','.join(flat)} ends where it starts (g ~ p0): its forcing term is scaled "
-            "by the demonstration's range there, not by g - p0 (README, 'g ≈ p0')"
+            f"; {','.join(flat)} {'ends' if len(flat) == 1 else 'end'} where "
+            f"{'it starts' if len(flat) == 1 else 'they start'} (g ~ p0): the forcing term "
+            "is scaled by the demonstration's range there, not by g - p0 (README, 'g ≈ p0')"
             if flat
             else ""
         )

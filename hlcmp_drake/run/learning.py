@@ -183,7 +183,7 @@ def learning_scenario(
     if not isinstance(scenario.reference, DemonstrationConfig):
         raise InputError(
             f"scenario '{scenario.name}' does not follow a demonstration; learning and "
-            "reproducing skills needs one that does, such as insertion or cutting"
+            "reproducing skills needs one that does, such as insertion, cutting or peg_in_hole"
         )
     name = learner(scenario)
     if name is None:
