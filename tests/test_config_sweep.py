@@ -86,6 +86,10 @@ def test_a_bad_override_or_controller_is_found_before_anything_runs(tmp_path):
     path = write_sweep(tmp_path, "scenario: one_dof\ngrid:\n  controllers.hlcmp.nope: [1]\n")
     with pytest.raises(InputError, match=r":3: override .*no field 'nope'"):
         plan_tasks(load_sweep(path), tmp_path / "out")
+    labelled = 'scenario: one_dof\nlabels:\n  controllers.hlcmp.pii: "pi"\ngrid:\n'
+    path = write_sweep(tmp_path, labelled + "  controllers.hlcmp.pii: [1.0]\n")
+    with pytest.raises(InputError, match=r":5: override .*no field 'pii'.*did you mean 'pi'"):
+        plan_tasks(load_sweep(path), tmp_path / "out")  # the grid's line, not the label's
     path = write_sweep(tmp_path, "scenario: one_dof\n\ncontrollers: [hlcmp, pid]\n")
     with pytest.raises(InputError, match=r":3: controllers: pid not in the scenario"):
         plan_tasks(load_sweep(path), tmp_path / "out")

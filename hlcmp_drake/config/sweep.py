@@ -306,12 +306,19 @@ def _schema_error(path: Path, text: str, error: Exception) -> InputError:
     return located(path, line_of(text, name) if name and name != "_" else None, message)
 
 
-def _key_line(text: str, key: str) -> int | None:
-    """The first line that sets `key` (block or flow style), for override keys."""
+def _key_line(text: str, key: str, outside: tuple[str, ...] = ()) -> int | None:
+    """The first line that sets `key` (block or flow style), for override keys, skipping the
+    top-level sections named in `outside` (a `labels:` entry names a key, it sets none)."""
     pattern = re.compile(rf"(^|[\s{{,]){re.escape(key)}\s*:")
-    return next(
-        (n for n, row in enumerate(text.splitlines(), 1) if pattern.search(row.split("#")[0])), None
-    )
+    section = None
+    for n, row in enumerate(text.splitlines(), 1):
+        row = row.split("#")[0]
+        top = re.match(r"([A-Za-z_]\w*)\s*:", row)
+        if top:
+            section = top.group(1)
+        if section not in outside and pattern.search(row):
+            return n
+    return None
 
 
 def load_sweep(name_or_path: str | Path) -> Sweep:
@@ -682,7 +689,7 @@ def _load_task_scenario(sweep: _ScenarioFile, overrides: list, parameters: dict)
     except InputError as error:
         message = str(error)
         key = re.match(r"override '([^=']+)=", message)
-        line = _key_line(sweep.text, key.group(1)) if key else None
+        line = _key_line(sweep.text, key.group(1), outside=("labels",)) if key else None
         values = ", ".join(f"{k}={v}" for k, v in parameters.items())
         where = f"the task where {values}" if values else "every task"
         raise located(sweep.path, line, f"{message} (in {where})") from None
