@@ -33,7 +33,10 @@ def test_outputs_follow_the_contract(run_dir):
             "return_time_s",
             "task",
         }
-        assert values["task"]["done"]  # every run reaches the return command at 10 s
+        assert values["task"] == {  # every run lasts through its return
+            "done": True,
+            "evidence": "ran 20.00 s, through the return from 10 to 20 s",
+        }
     c5 = metrics["claims"]["hlcmp"]["C5"]
     assert isinstance(c5["holds"], bool) and "x(10 s)" in c5["evidence"]
     data = np.load(run_dir / "timeseries.npz")
@@ -115,8 +118,33 @@ def test_a_run_shorter_than_the_return_command_has_no_x_at_10s_and_no_verdict():
     assert "n/a" in one_dof.table(metrics).rows[0]
 
 
+@pytest.mark.parametrize("seconds", [10.0, 15.0])
+def test_a_run_cut_short_of_its_return_has_no_verdict(seconds):
+    """A run that stops at or after the return command, but before the return has had as
+    long as the cut (10 s), would be judged "return never" for want of time: C5 is not
+    judged, and each run says where it stopped."""
+    scenario, _ = load_scenario("one_dof", [f"duration_s={seconds}"])
+    t = np.linspace(0.0, seconds, round(seconds * 100) + 1)
+    run = SimpleNamespace(t=t, series={"x": np.where(t < 10.0, -0.15, 0.0)[:, None]})
+    metrics = {
+        name: one_dof.EXPERIMENT.metrics_of(run, config, scenario)
+        for name, config in scenario.controllers.items()
+    }
+    for m in metrics.values():
+        assert m["position_at_10s_m"] is not None
+        assert m["task"] == {
+            "done": False,
+            "evidence": f"ran {seconds:.2f} s, ended before the return's end at 20 s (the "
+            "return gets as long as the segment before it, 10 s)",
+        }
+    c5 = one_dof.claims(metrics, scenario)["C5"]
+    assert c5["holds"] is None and "parts" not in c5
+    assert c5["evidence"].startswith(f"hlcmp: ran {seconds:.2f} s, ended before the return's end")
+
+
 def _ramp_metrics(scenario):
-    t = np.linspace(0.0, 12.0, 1201)
+    """Down to -0.15 m in 1 s and held there for 16 s: long enough for a return at 8 s."""
+    t = np.linspace(0.0, 16.0, 1601)
     run = SimpleNamespace(t=t, series={"x": -0.15 * np.minimum(t, 1.0)[:, None]})
     return {
         name: one_dof.EXPERIMENT.metrics_of(run, config, scenario)

@@ -66,8 +66,10 @@ def controller_metrics(run: RunResult, config: ControllerConfig, scenario: Scena
 
 
 def reached_the_return(run: RunResult, scenario: Scenario) -> dict:
-    """The 1-DOF task: the run lasted to the return command (the second step), so its
-    depth at that moment and its return can be measured.
+    """The 1-DOF task: the run lasted through the return, given as long as the segment
+    before it (Fig. 13: 10 s to the depth, 10 s back), so the depth and the return are
+    each measured over a window of the same length. A run that stops earlier is cut short
+    of the return it would be judged on ("return never" for want of time).
 
     Parameters
     ----------
@@ -80,17 +82,23 @@ def reached_the_return(run: RunResult, scenario: Scenario) -> dict:
     dict
         {"done", "evidence"}.
     """
-    _, _, _, return_start = _segments(scenario)
+    _, start, _, return_start = _segments(scenario)
     if return_start is None:
         return {"done": False, "evidence": "the reference has one step: no return command"}
-    done = bool(run.t[-1] >= return_start)
-    ran = f"ran {run.t[-1]:.2f} s"
-    return {
-        "done": done,
-        "evidence": f"{ran}, past the return command at {return_start:g} s"
-        if done
-        else f"{ran}, ended before the return command at {return_start:g} s",
-    }
+    return_end = 2 * return_start - start
+    end = float(run.t[-1])
+    ran = f"ran {end:.2f} s"
+    # Half a microsecond: the logged times of a run that lasts to the end are sums of steps.
+    if end >= return_end - 5e-7:
+        evidence = f"{ran}, through the return from {return_start:g} to {return_end:g} s"
+    elif end < return_start:
+        evidence = f"{ran}, ended before the return command at {return_start:g} s"
+    else:
+        evidence = (
+            f"{ran}, ended before the return's end at {return_end:g} s (the return gets as "
+            f"long as the segment before it, {return_start - start:g} s)"
+        )
+    return {"done": end >= return_end - 5e-7, "evidence": evidence}
 
 
 def _fmt(value):
@@ -188,7 +196,7 @@ def claims(
     metrics: dict, scenario: Scenario, runs: dict | None = None, learner_name: str | None = None
 ) -> dict:
     """C5 (see `faster_than_force_tracking`); not judged (task not done) when a run ends
-    before the return command at 10 s.
+    before its return's end at 20 s (`reached_the_return`).
 
     Parameters
     ----------
