@@ -274,3 +274,48 @@ def test_a_misspelt_override_names_the_nearest_field(override, nearest):
     part = override.split("=")[0].split(".")[-1]
     message = f"override '{override}': no field '{part}' in the scenario"
     assert str(error.value) == message + (f" (did you mean '{nearest}'?)" if nearest else "")
+
+
+@pytest.mark.parametrize(
+    "old, new, expected",
+    [
+        (
+            "duration_s: 20.0",
+            "duraton_s: 20.0",
+            "duraton_s: no such field in Scenario (did you mean 'duration_s'?)",
+        ),
+        (
+            "    q_k: [2000.0]",
+            "    qk: [2000.0]",
+            "qk: no such field in HlcmpConfig (did you mean 'q_k'?)",
+        ),
+        ("  axis: 0", "  axis: 0\n  zzz: 1", "zzz: no such field in SliderTask"),
+    ],
+)
+def test_a_misspelt_key_in_a_file_names_its_line_and_the_nearest_field(
+    tmp_path, old, new, expected
+):
+    assert old in ONE_DOF
+    path = tmp_path / "typo.yaml"
+    text = ONE_DOF.replace(old, new, 1)
+    path.write_text(text)
+    key = new.split("\n")[-1].split(":")[0].strip()
+    with pytest.raises(InputError) as error:
+        load_scenario(path)
+    assert str(error.value) == f"{path}:{_line_of(text, key)}: {expected}"
+
+
+def test_a_merge_key_is_not_taken_for_a_field(tmp_path):
+    """`<<: *anchor` brings an anchor's fields in; it is no field of its own."""
+    text = ONE_DOF.replace(
+        "  hlcmp_per_step: !HlcmpConfig     # the same learner, Q read per control step "
+        "(Table I): Q / 1 ms\n"
+        "    q_k: [2000.0]\n    q_d: [500.0]\n    q_v: [0.0]\n    pi: 5.0\n    gain_l: [10.0]\n",
+        "  hlcmp_per_step: !HlcmpConfig\n    <<: *learner\n",
+    ).replace("  hlcmp: !HlcmpConfig\n", "  hlcmp: !HlcmpConfig &learner\n")
+    assert "<<: *learner" in text and "&learner" in text
+    path = tmp_path / "merged.yaml"
+    path.write_text(text)
+    scenario = load_scenario(path)[0]
+    assert scenario.controllers["hlcmp_per_step"].q_k == [2000.0]
+    assert scenario.controllers["hlcmp_per_step"].q_units == "per_step"

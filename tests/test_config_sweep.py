@@ -14,7 +14,7 @@ from hlcmp_drake.io.errors import InputError
     [
         (
             "scenario: one_dof\ngrid:\n  dmp.n_basis: [2, 3]\nrepetition: 2\n",
-            ":4: The fields ['repetition'] were unknown",
+            ":4: repetition: no such field in SweepConfig (did you mean 'repetitions'?)",
         ),
         ("scenario: one_dof\ngrid:\n  dmp.n_basis: [2, 3\n", ":4:"),
         (

@@ -18,6 +18,7 @@ import yaml
 
 _NUMBER_TAGS = {"tag:yaml.org,2002:int", "tag:yaml.org,2002:float"}
 _NULL_TAG = "tag:yaml.org,2002:null"
+_MERGE_TAG = "tag:yaml.org,2002:merge"  # a `<<: *anchor` key: the anchor's fields, not one
 
 
 # libyaml's parser where PyYAML was built with it: the same nodes, ten times as fast.
@@ -50,9 +51,10 @@ def misshapen_value(
 ) -> tuple[int, str, str] | None:
     """The first value of a YAML text whose shape does not fit its field's type.
 
-    Checked: a dataclass's fields (a tagged union's member by its tag), lists, maps,
-    numbers (an int field takes only an int) and text. Fields of other types (Drake's own
-    schema classes, e.g. model directives) and unknown keys are left to the typed loader.
+    Checked: a dataclass's fields (a tagged union's member by its tag; a key that is none
+    of its fields, with the nearest one), lists, maps, numbers (an int field takes only an
+    int) and text. Fields of other types (Drake's own schema classes, e.g. model
+    directives) are left to the typed loader.
 
     Parameters
     ----------
@@ -121,10 +123,20 @@ def _check(
             return wrong("a map of fields")
         fields = typing.get_type_hints(hint)
         for name, value in node.value:
-            if isinstance(name, yaml.ScalarNode) and name.value in fields:
-                found = _check(value, fields[name.value], _join(key, name.value), visited)
-                if found:
-                    return found
+            if not isinstance(name, yaml.ScalarNode) or name.tag == _MERGE_TAG:
+                continue
+            if name.value not in fields:
+                # Drake's loader would say only "The fields [...] were unknown to the schema".
+                near = difflib.get_close_matches(name.value, list(fields), n=1)
+                return (
+                    name.start_mark.line + 1,
+                    _join(key, name.value),
+                    f"no such field in {getattr(hint, '__name__', hint)}"
+                    + (f" (did you mean '{near[0]}'?)" if near else ""),
+                )
+            found = _check(value, fields[name.value], _join(key, name.value), visited)
+            if found:
+                return found
         return None
     if origin is list:
         if not isinstance(node, yaml.SequenceNode):
