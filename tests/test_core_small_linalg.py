@@ -11,6 +11,9 @@ from hlcmp_drake.core.kernels import numba_available
 from hlcmp_drake.core.small_linalg import inverse, matmul, solve
 
 needs_numba = pytest.mark.skipif(not numba_available(), reason="numba is not installed")
+# One worker for the module: numba compiles the caller once per argument layout, several
+# seconds each time, and would do it again on every worker.
+pytestmark = pytest.mark.xdist_group("compiled_small_linalg")
 
 
 @functools.cache
