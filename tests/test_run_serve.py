@@ -676,6 +676,22 @@ def test_a_status_period_other_than_the_configured_one_stops_before_any_command(
     assert client.record("memq://")["status_period_s"] == pytest.approx(0.005)
 
 
+def test_the_reported_period_is_the_drivers_step_not_a_truncated_or_a_lost_one():
+    """Stamps truncated to the µs (steps of 4999 and 10001 among 5000 and 10000, as a
+    driver whose clock is a float makes them) and every third status lost (half the steps
+    10 ms): the period recorded is the median step with none lost in it, 5 ms, neither
+    the shortest (4.999 ms) nor a step over a lost status."""
+    client, send, commands = _client_fed_by_hand(
+        ["iiwa_driver.period_s=0.005", "iiwa_driver.start_guard_s=5.0"]
+    )
+    kept = [k for k in range(40) if k % 3 != 1]  # every third status lost
+    for k in kept:
+        send(5000 * k - (k in (3, 9, 15)), client.q0)
+    assert not client.done, client.stopped_because
+    assert client._shortest_step_s == pytest.approx(0.004999, abs=1e-9)
+    assert client.record("memq://")["status_period_s"] == 0.005
+
+
 def _served_with_gaps(skipped, overrides=()):
     """A hand-fed client over 0.1 s of 1 ms statuses, the statuses whose index is in
     `skipped` never sent; returns the client after its assessment and the commands."""

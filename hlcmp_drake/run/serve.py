@@ -28,6 +28,7 @@ import os
 import signal
 import threading
 import time
+from collections import Counter
 from pathlib import Path
 from typing import Callable, Iterator, Sequence
 
@@ -247,11 +248,15 @@ class TorqueClient:
         self._last_command = None
         self.ticks = self.missed_ticks = 0
         self.longest_missed_run = 0
-        # The status period as the driver's stamps say: the smallest step between two
+        # The status period as the driver's stamps say, from the steps between two
         # statuses received one after the other, each read as it comes, whether answered
         # or not (a status lost only makes a step longer; a burst of statuses queued
-        # while the client was busy makes none).
-        self.status_period_s: float | None = None
+        # while the client was busy makes none). The check against the configured period
+        # takes the shortest step; the period reported is the median of the steps with
+        # no status lost between them, since a driver that stamps µs truncated from its
+        # clock steps by 4999 and 5001 among its 5000.
+        self._shortest_step_s: float | None = None
+        self._step_counts: Counter[int] = Counter()
         self._previous_stamp: int | None = None
         self._stamp_steps = 0
         self.tick_seconds: list[float] = []
@@ -345,11 +350,28 @@ class TorqueClient:
         previous, self._previous_stamp = self._previous_stamp, utime
         if previous is None or utime <= previous:
             return  # the first, a duplicate or an older status: no step to measure
-        step = (utime - previous) / 1e6
-        self.status_period_s = (
-            step if self.status_period_s is None else min(self.status_period_s, step)
+        step = utime - previous
+        self._step_counts[step] += 1
+        self._shortest_step_s = (
+            step / 1e6 if self._shortest_step_s is None else min(self._shortest_step_s, step / 1e6)
         )
         self._stamp_steps += 1
+
+    @property
+    def status_period_s(self) -> float | None:
+        """The median of the steps between the stamps of statuses received one after the
+        other with none lost between them (shorter than 1.5 times the shortest) [s]; None
+        before two have come."""
+        if not self._step_counts:
+            return None
+        steps = sorted(self._step_counts)
+        steps = [step for step in steps if step < 1.5 * steps[0]]
+        half, seen = sum(self._step_counts[step] for step in steps) / 2, 0
+        for step in steps:
+            seen += self._step_counts[step]
+            if seen >= half:
+                break
+        return step / 1e6
 
     def _on_wrench(self, data: bytes) -> None:
         self._wrist, self._wrist_wall = data, time.perf_counter()
@@ -422,15 +444,16 @@ class TorqueClient:
         """Stop (True) when the measured status period is not the configured one, since
         the reference is sampled and θ stepped at `period_s`."""
         configured = self.config.period_s
-        if self._stamp_steps < PERIOD_EVIDENCE_STEPS or abs(self.status_period_s - configured) <= (
+        if self._stamp_steps < PERIOD_EVIDENCE_STEPS or abs(self._shortest_step_s - configured) <= (
             self.config.period_tolerance * configured
         ):
             return False
+        period = self.status_period_s
         self.stop(
             STOPPED,
-            f"the driver's statuses come every {self.status_period_s * 1000:g} ms (their "
+            f"the driver's statuses come every {period * 1000:g} ms (their "
             f"stamps), iiwa_driver.period_s is {configured * 1000:g} ms: set --set "
-            f"iiwa_driver.period_s={self.status_period_s:g}",
+            f"iiwa_driver.period_s={period:g}",
         )
         return True
 
