@@ -1,5 +1,9 @@
 """hlcmp_drake.run.sim_driver (hlcmp sim-driver): the simulated iiwa driver's start guard."""
 
+import os
+import random
+import time
+
 import numpy as np
 import pytest
 from pydrake.lcm import DrakeLcm
@@ -36,3 +40,31 @@ def test_both_drivers_abort_alike_when_no_command_comes():
     lcm = DrakeLcm("memq://")
     with pytest.raises(DriverAbort, match=r"^no command on IIWA_COMMAND within 0.1 s$"):
         DrakeDrivenWorld(scenario, lcm, 0.005).run(first_command_timeout_s=0.1)
+
+
+def test_a_driver_waiting_for_its_first_command_keeps_no_core_busy():
+    """Left waiting for a client (a minute by default), the driver sleeps in LCM's wait
+    between its t = 0 statuses: it used to poll, a whole core for the wait. Its statuses
+    still go out about once a period."""
+    from hlcmp_drake.run.sim_driver import wait_for_first_command
+
+    scenario, _ = load_scenario("insertion", ["duration_s=1.0"])
+    group = f"239.255.{random.randint(1, 254)}.{random.randint(1, 254)}"
+    lcm = DrakeLcm(f"udpm://{group}:{random.randint(20000, 60000)}?ttl=0")
+    driver = SimulatedIiwaDriver(scenario, lcm)
+    published = 0
+    publish = driver.publish_status
+
+    def counted():
+        nonlocal published
+        published += 1
+        publish()
+
+    driver.publish_status = counted
+    before, wall = os.times(), time.perf_counter()
+    with pytest.raises(DriverAbort, match="no command on IIWA_COMMAND within 0.5 s"):
+        wait_for_first_command(driver, lcm, 0.5)
+    after, wall = os.times(), time.perf_counter() - wall
+    busy = (after.user + after.system - before.user - before.system) / wall
+    assert busy < 0.3, f"{busy:.0%} of a core while waiting"
+    assert 0.25 * wall / driver.period < published <= wall / driver.period + 1

@@ -281,7 +281,10 @@ def wait_for_first_command(driver: SimulatedIiwaDriver, lcm: DrakeLcm, timeout_s
     start = time.perf_counter()
     while driver.command is None:
         driver.publish_status()
-        _handle_until(lcm, time.perf_counter() + driver.period)
+        # Sleep in LCM's own wait (whole ms) rather than poll to the µs: time stands
+        # still, so nothing needs the period kept, and a driver left waiting for a client
+        # (up to a minute) keeps no core busy.
+        lcm.HandleSubscriptions(max(1, round(driver.period * 1000)))
         if time.perf_counter() - start > timeout_s:
             raise DriverAbort(
                 f"no command on {driver.config.command_channel} within {timeout_s:g} s"
