@@ -682,8 +682,15 @@ def cmd_generalize(args):
             f"{np.mean(std):.3g}, max {np.max(std):.3g} (saved as std_{field}); length "
             f"scales {reach}"
         )
+    # The skill is accepted only in its query's world: each command with those --set.
     uses = " ".join(f"--set {shlex.quote(o)}" for o in library.overrides(query))
-    print(f"use it with: --skill {shlex.quote(str(args.out))} {uses}")
+    skill_file, scenario = shlex.quote(str(args.out)), shlex.quote(library.scenario_argument())
+    print(f"replay it: hlcmp reproduce {skill_file} --scenario {scenario} --out DIR {uses}")
+    print(
+        f"learn on from it: hlcmp learn DEMO.csv --scenario {scenario} --skill {skill_file} "
+        f"--out DIR {uses}"
+    )
+    print(f"serve it: hlcmp serve {scenario} --skill {skill_file} --lcm URL {uses}")
     return 0
 
 

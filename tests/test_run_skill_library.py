@@ -6,6 +6,8 @@ records the world of the query, so `learn --skill` with those --set values accep
 
 import dataclasses
 import json
+import shlex
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -162,6 +164,16 @@ def test_the_written_skill_loads_and_records_the_querys_world(tmp_path):
         assert json.loads(str(data["generalized_query"])) == {DEPTH: 0.01125, FRICTION: 90.0}
         assert str(data["generalized_method"]) == "regression"
     assert f"--set {DEPTH}=0.01125" in result.stdout
+    # The commands it prints parse as written (the skill is positional for reproduce).
+    from hlcmp_drake.cli import build_parser
+
+    printed = [line.split(": ", 1)[1] for line in result.stdout.splitlines() if ": hlcmp " in line]
+    assert [command.split()[1] for command in printed] == ["reproduce", "learn", "serve"]
+    for command in printed:
+        argv = shlex.split(command.replace("DIR", "o").replace("URL", "memq://"))[1:]
+        parsed = build_parser().parse_args(argv)
+        assert Path(parsed.skill) == out
+        assert parsed.set == [f"{DEPTH}=0.01125", f"{FRICTION}=90.0"]
 
 
 def test_a_library_over_the_skills_tau_regresses_it(tmp_path):
@@ -291,3 +303,32 @@ def test_skills_with_another_basis_are_refused(tmp_path):
     save_skill(path, Skill.untrained(other))
     with pytest.raises(InputError, match="differ in their basis"):
         SkillLibrary.load(folder)
+
+
+def test_a_trend_the_regression_cannot_find_is_said(tmp_path):
+    """Two depths whose skills differ: the length scale along the depth goes to its lower
+    bound (normalised to zero mean, two values are +1 and -1: best explained as
+    uncorrelated), so a query between
+    them gets about the library's mean; `generalize` warns and says what to do. Three
+    depths of the same function find the trend, and no warning."""
+    (tmp_path / "two").mkdir(), (tmp_path / "three").mkdir()
+    two = write_library(tmp_path / "two", [0.010, 0.015], [60.0, 120.0])
+    result = run_cli(
+        "generalize", two, "--query", f"{DEPTH}=0.0125", "--query", f"{FRICTION}=90",
+        "--out", tmp_path / "s.npz",
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    warnings = [line for line in result.stderr.splitlines() if "no trend" in line]
+    assert len(warnings) == 1, result.stderr
+    assert (
+        f"along {DEPTH} for theta_k, theta_d, theta_v (length scale at its lower bound 0.1)"
+        in (warnings[0])
+    )
+    assert "only 2 values of it: give it three or more, or use --method nearest" in warnings[0]
+    assert FRICTION not in warnings[0]
+    library = SkillLibrary.load(two)
+    library.fit()
+    assert library.length_scales()["theta_v"][0] == pytest.approx(0.1)
+    three = SkillLibrary.load(write_library(tmp_path / "three", [0.010, 0.0125, 0.015], [60, 120]))
+    _, _, notes = three.generalize({DEPTH: 0.01125, FRICTION: 90.0})
+    assert notes == [] and three.length_scales()["theta_v"][0] > 0.5

@@ -39,6 +39,7 @@ import numpy as np
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.world import world_of_scenario
 from hlcmp_drake.io.errors import InputError
+from hlcmp_drake.io.paths import DIAGRAMS_DIR
 from hlcmp_drake.io.skill import Skill, load_skill, save_skill
 from hlcmp_drake.run.library import LIBRARY_FILE
 
@@ -244,6 +245,38 @@ class SkillLibrary:
             for field, model in (self._models or {}).items()
         }
 
+    def trends_not_found(self) -> list[str]:
+        """A warning line per task parameter along which a regressed field's length scale
+        sits at its lower bound (after `fit`): the marginal likelihood found no trend that
+        carries from one grid value to the next, so between and beyond them the prediction
+        falls back toward the library's mean. Two values of a parameter along which the
+        skills differ tend to end so: a weight that only moves with it is, normalised to
+        zero mean, +1 at one and -1 at the other, best explained as uncorrelated.
+
+        Returns
+        -------
+        list of str
+        """
+        notes = []
+        scales = self.length_scales()
+        for j, key in enumerate(self.parameters):
+            fields = [f for f in self.fields if scales[f][j] <= LENGTH_SCALE_BOUNDS[0] * 1.001]
+            if not fields:
+                continue
+            values = len(np.unique(self.queries[:, j]))
+            advice = (
+                f"the library has only {values} values of it: give it three or more"
+                if values < 3
+                else "a finer grid along it may find one"
+            )
+            notes.append(
+                f"the regression found no trend along {key} for {', '.join(fields)} (length "
+                f"scale at its lower bound {LENGTH_SCALE_BOUNDS[0]:g}): away from the "
+                f"library's skills the prediction falls back toward their mean; {advice}, "
+                "or use --method nearest"
+            )
+        return notes
+
     def query_vector(self, query: Mapping[str, float], extrapolate: bool = False) -> tuple:
         """Check a query against the library and order its values as `parameters`.
 
@@ -354,13 +387,15 @@ class SkillLibrary:
         """
         _, notes = self.query_vector(query, extrapolate)
         prediction = self.predict(query, method)
+        if method == "regression":
+            notes = notes + self.trends_not_found()
         base = self.skills[0]
         dmp_arrays = {f: prediction.mean[f] for f in DMP_FIELDS if f in prediction.mean}
         if "tau" in dmp_arrays:
             dmp_arrays["tau"] = float(dmp_arrays["tau"])
         dmp = dc.replace(base.dmp, **dmp_arrays) if dmp_arrays else base.dmp
         try:
-            scenario, _ = load_scenario(self._scenario(), self.overrides(query))
+            scenario, _ = load_scenario(self.scenario_argument(), self.overrides(query))
         except InputError as error:  # the query's values are overrides: say --query
             message = str(error)
             for key in self.parameters:
@@ -402,10 +437,18 @@ class SkillLibrary:
         fixed = [f"{key}={value}" for key, value in self.record["set"].items()]
         return fixed + [f"{key}={float(query[key])!r}" for key in self.parameters]
 
-    def _scenario(self) -> str:
-        """The library's scenario file, or its bundled name when the file is gone."""
+    def scenario_argument(self) -> str:
+        """The library's scenario as the commands take it: its bundled name for a bundled
+        scenario (or when the file is gone), else its file's path.
+
+        Returns
+        -------
+        str
+        """
         path = Path(self.record["scenario_path"])
-        return str(path) if path.is_file() else self.record["scenario"]
+        if not path.is_file() or path.resolve() == (DIAGRAMS_DIR / f"{path.stem}.yaml").resolve():
+            return self.record["scenario"]
+        return str(path)
 
 
 def gp_kernel(n_parameters: int) -> Any:
@@ -424,8 +467,13 @@ def gp_kernel(n_parameters: int) -> Any:
     from sklearn.gaussian_process.kernels import RBF, ConstantKernel, WhiteKernel
 
     return ConstantKernel(1.0, (1e-2, 1e2)) * RBF(
-        length_scale=np.full(n_parameters, 0.5), length_scale_bounds=(0.1, 100.0)
+        length_scale=np.full(n_parameters, 0.5), length_scale_bounds=LENGTH_SCALE_BOUNDS
     ) + WhiteKernel(1e-2, (1e-6, 1.0))
+
+
+# The RBF's length scales on the [0, 1]-normalised task parameters: from a tenth of the
+# library's range (a skill's influence ends near it) to a hundred ranges (none varies).
+LENGTH_SCALE_BOUNDS = (0.1, 100.0)
 
 
 def save_generalized(
