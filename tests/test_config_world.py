@@ -117,3 +117,19 @@ def test_the_task_counts_by_what_differs_from_its_defaults():
     # would leave every digest as it is.
     assert world_definition(scenario)["task"] == {}
     assert world_definition(load_scenario("one_dof", ["task.axis=1"])[0])["task"] == {"axis": 1}
+
+
+def test_the_world_records_only_the_overrides_that_change_it():
+    from hlcmp_drake.config.loading import load_scenario
+    from hlcmp_drake.config.world import world_of_scenario
+
+    overrides = [
+        "task.puncture.depth_m=0.0125",
+        "duration_s=3",
+        "controllers.hlcmp.pi=4",
+        "directives.2.add_weld.X_PC.translation=[0, 0, 0.1]",
+    ]
+    scenario, _ = load_scenario("insertion", overrides[:3])
+    world = world_of_scenario(scenario, overrides)
+    assert world.overrides == (overrides[0], overrides[3])
+    assert world.digest == world_of_scenario(scenario).digest

@@ -69,6 +69,24 @@ def test_same_world_compares_kind_and_digest_not_the_name():
     assert WORLD.describe() == "'insertion' (ArmTask world 0123456789ab)"
 
 
+def test_the_overrides_that_made_the_world_round_trip_and_are_described(tmp_path, skill):
+    world = dc.replace(WORLD, overrides=("task.puncture.depth_m=0.0125", "task.x=a b"))
+    path = save_skill(tmp_path / "skill.npz", dc.replace(skill, world=world))
+    assert load_skill(path).world == world
+    assert world.same_world(WORLD)  # the digest says which world, not the overrides
+    assert world.describe() == (
+        "'insertion' with --set task.puncture.depth_m=0.0125 --set 'task.x=a b' "
+        "(ArmTask world 0123456789ab)"
+    )
+    # A skill saved without them holds no such field (its file as before).
+    with np.load(save_skill(tmp_path / "plain.npz", skill)) as data:
+        assert "world_overrides" not in data.files
+    for bad in ("[1, 2]", "not json", '{"a": 1}'):
+        _rewrite(path, world_overrides=np.array(bad))
+        with pytest.raises(InputError, match="field 'world_overrides' must be a JSON list"):
+            load_skill(path)
+
+
 def _rewrite(path, **changes):
     with np.load(path) as data:
         arrays = {k: data[k] for k in data.files}

@@ -64,7 +64,8 @@ def test_a_tiny_library_is_learned_indexed_and_resumed(tiny_library, tmp_path):
         assert entry["metrics"]["trial"] == 1 and entry["metrics"]["status"] == "ok"
         skill = load_skill(out / entry["skill"])
         scenario, _ = load_scenario("insertion", [f"{DEPTH}={entry['query'][DEPTH]}"])
-        assert skill.world == world_of_scenario(scenario)  # each skill knows its plank
+        assert skill.world.same_world(world_of_scenario(scenario))  # each knows its plank
+        assert [o.split("=")[0] for o in skill.world.overrides] == [DEPTH]  # and its --set
     stamps = {p: p.stat().st_mtime_ns for p in out.rglob("skill.npz")}
 
     again = build_library(spec, out, workers=2)

@@ -156,7 +156,7 @@ def test_the_written_skill_loads_and_records_the_querys_world(tmp_path):
     assert result.returncode == 0, result.stderr
     skill = load_skill(out)
     scenario, _ = load_scenario("insertion", [f"{DEPTH}=0.01125", f"{FRICTION}=90.0"])
-    assert skill.world == world_of_scenario(scenario)
+    assert skill.world == world_of_scenario(scenario, [f"{DEPTH}=0.01125", f"{FRICTION}=90.0"])
     other, _ = load_scenario("insertion")
     assert not skill.world.same_world(world_of_scenario(other))
     with np.load(out) as data:
@@ -174,6 +174,26 @@ def test_the_written_skill_loads_and_records_the_querys_world(tmp_path):
         parsed = build_parser().parse_args(argv)
         assert Path(parsed.skill) == out
         assert parsed.set == [f"{DEPTH}=0.01125", f"{FRICTION}=90.0"]
+
+
+def test_a_generalized_skill_refused_in_another_world_says_which_sets_make_its_own(tmp_path):
+    """Replayed without the query's --set, the skill is refused with the overrides that
+    make its world (the library's fixed ones that are not the world's left out)."""
+    from hlcmp_drake.run.learning import check_skill_world
+
+    library = SkillLibrary.load(write_library(tmp_path, *GRID))
+    skill, _, _ = library.generalize({DEPTH: 0.01125, FRICTION: 90.0})
+    save_skill(tmp_path / "s.npz", skill)
+    loaded = load_skill(tmp_path / "s.npz")
+    assert loaded.world.overrides == (f"{DEPTH}=0.01125", f"{FRICTION}=90.0")
+    with pytest.raises(InputError) as error:
+        check_skill_world(loaded, load_scenario("insertion")[0])
+    assert str(error.value).startswith(
+        f"the skill was learned in 'insertion' with --set {DEPTH}=0.01125 --set "
+        f"{FRICTION}=90.0 (ArmTask world "
+    )
+    here, _ = load_scenario("insertion", list(loaded.world.overrides))
+    assert check_skill_world(loaded, here) is None
 
 
 def test_a_library_over_the_skills_tau_regresses_it(tmp_path):

@@ -26,7 +26,7 @@ import dataclasses as dc
 import hashlib
 import json
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
 import yaml
 from pydrake.common.yaml import yaml_dump_typed
@@ -37,23 +37,36 @@ from hlcmp_drake.io.paths import MODELS_DIR, PACKAGE_NAME
 from hlcmp_drake.io.skill import SkillWorld
 
 
-def world_of_scenario(scenario: Scenario) -> SkillWorld:
-    """The world of `scenario` as a skill records it: its name, its kind and its digest.
+def world_of_scenario(scenario: Scenario, overrides: Sequence[str] = ()) -> SkillWorld:
+    """The world of `scenario` as a skill records it: its name, its kind and its digest,
+    and the overrides among `overrides` that change what the digest covers.
 
     Parameters
     ----------
     scenario : Scenario
         A loaded scenario (after its overrides).
+    overrides : sequence of str
+        The ``key=value`` overrides it was loaded with, if they are to be recorded.
 
     Returns
     -------
     SkillWorld
-        scenario.name, the task's class name ("ArmTask", "SliderTask") and the SHA-256
-        of `world_definition(scenario)`.
+        scenario.name, the task's class name ("ArmTask", "SliderTask"), the SHA-256 of
+        `world_definition(scenario)`, and the overrides of the task and the directives.
     """
     text = json.dumps(world_definition(scenario), sort_keys=True, separators=(",", ":"))
     digest = hashlib.sha256(text.encode()).hexdigest()
-    return SkillWorld(scenario.name, type(scenario.task).__name__, digest)
+    defining = tuple(
+        o
+        for o in overrides
+        if isinstance(o, str) and o.split("=", 1)[0].strip().split(".")[0] in WORLD_SECTIONS
+    )
+    return SkillWorld(scenario.name, type(scenario.task).__name__, digest, defining)
+
+
+# The scenario's top-level fields `world_definition` reads: an override of anything else
+# leaves the world as it is.
+WORLD_SECTIONS = ("directives", "task")
 
 
 def world_definition(scenario: Scenario) -> dict:

@@ -9,7 +9,10 @@ the skill, so an older reader refuses what it would otherwise read in part:
   ``tau``, ``start``, ``goal``, ``amplitude``, ``goal_scaled`` (M,), ``theta_p`` (M, N);
   the compliant profiles' weights ``theta_k``, ``theta_d``, ``theta_v`` (M, N); the world
   it was learned in (`SkillWorld`) as the strings ``world_scenario``, ``world_kind``,
-  ``world_digest`` (all empty when unknown); optionally ``demo_force`` (M, N), the
+  ``world_digest`` (all empty when unknown), and optionally ``world_overrides`` (a JSON
+  list of the `--set` overrides of the task and the models that made that world from its
+  scenario, as `SkillWorld.overrides`; readers that do not know it ignore it); optionally
+  ``demo_force`` (M, N), the
   demonstration's wrist force on the phase basis (`hlcmp_drake.core.demo_force`; readers
   that do not know the field ignore it, and a file without it is a skill whose
   demonstration carried no force).
@@ -31,7 +34,9 @@ from __future__ import annotations
 
 import codecs
 import dataclasses as dc
+import json
 import re
+import shlex
 import zipfile
 from pathlib import Path
 from typing import Any, Mapping
@@ -65,6 +70,7 @@ ROTATIONAL_FIELDS = ("theta_kr", "theta_dr", "theta_vr")
 UNIT_NORM_TOLERANCE = 1e-9
 # Format 2's record of the world (SkillWorld's fields), all empty when it is unknown.
 WORLD_FIELDS = ("world_scenario", "world_kind", "world_digest")
+WORLD_OVERRIDES_FIELD = "world_overrides"
 # Optional from format 2 on: the demonstration's force as feed-forward weights.
 DEMO_FORCE_FIELD = "demo_force"
 NOT_A_SKILL = "not a skill file (a .npz written by hlcmp fit/learn)"
@@ -88,11 +94,16 @@ class SkillWorld:
         64 hex digits: the SHA-256 of what defines the world (the scenario's model
         directives, with each model file's content, and its task), made by
         `hlcmp_drake.config.world.world_of_scenario`.
+    overrides : tuple of str
+        The ``key=value`` overrides of the scenario's task and models that made this
+        world, where known (a skill learned or generalized with them): what a replay
+        must `--set` again. Not compared: the digest says whether two worlds are one.
     """
 
     scenario: str
     kind: str
     digest: str
+    overrides: tuple[str, ...] = ()
 
     def same_world(self, other: SkillWorld) -> bool:
         """Whether `other` is the same world (kind and digest; the name may differ).
@@ -108,14 +119,18 @@ class SkillWorld:
         return (self.kind, self.digest) == (other.kind, other.digest)
 
     def describe(self) -> str:
-        """The scenario and a short form of the world, e.g. "'insertion' (ArmTask world
-        3f2a9c1b07d4)", for messages.
+        """The scenario, its overrides and a short form of the world, e.g. "'insertion'
+        with --set task.puncture.depth_m=0.0125 (ArmTask world 3f2a9c1b07d4)", for
+        messages.
 
         Returns
         -------
         str
         """
-        return f"'{self.scenario}' ({self.kind} world {self.digest[:12]})"
+        sets = "".join(f" --set {shlex.quote(o)}" for o in self.overrides)
+        return (
+            f"'{self.scenario}'{' with' * bool(sets)}{sets} ({self.kind} world {self.digest[:12]})"
+        )
 
 
 @dc.dataclass(frozen=True)
@@ -284,6 +299,8 @@ def save_skill(
     world = skill.world or SkillWorld("", "", "")
     for key in ("scenario", "kind", "digest"):
         arrays[f"world_{key}"] = np.array(getattr(world, key))
+    if world.overrides:
+        arrays[WORLD_OVERRIDES_FIELD] = np.array(json.dumps(list(world.overrides)))
     if skill.demo_force is not None:
         arrays[DEMO_FORCE_FIELD] = skill.demo_force
     if o is not None:
@@ -489,7 +506,18 @@ def _world(arrays, fail):
         raise fail(f"field(s) {', '.join(empty)} empty while the others name a world")
     if not re.fullmatch(r"[0-9a-f]{64}", values["world_digest"]):
         raise fail("field 'world_digest' must be 64 hex digits (a SHA-256)")
-    return SkillWorld(values["world_scenario"], values["world_kind"], values["world_digest"])
+    overrides: Any = []
+    if WORLD_OVERRIDES_FIELD in arrays:
+        value = arrays[WORLD_OVERRIDES_FIELD]
+        try:
+            overrides = json.loads(str(value)) if value.shape == () else None
+        except json.JSONDecodeError:
+            overrides = None
+        if not (isinstance(overrides, list) and all(isinstance(o, str) for o in overrides)):
+            raise fail(f"field '{WORLD_OVERRIDES_FIELD}' must be a JSON list of strings")
+    return SkillWorld(
+        values["world_scenario"], values["world_kind"], values["world_digest"], tuple(overrides)
+    )
 
 
 def _check_is_zip(path, fail):

@@ -709,7 +709,7 @@ def _learn_or_reproduce(
     for warning in warnings:
         if warn is not None:
             warn(warning)
-    world = world_of_scenario(base)
+    world = world_of_scenario(base, overrides)
     theta0 = skill.theta if skill else None
     if demo_force:
         theta0 = demo_force_start(scenario, encoded_force)

@@ -408,7 +408,7 @@ class SkillLibrary:
             prediction.mean["theta_k"],
             prediction.mean["theta_d"],
             prediction.mean["theta_v"],
-            world=world_of_scenario(scenario),
+            world=world_of_scenario(scenario, self.overrides(query)),
             demo_force=self._demonstration_force(),
         )
         return skill, prediction, notes
