@@ -319,3 +319,23 @@ def test_a_merge_key_is_not_taken_for_a_field(tmp_path):
     scenario = load_scenario(path)[0]
     assert scenario.controllers["hlcmp_per_step"].q_k == [2000.0]
     assert scenario.controllers["hlcmp_per_step"].q_units == "per_step"
+
+
+@pytest.mark.parametrize(
+    "override",
+    [
+        "robot_imperfection=!RobotImperfection {velocity_filter_hz: 40.0}",
+        "task.puncture=!PunctureConfig {depth_m: 0.01}",
+    ],
+)
+def test_a_tag_on_a_field_of_one_kind_is_refused_by_name(override):
+    """The README's `!Tag` form on a field that holds one class only: Drake's loader said
+    "The fields ['_tag'] were unknown to the schema"."""
+    key, _, value = override.partition("=")
+    with pytest.raises(InputError) as error:
+        load_scenario("insertion", [override])
+    tag, kind = value.split()[0], value.split()[0][1:]
+    assert str(error.value) == (
+        f"override '{override}': {key.rsplit('.', 1)[-1]}: takes no tag ({tag}): it holds a "
+        f"{kind} only; give its fields alone"
+    )

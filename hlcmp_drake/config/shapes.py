@@ -85,7 +85,7 @@ def misshapen_value(
 
 
 def _check(
-    node: yaml.Node, hint: typing.Any, key: str, visited: set[int]
+    node: yaml.Node, hint: typing.Any, key: str, visited: set[int], chosen_by_tag: bool = False
 ) -> tuple[int, str, str] | None:
     # An alias is the node it names: each node is checked once, so that an alias within
     # itself ends and aliases of aliases do not multiply the work.
@@ -106,7 +106,7 @@ def _check(
             return _check(node, members[0], key, visited)
         tags = [f"!{getattr(m, '__name__', '')}" for m in members]
         if node.tag in tags:
-            return _check(node, members[tags.index(node.tag)], key, visited)
+            return _check(node, members[tags.index(node.tag)], key, visited, chosen_by_tag=True)
         if node.tag.startswith("!"):
             near = difflib.get_close_matches(node.tag, tags, n=1)
             hint = f" (did you mean {near[0]}?)" if near else ""
@@ -121,6 +121,13 @@ def _check(
     if dc.is_dataclass(hint):
         if not isinstance(node, yaml.MappingNode):
             return wrong("a map of fields")
+        schema_name = getattr(hint, "__name__", hint)
+        if node.tag.startswith("!") and not chosen_by_tag:  # Drake: "The fields ['_tag'] ..."
+            return (
+                node.start_mark.line + 1,
+                key,
+                f"takes no tag ({node.tag}): it holds a {schema_name} only; give its fields alone",
+            )
         fields = typing.get_type_hints(hint)
         for name, value in node.value:
             if not isinstance(name, yaml.ScalarNode) or name.tag == _MERGE_TAG:
@@ -131,7 +138,7 @@ def _check(
                 return (
                     name.start_mark.line + 1,
                     _join(key, name.value),
-                    f"no such field in {getattr(hint, '__name__', hint)}"
+                    f"no such field in {schema_name}"
                     + (f" (did you mean '{near[0]}'?)" if near else ""),
                 )
             found = _check(value, fields[name.value], _join(key, name.value), visited)
