@@ -524,6 +524,11 @@ def cmd_serve(args):
         f"served {record['controller']} for {record['served_s']:.3f} s: {record['ticks']} ticks, "
         f"{record['missed_ticks']} missed, {timing}"
     )
+    # The task as learn and reproduce say it, judged on the client's own world.
+    task = result.metrics["controllers"].get(record["controller"], {}).get("task")
+    if task is not None:
+        verdict = "done" if task["done"] else "NOT done"
+        print(f"task ({record['controller']}): {verdict} -- {task['evidence']}")
     served = ", timeseries.npz, recording.html" if len(result.run.t) else ""
     if record["status"] == "ok":
         print(f"ok: {record['stopped_because']}")

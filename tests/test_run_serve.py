@@ -595,7 +595,8 @@ def test_serve_in_one_process_from_the_command_line(tmp_path, capsys):
         )
         == 0
     )
-    last = capsys.readouterr().out.strip().splitlines()[-1]
+    printed = capsys.readouterr().out.strip().splitlines()
+    last = printed[-1]
     assert last == f"serve.json, metrics.json, timeseries.npz, recording.html in {out}"
     assert all((out / name).is_file() for name in last.split(" in ")[0].split(", "))
     record = json.loads((out / "serve.json").read_text())
@@ -608,6 +609,10 @@ def test_serve_in_one_process_from_the_command_line(tmp_path, capsys):
     assert np.all(arrays[f"{record['controller']}/Ks"] == 0.0)  # frozen: no adaptation
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["status"] == "ok" and record["controller"] in metrics["controllers"]
+    # The task as learn and reproduce print it: 0.3 s does not reach the plank.
+    task = metrics["controllers"][record["controller"]]["task"]
+    assert not task["done"]
+    assert f"task ({record['controller']}): NOT done -- {task['evidence']}" in printed
 
 
 @pytest.mark.parametrize(
