@@ -427,6 +427,7 @@ def cmd_sweep(args):
 
     from hlcmp_drake.io.outputs import check_output_folder
     from hlcmp_drake.run.sweep import check_engine, plan_sweep, run_sweep
+    from hlcmp_drake.run.sweep.planning import foreign_task_folders
 
     if args.dry_run:
         check_engine(args.engine, args.workers, args.address)  # the command as it would run
@@ -442,6 +443,7 @@ def cmd_sweep(args):
         )
         for task in plan.tasks:
             print(f"  {plan.states[task.id]:8s} {task.id}   " + " ".join(task.overrides))
+        _say_foreign_folders(plan.out_dir, foreign_task_folders(plan))
         try:  # a dry run writes nothing, so a folder it cannot write is only said
             check_output_folder(plan.out_dir)
         except InputError as error:
@@ -479,11 +481,24 @@ def cmd_sweep(args):
             + f"; {result.wall_s:.1f} s"
         )
     print(f"results in {result.out_dir}: sweep.csv, sweep.json, plots/, tasks/")
+    _say_foreign_folders(result.out_dir, result.foreign)
     if result.failed:
         return 1
     if result.missing:
         return EXIT_BAD_INPUT
     return EXIT_UNSTABLE if result.unstable else 0
+
+
+def _say_foreign_folders(out_dir, foreign):
+    """One line for the folders in OUT/tasks that are no task of this sweep."""
+    if foreign:
+        shown = ", ".join(foreign[:3]) + (
+            f" and {len(foreign) - 3} more" if len(foreign) > 3 else ""
+        )
+        print(
+            f"{len(foreign)} folder(s) in {out_dir}/tasks are no task of this sweep (an "
+            f"earlier grid's?), left as they are and out of its tables: {shown}"
+        )
 
 
 def cmd_serve(args):

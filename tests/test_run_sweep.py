@@ -205,6 +205,11 @@ def test_a_deleted_result_reruns_that_task_only_and_an_edited_sweep_reruns_what_
     assert sorted(result.ran) == ["pi=1.0", "pi=5.0"] and result.stale == 2
     with np.load(out / "tasks" / "pi=1.0" / "timeseries.npz") as arrays:
         assert arrays["t"][-1] == pytest.approx(0.2)
+    assert result.foreign == []
+    # Another value is another task: the old one's folder stays, said to be no task of it.
+    result = run_sweep(tiny(tmp_path, duration=0.2, values="[1.0, 3.0]"), out, workers=2)
+    assert result.ran == ["pi=3.0"] and result.foreign == ["pi=5.0"]
+    assert [r["id"] for r in _read_csv(out / "sweep.csv")] == ["pi=1.0", "pi=3.0"]
 
 
 @pytest.mark.slow
@@ -316,6 +321,26 @@ def test_the_command_lists_tasks_with_dry_run_and_writes_nothing(tmp_path):
     assert "2 tasks of one_dof.yaml" in lines[0] and "2 to run" in lines[0]
     assert lines[1].split()[:2] == ["pending", "pi=1.0"] and "controllers.hlcmp.pi=1.0" in lines[1]
     assert not (tmp_path / "out").exists()
+
+
+def test_folders_of_no_task_of_the_sweep_are_said_and_left(tmp_path):
+    """An edited grid leaves its old tasks' folders: the sweep says so, keeps them and
+    leaves them out of its tables (here told by a dry run, which runs nothing)."""
+    from hlcmp_drake.run.sweep.planning import foreign_task_folders
+
+    out = tmp_path / "out"
+    for old in ("pi=3.0", "pi=7.0", "pi=9.0", "pi=11.0"):
+        (out / "tasks" / old).mkdir(parents=True)
+    (out / "tasks" / "pi=1.0").mkdir()  # one of this sweep's, pending
+    plan = plan_sweep(tiny(tmp_path), out)
+    assert foreign_task_folders(plan) == ["pi=11.0", "pi=3.0", "pi=7.0", "pi=9.0"]
+    result = run_cli("sweep", tiny(tmp_path), "--out", out, "--dry-run")
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.splitlines()[-1] == (
+        f"4 folder(s) in {out}/tasks are no task of this sweep (an earlier grid's?), left as "
+        "they are and out of its tables: pi=11.0, pi=3.0, pi=7.0 and 1 more"
+    )
+    assert all((out / "tasks" / old).is_dir() for old in ("pi=3.0", "pi=9.0"))
 
 
 @pytest.mark.parametrize(

@@ -19,7 +19,7 @@ from hlcmp_drake.run.sweep.engines import (
     check_engine,
     cluster_joined,
 )
-from hlcmp_drake.run.sweep.planning import check_metrics, plan_sweep
+from hlcmp_drake.run.sweep.planning import check_metrics, foreign_task_folders, plan_sweep
 from hlcmp_drake.run.sweep.results import SweepResult, _summary, _wall_s, _write_tables, task_values
 
 
@@ -147,4 +147,5 @@ def run_sweep(
             missing,
             time.perf_counter() - start,
             files,
+            foreign_task_folders(plan),
         )

@@ -93,6 +93,27 @@ def plan_sweep(name_or_path: str | Path, out_dir: str | Path | None = None) -> S
     return SweepPlan(sweep, out_dir, tasks, {task.id: task_state(task) for task in tasks})
 
 
+def foreign_task_folders(plan: SweepPlan) -> list[str]:
+    """The folders in OUT/tasks that are no task of this sweep (an earlier version of its
+    grid's, or another sweep's given the same --out): a sweep never deletes them, and its
+    tables leave them out.
+
+    Parameters
+    ----------
+    plan : SweepPlan
+
+    Returns
+    -------
+    list of str
+        Their names, sorted.
+    """
+    folder = plan.out_dir / "tasks"
+    ids = {task.id for task in plan.tasks}
+    if not folder.is_dir():
+        return []
+    return sorted(p.name for p in folder.iterdir() if p.is_dir() and p.name not in ids)
+
+
 @dc.dataclass
 class TaskOutputs:
     """What a task's run folder will hold, as far as a sweep's metrics read it.

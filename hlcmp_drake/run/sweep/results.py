@@ -45,6 +45,8 @@ class SweepResult:
     wall_s : float
     files : list of Path
         sweep.csv, sweep.json and the plots.
+    foreign : list of str
+        The folders in OUT/tasks that are no task of this sweep (`foreign_task_folders`).
     """
 
     summary: dict
@@ -58,6 +60,7 @@ class SweepResult:
     missing: list
     wall_s: float
     files: list
+    foreign: list
 
 
 def _lookup(data: object, dotted: str) -> tuple[bool, object]:
