@@ -15,12 +15,15 @@ from pathlib import Path
 
 import numpy as np
 
+from hlcmp_drake.worlds.peg_fixture import (
+    BLOCK_HALF_WIDTH_M,
+    BLOCK_HEIGHT_M,
+    CHAMFER_M,
+    HOLE_RADIUS_M,
+)
+
 ROOT = Path(__file__).resolve().parent.parent
 
-HOLE_RADIUS_M = 0.0061  # 12.2 mm: a 12.0 mm peg with 0.2 mm diametral clearance
-CHAMFER_M = 0.001  # 1 mm x 45 degrees at the entrance
-BLOCK_HALF_WIDTH_M = 0.03  # a 60 mm square block
-BLOCK_HEIGHT_M = 0.025  # the bore's length: a 25 mm through hole
 SEGMENTS = 96  # 3.75 degrees: the 12.2 mm circle within 3.3 um of its polygon
 
 

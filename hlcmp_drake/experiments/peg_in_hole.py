@@ -23,15 +23,12 @@ from hlcmp_drake.experiments.table import Table, number
 from hlcmp_drake.io.runs import RunResult
 from hlcmp_drake.worlds.controllers import CONSTANT_IMPEDANCE, kind_of, labels_with_role
 from hlcmp_drake.worlds.models import load_models, scoped_frame
+from hlcmp_drake.worlds.peg_fixture import ENTRANCE_RADIUS_M
 
 HOLE_FRAME = "peg_fixture::hole"  # the entrance's centre, +z out of the block along the axis
 # Done: within 2 mm (a tenth of the 20 mm bore the demonstration enters) of the demonstrated
 # depth. A peg that jams at the chamfer or in the bore's mouth stops 4-5 mm short.
 DEPTH_TOLERANCE_M = 0.002
-# The hole's entrance radius, its chamfer included (models/peg_fixture.sdf: a 12.2 mm bore
-# chamfered 1 mm x 45 degrees): a tip farther than this from the axis is beside the hole,
-# however far below the entrance's plane it goes.
-ENTRANCE_RADIUS_M = 0.0061 + 0.001
 # P1: "small about the peg's own axis" is at most this share of the largest learned
 # tilting stiffness.
 OWN_AXIS_SHARE = 0.25
