@@ -278,3 +278,36 @@ def test_the_insertion_is_done_when_the_tool_point_reaches_the_tear_depth():
     run, scenario = _straight_down(-0.005)  # never down to the plank
     task = insertion.went_through(run, scenario)
     assert "the tool point stayed 5.0 mm above its top, the tear needs" in task["evidence"]
+
+
+@pytest.mark.parametrize("experiment", ["insertion", "cutting"])
+@pytest.mark.parametrize("kept", [["hlcmp_per_step"], ["hlcmp_per_step", "const_500"]])
+def test_a_claim_with_nothing_to_compare_with_is_left_out(experiment, kept):
+    """C1 needs two constant impedances, C2 and C3 the learner and a constant one: without
+    them the claim is not judged (left out), never "reproduced" over an empty comparison."""
+    import dataclasses as dc
+
+    from hlcmp_drake.experiments import cutting
+
+    module = {"insertion": insertion, "cutting": cutting}[experiment]
+    scenario, _ = load_scenario(experiment)
+    scenario = dc.replace(
+        scenario, controllers={n: c for n, c in scenario.controllers.items() if n in kept}
+    )
+    per_axis = {"x": 1.0, "y": 1.0, "z": 10.0}
+    metrics = {
+        name: {
+            "task": {"done": True, "evidence": "done"},
+            "mean_abs_position_error_m": per_axis,
+            "force_smoothness_N": per_axis,
+            "mean_abs_force_N": per_axis,
+            "max_stiffness_N_per_m": per_axis,
+            "max_abs_feedforward_N": per_axis,
+        }
+        for name in kept
+    }
+    judged = module.claims(metrics, scenario, None, "hlcmp_per_step")
+    assert "C1" not in judged
+    assert ("C2" in judged) == (len(kept) == 2)
+    if experiment == "insertion":
+        assert ("C3" in judged) == (len(kept) == 2)

@@ -274,7 +274,9 @@ def constant_impedances(scenario: Scenario) -> list[str]:
     )
 
 
-def smoother_force(metrics: dict, learner_name: str, constants: list[str], label: str) -> Verdict:
+def smoother_force(
+    metrics: dict, learner_name: str, constants: list[str], label: str
+) -> Verdict | None:
     """C2: the Hl-CMP's contact force in z is smoother (smaller sum of |second
     difference|, Figs. 8 and 12b) than every constant impedance's.
 
@@ -290,8 +292,11 @@ def smoother_force(metrics: dict, learner_name: str, constants: list[str], label
 
     Returns
     -------
-    Verdict
+    Verdict or None
+        None without a constant impedance: nothing to be smoother than.
     """
+    if not constants:
+        return None
     smooth = {n: metrics[n]["force_smoothness_N"]["z"] for n in [learner_name, *constants]}
     return Verdict(
         holds=all(smooth[learner_name] < smooth[n] for n in constants),

@@ -78,7 +78,7 @@ def smoother_cutting_force(given: ClaimInputs) -> Verdict | None:
     Returns
     -------
     Verdict or None
-        None without a learner.
+        None without a learner or a constant impedance.
     """
     if given.learner is None:
         return None

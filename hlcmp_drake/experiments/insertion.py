@@ -239,7 +239,7 @@ def _mean_force(metrics: dict, name: str) -> dict:
 # --- the claims (Sec. V-D): each the paper's sentence, its judge and its evidence -----
 
 
-def stiffer_tracks_better(given: ClaimInputs) -> Verdict:
+def stiffer_tracks_better(given: ClaimInputs) -> Verdict | None:
     """C1: a stiffer constant impedance tracks better (Fig. 6): the mean |x - x_d| summed
     over x, y, z falls from each constant impedance to the next stiffer one.
 
@@ -251,9 +251,12 @@ def stiffer_tracks_better(given: ClaimInputs) -> Verdict:
 
     Returns
     -------
-    Verdict
+    Verdict or None
+        None with fewer than two constant impedances: no stiffer one to compare with.
     """
     constants = constant_impedances(given.scenario)
+    if len(constants) < 2:
+        return None
     errors = [sum(given.metrics[n]["mean_abs_position_error_m"].values()) for n in constants]
     return Verdict(
         holds=all(a > b for a, b in zip(errors, errors[1:])),
@@ -285,7 +288,7 @@ def smoother_contact_force(given: ClaimInputs) -> Verdict | None:
     Returns
     -------
     Verdict or None
-        None without the learner's metrics.
+        None without the learner's metrics or a constant impedance.
     """
     if given.learner_metrics is None:
         return None
@@ -324,13 +327,14 @@ def selective_adaptation(given: ClaimInputs) -> Verdict | None:
     Returns
     -------
     Verdict or None
-        With its three parts; None without the learner's metrics.
+        With its three parts; None without the learner's metrics or a constant impedance
+        (the paper's judgement compares the two).
     """
     hl = given.learner_metrics
-    if hl is None:
+    constants = constant_impedances(given.scenario)
+    if hl is None or not constants:
         return None
     metrics, name = given.metrics, given.learner
-    constants = constant_impedances(given.scenario)
     f, k, v = _mean_force(metrics, name), hl["max_stiffness_N_per_m"], hl["max_abs_feedforward_N"]
     parts = {
         "hlcmp_xy_force_near_zero": _small_in_xy(f),
@@ -455,7 +459,8 @@ def claims(
     Returns
     -------
     dict
-        C1 (always), and C2-C4 when there is a learner: {"holds", "evidence", "paper_says"}.
+        C1 with two or more constant impedances, C2 and C3 with a learner and a constant
+        impedance, C4 with a learner: {"holds", "evidence", "paper_says"}.
     """
     return judge_claims(CLAIMS, metrics, scenario, runs, learner_name)
 
