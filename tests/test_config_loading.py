@@ -77,6 +77,11 @@ def _line_of(text, needle):
             "hlcmp: !Hlcmp is none of !HlcmpConfig, !HlcmpForgettingConfig, ",
         ),
         ("times_s: [0.0, 10.0]", "times_s: [0.0, 10.0", "expected ',' or ']'"),
+        (  # relative: Drake would not read it, the existence check would look in the cwd
+            "file: package://hlcmp_drake/models/one_dof_slider.sdf",
+            "file: file://one_dof_slider.sdf",
+            "file: 'file://one_dof_slider.sdf': a file:// URL takes an absolute path",
+        ),
     ],
 )
 def test_bad_scenarios_name_file_and_line(tmp_path, old, new, expected):

@@ -261,6 +261,14 @@ def check_directives(scenario: Scenario, fail: Fail) -> None:
                 f"'{item.file}' is a plain path; Drake reads a model file from a URL: "
                 "package://PACKAGE/... or file:///absolute/path",
             )
+        file = getattr(item, "file", "")
+        if file.startswith("file://") and not file.startswith("file:///"):
+            # Drake reads file:// as absolute; this check would look where the command runs.
+            fail(
+                f"{key}.file",
+                f"'{file}': a file:// URL takes an absolute path, file:///absolute/path "
+                f"(three slashes)",
+            )
         if kind == "add_model" and not model_file_exists(item.file):
             fail(f"{key}.file", f"model file '{item.file}' does not exist")
         if kind == "add_collision_filter_group" and not (item.members or item.member_groups):
