@@ -79,6 +79,41 @@ def test_a_task_is_done_only_beside_its_own_scenario(tmp_path):
     assert task_state(task) == "stale"
 
 
+def test_a_task_whose_model_or_demonstration_changed_is_stale(tmp_path):
+    """scenario.yaml names its model files and its demonstration by path: a task is done
+    only while their contents are the ones it ran with (inputs.sha256 beside it)."""
+    from conftest import write_sweep
+
+    from hlcmp_drake.config.sweep import INPUTS_FILE
+    from hlcmp_drake.io.paths import DIAGRAMS_DIR, MODELS_DIR
+
+    demo = tmp_path / "demo.csv"
+    demo.write_bytes((DIAGRAMS_DIR / "demos" / "insertion_demo.csv").read_bytes())
+    foam = tmp_path / "foam.sdf"
+    foam.write_bytes((MODELS_DIR / "foam_plank.sdf").read_bytes())
+    text = (DIAGRAMS_DIR / "insertion.yaml").read_text()
+    text = text.replace("file: demos/insertion_demo.csv", "file: demo.csv")
+    text = text.replace("package://hlcmp_drake/models/foam_plank.sdf", f"file://{foam}")
+    (tmp_path / "mine.yaml").write_text(text)
+    sweep = write_sweep(tmp_path, "scenario: mine.yaml\ngrid:\n  duration_s: [0.1]\n")
+    task = plan_tasks(load_sweep(sweep), tmp_path / "out")[0]
+    run_dir = Path(task.run_dir)
+    run_dir.mkdir(parents=True)
+    (run_dir / "scenario.yaml").write_text(task.scenario_yaml)
+    (run_dir / INPUTS_FILE).write_text(task.inputs_digest + "\n")
+    (run_dir / "metrics.json").write_text("{}")
+    assert task_state(task) == "done"
+    for changed in (foam, demo):
+        kept = changed.read_bytes()
+        changed.write_bytes(kept + b"\n")  # the same path, another content
+        again = plan_tasks(load_sweep(sweep), tmp_path / "out")[0]
+        assert again.scenario_yaml == task.scenario_yaml and task_state(again) == "stale"
+        changed.write_bytes(kept)
+        assert task_state(plan_tasks(load_sweep(sweep), tmp_path / "out")[0]) == "done"
+    (run_dir / INPUTS_FILE).unlink()  # a folder from before the digest: its text decides
+    assert task_state(task) == "done"
+
+
 # --- results -------------------------------------------------------------------------
 
 

@@ -52,6 +52,7 @@ from hlcmp_drake.config.loading import (
 )
 from hlcmp_drake.config.scenario import Fail
 from hlcmp_drake.config.shapes import misshapen_value
+from hlcmp_drake.config.world import inputs_digest
 from hlcmp_drake.io.errors import InputError, located
 from hlcmp_drake.io.paths import DIAGRAMS_DIR
 
@@ -213,6 +214,9 @@ class SweepTask:
         some kind, which the claims compare with).
     run_dir : str
         The task's run folder, OUT/tasks/ID.
+    inputs_digest : str
+        `config.world.inputs_digest` of its scenario: the model files' and the
+        demonstration's contents, which its text names only by path.
     """
 
     id: str
@@ -224,6 +228,11 @@ class SweepTask:
     controllers: list
     claims: bool
     run_dir: str
+    inputs_digest: str
+
+
+# Beside a task's scenario.yaml: the digest of the files it names (`SweepTask.inputs_digest`).
+INPUTS_FILE = "inputs.sha256"
 
 
 def resolve_sweep_path(name_or_path: str | Path) -> Path:
@@ -647,6 +656,7 @@ def plan_tasks(sweep: Sweep, out_dir: str | Path) -> list[SweepTask]:
             scenario, controllers={label: scenario.controllers[label] for label in keep}
         )
         text = dump_scenario(scenario)
+        digest = inputs_digest(scenario)
         for repetition in range(1, config.repetitions + 1):
             identifier = task_id(parameters, repetition, config.repetitions)
             if identifier in seen:
@@ -669,6 +679,7 @@ def plan_tasks(sweep: Sweep, out_dir: str | Path) -> list[SweepTask]:
                     list(keep),
                     claims,
                     str(Path(out_dir) / "tasks" / identifier),
+                    digest,
                 )
             )
     return tasks

@@ -32,7 +32,7 @@ import yaml
 from pydrake.common.yaml import yaml_dump_typed
 from pydrake.multibody.parsing import ModelDirectives
 
-from hlcmp_drake.config.scenario import Scenario
+from hlcmp_drake.config.scenario import DemonstrationConfig, Scenario
 from hlcmp_drake.io.paths import MODELS_DIR, PACKAGE_NAME
 from hlcmp_drake.io.skill import SkillWorld
 
@@ -67,6 +67,30 @@ def world_of_scenario(scenario: Scenario, overrides: Sequence[str] = ()) -> Skil
 # The scenario's top-level fields `world_definition` reads: an override of anything else
 # leaves the world as it is.
 WORLD_SECTIONS = ("directives", "task")
+
+
+def inputs_digest(scenario: Scenario) -> str:
+    """The SHA-256 of the files a run of `scenario` reads besides its own text: its world
+    (`world_definition`: each model file by its content) and its demonstration's bytes.
+    A sweep compares it to tell a finished task from one whose files changed since.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        A loaded scenario (its demonstration's file resolved).
+
+    Returns
+    -------
+    str
+        64 hex digits.
+    """
+    reference = scenario.reference
+    demonstration = None
+    if isinstance(reference, DemonstrationConfig) and Path(reference.file).is_file():
+        demonstration = hashlib.sha256(Path(reference.file).read_bytes()).hexdigest()
+    inputs = {"world": world_definition(scenario), "demonstration": demonstration}
+    text = json.dumps(inputs, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()
 
 
 def world_definition(scenario: Scenario) -> dict:

@@ -8,6 +8,7 @@ import dataclasses as dc
 from pathlib import Path
 
 from hlcmp_drake.config.sweep import (
+    INPUTS_FILE,
     Sweep,
     SweepMetric,
     SweepTask,
@@ -63,6 +64,11 @@ def task_state(task: SweepTask) -> str:
         return "pending"
     try:
         same = (run_dir / "scenario.yaml").read_text() == task.scenario_yaml
+        # The files the text names by path (models, demonstration), by their contents; a
+        # folder written before the digest was kept is judged by its text alone.
+        inputs = run_dir / INPUTS_FILE
+        if same and inputs.is_file():
+            same = inputs.read_text().strip() == task.inputs_digest
     except (OSError, UnicodeDecodeError):
         same = False
     return "done" if same else "stale"

@@ -11,14 +11,15 @@ from pathlib import Path
 from typing import Any, Callable
 
 from hlcmp_drake.config.loading import load_scenario_text
-from hlcmp_drake.config.sweep import SweepTask
+from hlcmp_drake.config.sweep import INPUTS_FILE, SweepTask
 from hlcmp_drake.io import outputs
 from hlcmp_drake.run.runner import run_loaded_scenario
 
 
 def run_task(task: SweepTask) -> dict:
-    """Run one task in this process: its scenario.yaml first, then the runner's files
-    (metrics.json last), then sweep_task.json (id, values, status, wall time).
+    """Run one task in this process: its scenario.yaml and inputs.sha256 first, then the
+    runner's files (metrics.json last), then sweep_task.json (id, values, status, wall
+    time).
 
     Parameters
     ----------
@@ -34,6 +35,7 @@ def run_task(task: SweepTask) -> dict:
         missing_ok=True
     )  # an old result never passes for this scenario's
     outputs.write_text(run_dir / "scenario.yaml", task.scenario_yaml)
+    outputs.write_text(run_dir / INPUTS_FILE, task.inputs_digest + "\n")
     start = time.perf_counter()
     scenario = load_scenario_text(task.scenario_yaml, task.scenario_path)
     scenario.controllers = {label: scenario.controllers[label] for label in task.controllers}
