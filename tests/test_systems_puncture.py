@@ -7,9 +7,10 @@ import pytest
 from hlcmp_drake.systems.puncture import HoleFriction
 
 
-def _tool_on_a_slide():
-    """HoleFriction of a tool point on a vertical slide (its plant state is (z, z')) under a
-    30 mm foam whose top face is at z = 0.33 m, torn at 15 mm, 150 N/m."""
+def _tool_on_a_slide(footprint=None):
+    """HoleFriction of a tool point on a vertical slide at x = y = 0 (its plant state is
+    (z, z')) under a 30 mm foam whose top face is at z = 0.33 m, its frame at x = 0.6 m,
+    torn at 15 mm, 150 N/m; the face's extent `footprint` (None: unbounded)."""
     from pydrake.multibody.plant import MultibodyPlant
     from pydrake.multibody.tree import PrismaticJoint, SpatialInertia, UnitInertia
 
@@ -25,6 +26,8 @@ def _tool_on_a_slide():
         [0, 0, -1],
         [0.6, 0, 0.33],
         [0, 0, 1],
+        np.eye(3),
+        footprint,
         0.03,
         0.015,
         150.0,
@@ -76,3 +79,35 @@ def test_an_update_that_changes_nothing_says_so():
     assert not system.punctured(context)
     assert update_at(0.31, -0.03) == EventStatus.Severity.kSucceeded  # tears: stage 0 -> 1
     assert system.punctured(context)
+
+
+@pytest.mark.parametrize(
+    "footprint, beside",
+    [
+        ((np.array([-0.15, -0.1]), np.array([0.15, 0.1])), True),  # the plank ends at x = 0.45
+        ((np.array([-0.7, -0.1]), np.array([0.15, 0.1])), False),  # reaching x = -0.1
+    ],
+)
+def test_a_tool_point_beside_the_object_tears_and_rubs_nothing(footprint, beside):
+    """20 mm below the face's plane, going in: torn only when the point is over the face;
+    after the tear, out of the face sideways there is no friction."""
+    from pydrake.systems.analysis import Simulator
+
+    system = _tool_on_a_slide(footprint)
+    context = system.CreateDefaultContext()
+    system.plant_state.FixValue(context, [0.31, -0.03])
+    simulator = Simulator(system, context)
+    simulator.AdvanceTo(0.0025)
+    assert system.punctured(context) is not beside
+    force = system.GetOutputPort("force").Eval(context)[2]
+    assert force == (0.0 if beside else pytest.approx(3.0, rel=1e-6))
+
+
+def test_over_the_face_reads_the_faces_own_axes():
+    from hlcmp_drake.core.puncture import over_the_face
+
+    turned = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # 90 deg about z
+    lower, upper = np.array([-0.15, -0.1]), np.array([0.15, 0.1])
+    top = np.array([1.0, 0.0, 0.5])
+    assert over_the_face(top + [0.05, 0.12, -0.2], top, turned, lower, upper)
+    assert not over_the_face(top + [0.12, 0.05, -0.2], top, turned, lower, upper)

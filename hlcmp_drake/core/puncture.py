@@ -29,6 +29,32 @@ def depth_below(
     return float(np.dot(np.asarray(top_point) - point, top_normal))
 
 
+def over_the_face(
+    point: np.ndarray,
+    top_point: np.ndarray,
+    top_rotation: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+) -> bool:
+    """Whether `point` lies over (or under) the object's top face: its coordinates along
+    the face's own x and y axes within the face's extent. A tool point beside the object,
+    however far below the face's plane, is in no hole and tears nothing.
+
+    Parameters
+    ----------
+    point : (3,) array
+        The tool point, world [m].
+    top_point : (3,) array
+        The face's frame origin, world [m].
+    top_rotation : (3, 3) array
+        The face frame's orientation in the world (its z the outward normal).
+    lower, upper : (2,) arrays
+        The face's extent along its frame's x and y [m].
+    """
+    xy = (np.asarray(top_rotation).T @ (np.asarray(point) - np.asarray(top_point)))[:2]
+    return bool(np.all(xy >= lower) and np.all(xy <= upper))
+
+
 def deep_enough_to_tear(depth: float, tear_depth: float) -> bool:
     """Whether the tool point is deep enough for the foam to tear (`tears`' first half,
     which needs no velocity).

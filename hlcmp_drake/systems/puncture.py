@@ -9,7 +9,13 @@ from pydrake.multibody.math import SpatialForce
 from pydrake.multibody.plant import ExternallyAppliedSpatialForce
 from pydrake.systems.framework import BasicVector, Context, EventStatus, LeafSystem
 
-from hlcmp_drake.core.puncture import deep_enough_to_tear, depth_below, hole_friction, tears
+from hlcmp_drake.core.puncture import (
+    deep_enough_to_tear,
+    depth_below,
+    hole_friction,
+    over_the_face,
+    tears,
+)
 
 
 class HoleFriction(LeafSystem):
@@ -49,6 +55,11 @@ class HoleFriction(LeafSystem):
         The tool's axis in the world, pointing into the object (unit after normalizing).
     top_point, top_normal : (3,) arrays
         A point of the object's top face [m] and its unit normal out of the object.
+    top_rotation : (3, 3) array
+        The top face frame's orientation in the world (its z is `top_normal`).
+    footprint : ((2,), (2,)) arrays or None
+        The face's extent along its frame's x and y [m] (`core.puncture.over_the_face`):
+        a tool point outside it is in no hole, whatever its depth. None: unbounded.
     thickness, tear_depth : float
         The object's thickness and the depth of the tear [m].
     friction_per_m, sliding_speed : float
@@ -64,6 +75,8 @@ class HoleFriction(LeafSystem):
         tool_axis,
         top_point,
         top_normal,
+        top_rotation,
+        footprint,
         thickness: float,
         tear_depth: float,
         friction_per_m: float,
@@ -80,6 +93,7 @@ class HoleFriction(LeafSystem):
             np.asarray(top_point, float),
             np.asarray(top_normal, float),
         )
+        self._top_rotation, self._footprint = np.asarray(top_rotation, float), footprint
         self._thickness, self._tear_depth = float(thickness), float(tear_depth)
         self._friction_per_m, self._sliding_speed = float(friction_per_m), float(sliding_speed)
         self.plant_state = self.DeclareVectorInputPort(
@@ -125,16 +139,25 @@ class HoleFriction(LeafSystem):
         self._plant.SetVelocities(self._plant_context, plant_state[self._nq :])
         return self._frame.CalcSpatialVelocityInWorld(self._plant_context).translational()
 
+    def _beside(self, position) -> bool:
+        """Whether the tool point is beside the object (outside its top face's extent)."""
+        if self._footprint is None:
+            return False
+        lower, upper = self._footprint
+        return not over_the_face(position, self._top_point, self._top_rotation, lower, upper)
+
     def _update(self, context, state):
         plant_state = self.plant_state.Eval(context)
-        depth = depth_below(self._tool_position(plant_state), self._top_point, self._top_normal)
+        position = self._tool_position(plant_state)
+        depth = depth_below(position, self._top_point, self._top_normal)
         stage = self._stage(context)
         if stage == 0.0:
             # Before the tear nothing is held (the friction acts from stage 2): the update
             # only asks whether the foam tears now, and the velocity only once it is deep
             # enough to. Changing nothing, it says so: the Simulator then spares writing the
             # whole diagram's state back (and recomputing everything that depends on it).
-            if not deep_enough_to_tear(depth, self._tear_depth):
+            # Deep below the face's plane but beside the object tears nothing.
+            if not deep_enough_to_tear(depth, self._tear_depth) or self._beside(position):
                 return EventStatus.DidNothing()
             velocity = self._tool_velocity(plant_state)
             if not tears(depth, -float(np.dot(velocity, self._top_normal)), self._tear_depth):
@@ -142,6 +165,8 @@ class HoleFriction(LeafSystem):
             state.get_mutable_discrete_state(self._stage_index).set_value([1.0])
             return EventStatus.Succeeded()
         force = np.zeros(3)
+        if stage >= 2 and depth > 0.0 and self._beside(position):
+            depth = 0.0  # out of the hole sideways: nothing of the tool inside
         if stage >= 2:
             velocity = self._tool_velocity(plant_state)
             force = self._axis * hole_friction(

@@ -6,7 +6,7 @@ from __future__ import annotations
 import dataclasses as dc
 
 import numpy as np
-from pydrake.geometry import CollisionFilterDeclaration, GeometrySet, SceneGraph
+from pydrake.geometry import Box, CollisionFilterDeclaration, GeometrySet, SceneGraph
 from pydrake.multibody.plant import MultibodyPlant
 from pydrake.multibody.tree import Frame
 from pydrake.systems.framework import Context, DiagramBuilder
@@ -72,6 +72,7 @@ def add_puncture(
         The tool's axis in the world, pointing into the object.
     """
     top_point, top_normal = _top_face(plant, config)
+    top = scoped_frame(plant, config.object_frame)
     system = builder.AddSystem(
         HoleFriction(
             plant,
@@ -79,6 +80,8 @@ def add_puncture(
             tool_axis,
             top_point,
             top_normal,
+            top.CalcPoseInWorld(plant.CreateDefaultContext()).rotation().matrix(),
+            face_extent(plant, scene_graph, config),
             config.thickness_m,
             config.depth_m,
             config.hole_friction_N_per_m,
@@ -121,6 +124,45 @@ def object_top(scenario: Scenario) -> tuple[np.ndarray, np.ndarray] | None:
     plant = MultibodyPlant(0.0)
     load_models(plant, scenario)
     return _top_face(plant, config)
+
+
+def face_extent(
+    plant: MultibodyPlant, scene_graph: SceneGraph, config: PunctureConfig
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """The object's extent along its top face frame's x and y: the bounds of its collision
+    boxes' corners in that frame (the model's own sizes, e.g. the foam plank's 0.30 x 0.20
+    m), so a tool point beside the object tears and rubs nothing.
+
+    Parameters
+    ----------
+    plant : MultibodyPlant
+        Finalized, its geometry registered with `scene_graph`.
+    scene_graph : SceneGraph
+    config : PunctureConfig
+        With a non-empty `object_frame`.
+
+    Returns
+    -------
+    ((2,), (2,)) arrays or None
+        Lower and upper x, y [m]; None when the object has a collision shape other than a
+        box (its extent is then not read: unbounded, as before).
+    """
+    frame = scoped_frame(plant, config.object_frame)
+    inspector = scene_graph.model_inspector()
+    X_FB = frame.GetFixedPoseInBodyFrame().inverse()
+    corners = []
+    for geometry in plant.GetCollisionGeometriesForBody(frame.body()):
+        shape = inspector.GetShape(geometry)
+        if not isinstance(shape, Box):
+            return None
+        half = np.array([shape.width(), shape.depth(), shape.height()]) / 2
+        signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+        X_FG = X_FB @ inspector.GetPoseInFrame(geometry)
+        corners += [X_FG @ (sign * half) for sign in signs]
+    if not corners:
+        return None
+    xy = np.array(corners)[:, :2]
+    return xy.min(axis=0), xy.max(axis=0)
 
 
 def _top_face(plant: MultibodyPlant, config: PunctureConfig) -> tuple[np.ndarray, np.ndarray]:
