@@ -198,3 +198,36 @@ def test_a_ray_address_with_no_cluster_is_one_line_and_writes_nothing(tmp_path):
         "hlcmp: error: --address notanaddress: cannot join a Ray cluster there"
     )
     assert not out.exists()
+
+
+def test_a_skill_whose_demonstration_changed_is_learned_again(tmp_path):
+    """A skill's scenario.yaml names its demonstration by path: it is finished only while
+    the demonstration holds what it was learned from (inputs.sha256)."""
+    from hlcmp_drake.config.library import load_library_spec, plan_library_tasks
+    from hlcmp_drake.config.sweep import INPUTS_FILE
+    from hlcmp_drake.io.paths import DIAGRAMS_DIR
+    from hlcmp_drake.run.library import skill_state
+
+    demo = tmp_path / "demo.csv"
+    demo.write_bytes(INSERTION_DEMO.read_bytes())
+    text = (DIAGRAMS_DIR / "insertion.yaml").read_text()
+    (tmp_path / "mine.yaml").write_text(
+        text.replace("file: demos/insertion_demo.csv", "file: demo.csv")
+    )
+    spec = tmp_path / "lib.yaml"
+    spec.write_text(
+        "scenario: mine.yaml\ntrials: 1\ngrid:\n  task.puncture.depth_m: [0.01, 0.015]\n"
+    )
+
+    def first_task():
+        return plan_library_tasks(load_library_spec(spec), tmp_path / "L")[0]
+
+    task = first_task()
+    run_dir = Path(task.run_dir)
+    run_dir.mkdir(parents=True)
+    (run_dir / "scenario.yaml").write_text(task.scenario_yaml)
+    (run_dir / INPUTS_FILE).write_text(task.inputs_digest + "\n")
+    (run_dir / TASK_RECORD).write_text(json.dumps({"trials": 1, "demo_force": False}))
+    assert skill_state(task) == "done"
+    demo.write_bytes(INSERTION_DEMO.read_bytes() + b"\n")
+    assert skill_state(first_task()) == "stale"

@@ -36,6 +36,7 @@ from hlcmp_drake.config.sweep import (
     read_typed_file,
     task_id,
 )
+from hlcmp_drake.config.world import inputs_digest
 from hlcmp_drake.io.errors import located
 from hlcmp_drake.io.paths import DIAGRAMS_DIR
 
@@ -126,6 +127,9 @@ class LibraryTask:
         The feed-forward starts from the demonstration's force (`LibraryConfig`).
     run_dir : str
         The skill's folder, OUT/skills/ID.
+    inputs_digest : str
+        `config.world.inputs_digest` of its scenario (its model files and demonstration
+        by content).
     """
 
     id: str
@@ -136,6 +140,7 @@ class LibraryTask:
     trials: int
     demo_force: bool
     run_dir: str
+    inputs_digest: str
 
 
 def resolve_library_path(name_or_path: str | Path) -> Path:
@@ -286,6 +291,7 @@ def plan_library_tasks(spec: LibrarySpec, out_dir: str | Path) -> list[LibraryTa
                 config.trials,
                 config.demo_force,
                 str(Path(out_dir) / "skills" / identifier),
+                inputs_digest(scenario),
             )
         )
     return tasks

@@ -6,8 +6,9 @@ DIR/library.json, the index that `hlcmp generalize` reads.
 DIR/skills/ID/ holds what `hlcmp learn` writes (skill.npz, metrics.json, timeseries.npz,
 figures/, recording.html), after the skill's scenario.yaml (first) and before its
 library_task.json (last). A skill is finished when its folder holds library_task.json for
-the same number of trials beside a scenario.yaml equal to the one planned; anything else
-is learned (again). library.json is rewritten after every finished skill, so an
+the same number of trials beside a scenario.yaml equal to the one planned (and the same
+contents of the files it names: inputs.sha256, as a sweep's task); anything else is
+learned (again). library.json is rewritten after every finished skill, so an
 interrupted library loses none, and the same command again learns only what is missing.
 
 library.json::
@@ -34,6 +35,7 @@ from hlcmp_drake.config.library import (
     plan_library_tasks,
 )
 from hlcmp_drake.config.loading import line_of, load_scenario
+from hlcmp_drake.config.sweep import INPUTS_FILE
 from hlcmp_drake.io import outputs
 from hlcmp_drake.io.errors import InputError, located
 from hlcmp_drake.present.progress import SILENT, Progress
@@ -45,7 +47,7 @@ from hlcmp_drake.run.sweep.engines import (
     cluster_joined,
     run_in_processes,
 )
-from hlcmp_drake.run.sweep.tasks import run_in_temporary_folder
+from hlcmp_drake.run.sweep.tasks import ran_with, run_in_temporary_folder
 
 LIBRARY_FILE = "library.json"
 LIBRARY_FORMAT_VERSION = 1
@@ -68,6 +70,7 @@ def run_library_task(task: LibraryTask) -> dict:
     run_dir = Path(task.run_dir)
     (run_dir / TASK_RECORD).unlink(missing_ok=True)  # an old record never passes for this one
     scenario_file = outputs.write_text(run_dir / "scenario.yaml", task.scenario_yaml)
+    outputs.write_text(run_dir / INPUTS_FILE, task.inputs_digest + "\n")
     start = time.perf_counter()
     # The overrides again over the dumped scenario (which holds them already): `learn`
     # sets a trial's duration from the skill unless they set duration_s.
@@ -120,10 +123,7 @@ def skill_state(task: LibraryTask) -> str:
         record = json.loads((run_dir / TASK_RECORD).read_text())
     except (OSError, ValueError):
         return "pending"
-    try:
-        same = (run_dir / "scenario.yaml").read_text() == task.scenario_yaml
-    except (OSError, UnicodeDecodeError):
-        same = False
+    same = ran_with(run_dir, task.scenario_yaml, task.inputs_digest)
     learned_alike = record.get("trials") == task.trials and (
         record.get("demo_force", False) == task.demo_force
     )

@@ -8,7 +8,6 @@ import dataclasses as dc
 from pathlib import Path
 
 from hlcmp_drake.config.sweep import (
-    INPUTS_FILE,
     Sweep,
     SweepMetric,
     SweepTask,
@@ -17,6 +16,7 @@ from hlcmp_drake.config.sweep import (
     plan_tasks,
 )
 from hlcmp_drake.io.errors import located
+from hlcmp_drake.run.sweep.tasks import ran_with
 
 # The short run `check_metrics` makes of a task's scenario: this many log samples.
 CHECK_RUN_SAMPLES = 5
@@ -62,16 +62,7 @@ def task_state(task: SweepTask) -> str:
     run_dir = Path(task.run_dir)
     if not (run_dir / "metrics.json").is_file():
         return "pending"
-    try:
-        same = (run_dir / "scenario.yaml").read_text() == task.scenario_yaml
-        # The files the text names by path (models, demonstration), by their contents; a
-        # folder written before the digest was kept is judged by its text alone.
-        inputs = run_dir / INPUTS_FILE
-        if same and inputs.is_file():
-            same = inputs.read_text().strip() == task.inputs_digest
-    except (OSError, UnicodeDecodeError):
-        same = False
-    return "done" if same else "stale"
+    return "done" if ran_with(run_dir, task.scenario_yaml, task.inputs_digest) else "stale"
 
 
 def plan_sweep(name_or_path: str | Path, out_dir: str | Path | None = None) -> SweepPlan:

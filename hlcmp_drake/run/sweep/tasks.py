@@ -16,6 +16,31 @@ from hlcmp_drake.io import outputs
 from hlcmp_drake.run.runner import run_loaded_scenario
 
 
+def ran_with(run_dir: Path, scenario_yaml: str, inputs_digest: str) -> bool:
+    """Whether a run folder's scenario.yaml is `scenario_yaml` and the files it names had
+    the contents `inputs_digest` says (its inputs.sha256; a folder written before the
+    digest was kept is judged by its text alone).
+
+    Parameters
+    ----------
+    run_dir : Path
+    scenario_yaml : str
+    inputs_digest : str
+        `config.world.inputs_digest` of the scenario now.
+
+    Returns
+    -------
+    bool
+    """
+    try:
+        if (run_dir / "scenario.yaml").read_text() != scenario_yaml:
+            return False
+        inputs = run_dir / INPUTS_FILE
+        return not inputs.is_file() or inputs.read_text().strip() == inputs_digest
+    except (OSError, UnicodeDecodeError):
+        return False
+
+
 def run_task(task: SweepTask) -> dict:
     """Run one task in this process: its scenario.yaml and inputs.sha256 first, then the
     runner's files (metrics.json last), then sweep_task.json (id, values, status, wall
