@@ -71,16 +71,16 @@ def add_puncture(
     tool_axis : (3,) array
         The tool's axis in the world, pointing into the object.
     """
-    top_point, top_normal = _top_face(plant, config)
-    top = scoped_frame(plant, config.object_frame)
+    top = _top_pose(plant, config)
+    rotation = top.rotation().matrix()
     system = builder.AddSystem(
         HoleFriction(
             plant,
             tool_frame,
             tool_axis,
-            top_point,
-            top_normal,
-            top.CalcPoseInWorld(plant.CreateDefaultContext()).rotation().matrix(),
+            top.translation(),
+            rotation[:, 2],
+            rotation,
             face_extent(plant, scene_graph, config),
             config.thickness_m,
             config.depth_m,
@@ -123,7 +123,8 @@ def object_top(scenario: Scenario) -> tuple[np.ndarray, np.ndarray] | None:
         return None
     plant = MultibodyPlant(0.0)
     load_models(plant, scenario)
-    return _top_face(plant, config)
+    top = _top_pose(plant, config)
+    return top.translation(), top.rotation().matrix()[:, 2]
 
 
 def face_extent(
@@ -165,7 +166,7 @@ def face_extent(
     return xy.min(axis=0), xy.max(axis=0)
 
 
-def _top_face(plant: MultibodyPlant, config: PunctureConfig) -> tuple[np.ndarray, np.ndarray]:
-    """The object's top-face point and outward normal, world, at the plant's default pose."""
-    top = scoped_frame(plant, config.object_frame).CalcPoseInWorld(plant.CreateDefaultContext())
-    return top.translation(), top.rotation().matrix()[:, 2]
+def _top_pose(plant: MultibodyPlant, config: PunctureConfig):
+    """The object's top-face frame in the world (origin on the face, +z out of the object),
+    at the plant's default pose."""
+    return scoped_frame(plant, config.object_frame).CalcPoseInWorld(plant.CreateDefaultContext())
