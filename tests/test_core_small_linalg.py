@@ -16,23 +16,25 @@ needs_numba = pytest.mark.skipif(not numba_available(), reason="numba is not ins
 pytestmark = pytest.mark.xdist_group("compiled_small_linalg")
 
 
+def _calls(matrix, vector, columns, wide):
+    return (
+        solve(matrix, vector),
+        solve(matrix, columns),
+        inverse(matrix),
+        matmul(wide, columns),
+        matmul(wide, vector),
+    )
+
+
 @functools.cache
 def compiled_calls():
     """solve (vector and matrix right-hand sides), inverse and matmul (matrix and vector),
-    as a compiled caller sees them (compiled once a process)."""
+    as a compiled caller sees them: compiled once a process, its machine code kept in the
+    kernels' cache folder (`kernel_cache_folder`, named by core's sources, so an edit of the
+    loops compiles it anew) -- several seconds a layout otherwise, on every run."""
     import numba
 
-    @numba.njit
-    def calls(matrix, vector, columns, wide):
-        return (
-            solve(matrix, vector),
-            solve(matrix, columns),
-            inverse(matrix),
-            matmul(wide, columns),
-            matmul(wide, vector),
-        )
-
-    return calls
+    return numba.njit(cache=True)(_calls)
 
 
 def mass_like(rng, n, condition):
