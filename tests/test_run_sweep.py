@@ -2,8 +2,10 @@
 tiny sweep and writes its table and plots, a re-run does only what is missing (after a
 deleted result or a kill), the Ray engine, and the command line."""
 
+import contextlib
 import csv
 import json
+import os
 import signal
 import subprocess
 import sys
@@ -17,6 +19,7 @@ from conftest import one_line_error, run_cli, tiny
 from hlcmp_drake.config.loading import load_scenario_text
 from hlcmp_drake.config.sweep import load_sweep, plan_tasks
 from hlcmp_drake.run.sweep import plan_sweep, run_sweep, task_state, task_values
+from hlcmp_drake.run.sweep.engines import run_in_processes
 
 # --- loading -------------------------------------------------------------------------
 
@@ -288,6 +291,19 @@ def test_a_killed_sweep_keeps_its_finished_tasks_and_a_rerun_runs_only_the_rest(
     assert [r["status"] for r in _read_csv(out / "sweep.csv")] == ["ok"] * 4
 
 
+def _descendants(pid):
+    """The processes below `pid`, children first."""
+    found, queue = [], [pid]
+    while queue:
+        tasks = Path(f"/proc/{queue.pop(0)}/task")
+        for task in tasks.iterdir() if tasks.exists() else []:
+            with contextlib.suppress(OSError):  # the task ended meanwhile
+                children = [int(c) for c in (task / "children").read_text().split()]
+                found += children
+                queue += children
+    return found
+
+
 @pytest.mark.skipif(
     not sys.platform.startswith("linux"), reason="the kernel's parent-death signal is Linux's"
 )
@@ -310,13 +326,13 @@ def test_a_sweep_killed_outright_leaves_no_worker_running(tmp_path):
         stderr=subprocess.PIPE,
         text=True,
     )
-    children = Path(f"/proc/{process.pid}/task/{process.pid}/children")
     deadline = time.time() + 120
     workers = []
-    while len(workers) < 3 and time.time() < deadline:  # the two workers and the resource tracker
+    # The fork server, the two workers it forked and the resource tracker.
+    while len(workers) < 4 and time.time() < deadline:
         time.sleep(0.2)
-        workers = children.read_text().split() if children.exists() else []
-    assert len(workers) >= 3, "the sweep did not start its workers"
+        workers = _descendants(process.pid)
+    assert len(workers) >= 4, f"the sweep did not start its workers: {workers}"
     time.sleep(2.0)  # into their first tasks
     process.kill()
     process.communicate(timeout=30)
@@ -572,3 +588,25 @@ def test_a_ray_address_that_is_no_address_is_one_line(tmp_path):
         "hlcmp: error: --address notanaddress: cannot join a Ray cluster there"
     )
     assert not (tmp_path / "s").exists()  # joined before any run, so nothing is written
+
+
+def _imported(module):
+    return module in sys.modules
+
+
+def test_local_workers_start_with_the_task_imports_and_the_pools_environment(monkeypatch):
+    """Forked from the fork server, a worker has imported what tasks need before its first
+    (matplotlib's Agg backend, which nothing else imports here) and runs in the environment
+    of its sweep's process when the pool was made, not of when the server started."""
+    results = []
+
+    def keep(item, result, error):
+        results.append((item, result, error))
+
+    run_in_processes(_imported, ["matplotlib.backends.backend_agg"], 1, keep)
+    monkeypatch.setenv("HLCMP_SWEEP_TEST", "set after the fork server started")
+    run_in_processes(os.getenv, ["HLCMP_SWEEP_TEST"], 2, keep)
+    assert results == [
+        ("matplotlib.backends.backend_agg", True, None),
+        ("HLCMP_SWEEP_TEST", "set after the fork server started", None),
+    ]

@@ -8,7 +8,8 @@ sweep.csv and sweep.json are rewritten atomically after every finished task, so 
 interrupted sweep loses none, and the same command again runs only what is missing.
 
 Engines. `local` (the default, nothing extra needed): a `concurrent.futures`
-ProcessPoolExecutor whose workers are started with 'spawn' (pydrake and fork do not mix).
+ProcessPoolExecutor whose workers are forked from a fork server that has imported what a
+task needs, never from the sweep's own process (whose threads a fork would copy broken).
 `ray` (``pip install -e '.[ray]'``): a Ray task per sweep task, on a local Ray instance or
 on the cluster at `address`; the worker returns the run folder's files and this process
 writes them, so the nodes need the package installed but no shared file system. Either

@@ -1,17 +1,25 @@
-"""The engines a sweep's tasks run on: `local`, a spawn-started process pool whose workers
-end with the sweep's process (PR_SET_PDEATHSIG), and `ray`, a Ray task per sweep task.
-Each hands every finished task to an `on_done` callback as it comes."""
+"""The engines a sweep's tasks run on: `local`, a process pool whose workers end with the
+sweep's process (each watches it), and `ray`, a Ray task per sweep task. Each hands every
+finished task to an `on_done` callback as it comes.
+
+The local workers are forked from a fork server (a fresh interpreter that has imported what
+a task needs, `WORKER_IMPORTS`, and started no thread of Drake's), not spawned: a spawned
+worker spends about a second a worker importing pydrake, numba and matplotlib before its
+first task, a forked one nothing (docs/performance.md, "The test suite"). Where there is no
+fork server (Windows), they are spawned. Either way no worker is a fork of the sweep's own
+process, whose Meshcat, LCM or Ray threads a fork would copy in a broken state."""
 
 from __future__ import annotations
 
 import contextlib
-import ctypes
 import logging
 import multiprocessing
 import os
+import select
 import signal
 import sys
 import threading
+import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from typing import Callable, Iterator
@@ -26,29 +34,75 @@ from hlcmp_drake.run.sweep.tasks import (
 )
 
 ENGINES = ("local", "ray")
+# What every task imports (the tasks of a sweep, a library and a report, and what they
+# import lazily: numba for the tick, matplotlib for the figures), imported once in the fork
+# server. A module that is not installed is skipped there (numba is an optional extra).
+WORKER_IMPORTS = (
+    "hlcmp_drake.run.sweep.tasks",
+    "hlcmp_drake.run.library",
+    "hlcmp_drake.run.report",
+    "numba",
+    "matplotlib.backends.backend_agg",
+)
 
 
-def _local_worker_init(parent: int) -> None:
-    """In each local worker: Ctrl-C is the parent's to handle (it stops the workers); and
-    the worker ends with the sweep's process `parent`, even one killed outright, so no
-    orphan goes on running tasks that a re-run would start again."""
+def _local_worker_init(parent: int, environment: dict) -> None:
+    """In each local worker: the environment of the sweep's process when it made the pool
+    (a forked worker has the fork server's, from when that started); Ctrl-C is the
+    parent's to handle (it stops the workers); and the worker ends with the sweep's process
+    `parent`, even one killed outright, so no orphan goes on running tasks that a re-run
+    would start again."""
+    os.environ.clear()
+    os.environ.update(environment)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     _end_with_parent(parent)
     quiet_drake()
 
 
 def _end_with_parent(parent: int) -> None:
-    """Linux: ask the kernel for SIGTERM when the parent dies (prctl PR_SET_PDEATHSIG), then
-    make sure it had not died already. Elsewhere, nothing: an orphan finishes its tasks."""
+    """Linux: end this worker when the sweep's process `parent` ends, even killed outright.
+    A thread waits on the process's pidfd and exits the worker at once; the kernel's
+    parent-death signal (prctl PR_SET_PDEATHSIG) alone would not do, as a forked worker's
+    parent is the fork server, which lives as long as any worker does. Elsewhere, nothing:
+    an orphan finishes its tasks."""
     if not sys.platform.startswith("linux"):
         return
     try:
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(1, signal.SIGTERM)  # 1: PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        return
-    if os.getppid() != parent:
+        watched: int | None = os.pidfd_open(parent)
+    except ProcessLookupError:  # the sweep ended before this worker started
         os._exit(1)
+    except (AttributeError, OSError):  # a kernel before 5.3: look twice a second instead
+        watched = None
+
+    def exit_when_it_ends() -> None:
+        if watched is not None:
+            select.select([watched], [], [])
+        else:
+            while _alive(parent):
+                time.sleep(0.5)
+        os._exit(1)
+
+    threading.Thread(target=exit_when_it_ends, name="sweep-watch", daemon=True).start()
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's process took the number: not the sweep
+        return False
+    return True
+
+
+def _worker_context() -> multiprocessing.context.BaseContext:
+    """The fork server's context, with `WORKER_IMPORTS` to import when it starts (once a
+    process), or spawn where there is no fork server."""
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        return multiprocessing.get_context("spawn")
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload(list(WORKER_IMPORTS))
+    return context
 
 
 Done = Callable[[SweepTask, "dict | None", "str | None"], None]
@@ -60,10 +114,11 @@ def run_in_processes(
     workers: int,
     on_done: Callable[[object, object, str | None], None],
 ) -> None:
-    """`function(item)` for each item in a spawn-started pool of `workers` local processes
-    (the local engine), each result handed to `on_done(item, result, error)` as it
-    finishes, with error None or the task's failure in one line. The workers end with this
-    process; an interrupt cancels the queue and terminates them.
+    """`function(item)` for each item in a pool of `workers` local processes (the local
+    engine, forked from the fork server: `_worker_context`), each result handed to
+    `on_done(item, result, error)` as it finishes, with error None or the task's failure in
+    one line. The workers end with this process; an interrupt cancels the queue and
+    terminates them.
 
     Parameters
     ----------
@@ -77,9 +132,9 @@ def run_in_processes(
     """
     executor = ProcessPoolExecutor(
         max_workers=workers,
-        mp_context=multiprocessing.get_context("spawn"),
+        mp_context=_worker_context(),
         initializer=_local_worker_init,
-        initargs=(os.getpid(),),
+        initargs=(os.getpid(), dict(os.environ)),
     )
     try:
         futures = {executor.submit(function, item): item for item in items}
