@@ -1,5 +1,6 @@
 """hlcmp_drake.run.runner (`hlcmp run`): an unstable run keeps its logs, the same command
-gives the same metrics, an interrupt writes nothing, a live Meshcat shows the runs."""
+gives the same metrics, a run's scenario.yaml runs it again, an interrupt writes nothing, a
+live Meshcat shows the runs."""
 
 import json
 
@@ -9,6 +10,7 @@ from conftest import run_cli, short_one_dof
 from pydrake.geometry import Meshcat
 
 from hlcmp_drake.cli import main
+from hlcmp_drake.config.loading import dump_scenario, load_scenario
 
 
 @pytest.mark.slow
@@ -45,6 +47,26 @@ def test_same_command_twice_gives_identical_metrics(tmp_path):
     assert (tmp_path / "a" / "metrics.json").read_bytes() == (
         tmp_path / "b" / "metrics.json"
     ).read_bytes()
+
+
+def test_a_runs_scenario_yaml_runs_it_again_to_the_same_files(tmp_path):
+    """The scenario as it ran, its overrides applied and its controllers in its own order
+    (not the sorted order a YAML dump of a mapping has), is the run's scenario.yaml."""
+    scenario, _ = load_scenario("one_dof")
+    order = ["vic_fd_1.5", "hlcmp"]
+    scenario.controllers = {label: scenario.controllers[label] for label in order}
+    mine = tmp_path / "mine.yaml"
+    mine.write_text(dump_scenario(scenario, controllers_in_order=True))
+    first, again = tmp_path / "first", tmp_path / "again"
+    gain = "controllers.hlcmp.q_k=[1500.0]"
+    assert main(["run", str(mine), "--set", "duration_s=0.5", "--set", gain, "--out", str(first),
+                 "--quiet"]) == 0  # fmt: skip
+    recorded, _ = load_scenario(first / "scenario.yaml")
+    assert list(recorded.controllers) == order
+    assert recorded.duration_s == 0.5 and list(recorded.controllers["hlcmp"].q_k) == [1500.0]
+    assert main(["run", str(first / "scenario.yaml"), "--out", str(again), "--quiet"]) == 0
+    for name in ("metrics.json", "timeseries.npz", "scenario.yaml"):
+        assert (first / name).read_bytes() == (again / name).read_bytes(), name
 
 
 def test_interrupt_leaves_previous_results(tmp_path, monkeypatch, capsys):

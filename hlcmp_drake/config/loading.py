@@ -18,6 +18,7 @@ import typing
 from pathlib import Path
 from typing import Any, Mapping, NoReturn, Sequence, Union
 
+import yaml
 from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 
 from hlcmp_drake.config.scenario import ControllerConfig, DemonstrationConfig, Scenario
@@ -510,7 +511,7 @@ def _dump_schema() -> type:
 _DUMP_SCHEMA = _dump_schema()
 
 
-def dump_scenario(scenario: Scenario) -> str:
+def dump_scenario(scenario: Scenario, *, controllers_in_order: bool = False) -> str:
     """The scenario as the YAML text `load_scenario_text` reads back as it is.
 
     `yaml_dump_typed` alone writes a Union's value as the first of the Union's types it
@@ -523,6 +524,12 @@ def dump_scenario(scenario: Scenario) -> str:
     Parameters
     ----------
     scenario : Scenario
+    controllers_in_order : bool
+        Write the controllers in the scenario's order, which the runs, the tables and the
+        figures follow (`yaml_dump_typed` sorts a mapping's keys): for a run's record of
+        its scenario, which runs again to the same files. A sweep's and a library's tasks
+        keep the sorted text their finished tasks were written with, and pick their
+        controllers by label.
 
     Returns
     -------
@@ -534,7 +541,15 @@ def dump_scenario(scenario: Scenario) -> str:
         next(m for m in members if isinstance(config, m)) is not type(config)
         for config in scenario.controllers.values()
     )
-    return yaml_dump_typed(scenario, schema=_DUMP_SCHEMA if lost else Scenario)
+    text = yaml_dump_typed(scenario, schema=_DUMP_SCHEMA if lost else Scenario)
+    if not controllers_in_order:
+        return text
+    document = yaml.compose(text)
+    order = {label: k for k, label in enumerate(scenario.controllers)}
+    for key, value in document.value:
+        if key.value == "controllers":
+            value.value.sort(key=lambda pair: order[pair[0].value])
+    return yaml.serialize(document, Dumper=yaml.SafeDumper)
 
 
 def load_scenario_text(

@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable, Sequence
 
-from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.config.loading import dump_scenario, load_scenario
 from hlcmp_drake.config.scenario import Scenario
 from hlcmp_drake.config.variants import use_drake_models_iiwa
 from hlcmp_drake.experiments import EXPERIMENTS, Experiment, experiment_of
@@ -149,6 +149,7 @@ def write_results(
     metrics: dict,
     figures: dict,
     diagram: object | None = None,
+    scenario_text: str | None = None,
 ) -> None:
     """Everything a run leaves in out_dir, each file written atomically; metrics.json comes
     last, so a metrics.json next to older files never describes them.
@@ -165,7 +166,11 @@ def write_results(
         Written under figures/.
     diagram : Diagram, optional
         Drawn as diagram.svg (or .dot).
+    scenario_text : str, optional
+        Written as scenario.yaml.
     """
+    if scenario_text is not None:
+        outputs.write_text(out_dir / "scenario.yaml", scenario_text)
     outputs.write_npz(out_dir / "timeseries.npz", timeseries_arrays(runs))
     for file_name, figure in figures.items():
         outputs.save_figure(out_dir / "figures" / file_name, figure)
@@ -220,6 +225,7 @@ def run_scenario(
         reporter=reporter,
         drake_models_iiwa=drake_models_iiwa,
         meshcat=meshcat,
+        record_scenario=True,
     )
 
 
@@ -248,6 +254,7 @@ def run_loaded_scenario(
     drake_models_iiwa: bool = False,
     claims: bool = True,
     meshcat: Meshcat | None = None,
+    record_scenario: bool = False,
 ) -> ScenarioResult:
     """Run, evaluate and write a scenario that is already loaded (`run_scenario` after
     `load_scenario`; a sweep's worker after `load_scenario_text`).
@@ -270,6 +277,9 @@ def run_loaded_scenario(
         metrics.json then holds no claim.
     meshcat : Meshcat, optional
         Also draw each run in this live Meshcat while it simulates (`hlcmp run --meshcat`).
+    record_scenario : bool
+        Also write scenario.yaml: the scenario as it ran (`hlcmp run`'s; a sweep's or a
+        library's task writes its own first, which its resumption compares).
 
     Returns
     -------
@@ -281,7 +291,15 @@ def run_loaded_scenario(
     build = diagram_factory(scenario)
     live = LiveView(scenario, meshcat) if meshcat is not None else None
     runs = run_controllers(scenario, reporter=reporter, build=build, live=live)
-    return write_scenario(scenario, runs, path, out_dir, build=build, claims=claims)
+    return write_scenario(
+        scenario,
+        runs,
+        path,
+        out_dir,
+        build=build,
+        claims=claims,
+        record_scenario=record_scenario,
+    )
 
 
 def write_scenario(
@@ -292,6 +310,7 @@ def write_scenario(
     *,
     build: Callable | None = None,
     claims: bool = True,
+    record_scenario: bool = False,
 ) -> ScenarioResult:
     """Evaluate a scenario's runs and write its results (`write_results`), replacing what
     an earlier run left in out_dir: the second half of `run_loaded_scenario`, for runs
@@ -303,7 +322,7 @@ def write_scenario(
         As it ran.
     runs : dict of str to RunResult
         Every controller's run, by label, in the scenario's order.
-    path, out_dir, claims
+    path, out_dir, claims, record_scenario
         As for `run_loaded_scenario`.
     build : callable, optional
         The scenario's `diagram_factory`, to draw the diagram's graph (made here when not
@@ -326,6 +345,7 @@ def write_scenario(
             metrics,
             figures,
             build(next(iter(scenario.controllers))).diagram,
+            dump_scenario(scenario, controllers_in_order=True) if record_scenario else None,
         )
     return ScenarioResult(
         metrics, out_dir, experiment.table(metrics["controllers"]), experiment, scenario
