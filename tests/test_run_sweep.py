@@ -594,6 +594,7 @@ def _imported(module):
     return module in sys.modules
 
 
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="spawned elsewhere")
 def test_local_workers_start_with_the_task_imports_and_the_pools_environment(monkeypatch):
     """Forked from the fork server, a worker has imported what tasks need before its first
     (matplotlib's Agg backend, which nothing else imports here) and runs in the environment

@@ -5,8 +5,8 @@ finished task to an `on_done` callback as it comes.
 The local workers are forked from a fork server (a fresh interpreter that has imported what
 a task needs, `WORKER_IMPORTS`, and started no thread of Drake's), not spawned: a spawned
 worker spends about a second a worker importing pydrake, numba and matplotlib before its
-first task, a forked one nothing (docs/performance.md, "The test suite"). Where there is no
-fork server (Windows), they are spawned. Either way no worker is a fork of the sweep's own
+first task, a forked one nothing (docs/performance.md, "The test suite"). Elsewhere than on
+Linux they are spawned. Either way no worker is a fork of the sweep's own
 process, whose Meshcat, LCM or Ray threads a fork would copy in a broken state."""
 
 from __future__ import annotations
@@ -96,9 +96,10 @@ def _alive(pid: int) -> bool:
 
 
 def _worker_context() -> multiprocessing.context.BaseContext:
-    """The fork server's context, with `WORKER_IMPORTS` to import when it starts (once a
-    process), or spawn where there is no fork server."""
-    if "forkserver" not in multiprocessing.get_all_start_methods():
+    """On Linux the fork server's context, with `WORKER_IMPORTS` to import when it starts
+    (once a process); elsewhere spawn, as macOS's system libraries are not safe to use in a
+    fork of a process that has loaded them, and Windows has no fork server."""
+    if not sys.platform.startswith("linux"):
         return multiprocessing.get_context("spawn")
     context = multiprocessing.get_context("forkserver")
     context.set_forkserver_preload(list(WORKER_IMPORTS))
