@@ -246,16 +246,51 @@ def test_an_edited_equation_gets_a_cache_folder_of_its_own(tmp_path):
     an equation inlined from control_law.py) must name another folder."""
     import shutil
 
-    from hlcmp_drake.core.kernels import CORE_DIR, kernel_cache_folder
+    from hlcmp_drake.core.kernels import CORE_DIR, kernel_cache_folder, sources_digest
 
     sources = tmp_path / "core"
     shutil.copytree(CORE_DIR, sources, ignore=shutil.ignore_patterns("__pycache__"))
-    first = kernel_cache_folder(tmp_path / "cache", sources)
-    assert first == kernel_cache_folder(tmp_path / "cache", sources)  # stable
+    first = kernel_cache_folder(tmp_path / "cache", sources_digest(sources))
+    assert first == kernel_cache_folder(tmp_path / "cache", sources_digest(sources))  # stable
     assert first.parent == tmp_path / "cache"
     law = sources / "control_law.py"
     law.write_text(law.read_text(encoding="utf-8").replace("pi * e", "pi * (e)", 1))
-    assert kernel_cache_folder(tmp_path / "cache", sources) != first
+    assert kernel_cache_folder(tmp_path / "cache", sources_digest(sources)) != first
+
+
+def test_a_process_files_its_kernels_under_the_sources_it_imported(tmp_path):
+    """A process that outlives an edit of core (a notebook, a sweep's fork server) still
+    compiles the equations it imported: their machine code goes to the imported sources'
+    folder, never to the edited sources' (where a new process would load it)."""
+    import shutil
+
+    import hlcmp_drake
+
+    package = tmp_path / "hlcmp_drake"
+    shutil.copytree(
+        Path(hlcmp_drake.__file__).parent / "core",
+        package / "core",
+        ignore=shutil.ignore_patterns("__pycache__"),
+    )
+    shutil.copy(hlcmp_drake.__file__, package / "__init__.py")
+    script = (
+        "import sys\n"
+        "from pathlib import Path\n"
+        "from hlcmp_drake.core import kernels\n"
+        f"assert Path(kernels.__file__).is_relative_to({str(tmp_path)!r}), kernels.__file__\n"
+        "before = kernels.kernel_cache_folder()\n"
+        "law = Path(kernels.__file__).parent / 'control_law.py'\n"
+        "law.write_text(law.read_text().replace('pi * e', 'pi * (e)', 1))\n"
+        "print(before == kernels.kernel_cache_folder())\n"
+    )
+    done = subprocess.run(  # -S: no site-packages, where the editable install's finder is
+        [sys.executable, "-S", "-c", script],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        env={**os.environ, "PYTHONPATH": str(tmp_path)},
+    )
+    assert done.stdout.split() == ["True"], done.stderr
 
 
 @needs_numba

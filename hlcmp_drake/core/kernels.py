@@ -18,9 +18,10 @@ imported only when a path is chosen (its import takes about a second): a command
 makes no tick does not pay for it.
 
 Where the machine code is kept: `kernel_cache_folder`, one folder per version of `core`'s
-sources. numba's own cache checks only the file of the function it compiles, not the files
-of the jitable functions inlined into it, so an equation edited in `control_law` would
-otherwise still run its old machine code inside `laws`' kernels.
+sources as the process imported them. numba's own cache checks only the file of the
+function it compiles, not the files of the jitable functions inlined into it, so an
+equation edited in `control_law` would otherwise still run its old machine code inside
+`laws`' kernels.
 """
 
 from __future__ import annotations
@@ -109,37 +110,62 @@ def numba_available() -> bool:
         except ImportError:  # numba is optional: the numpy path
             _numba.append(None)
         else:
+            # The environment's now, not numba's config, which numba read when imported
+            # (perhaps in a sweep's fork server, before the variable changed).
+            user_folder = os.environ.get("NUMBA_CACHE_DIR") or None
             # numba's config module sets its attributes at run time (no stub knows them)
-            user_folder = getattr(numba.config, "CACHE_DIR", "") or None
             setattr(numba.config, "CACHE_DIR", str(kernel_cache_folder(user_folder)))  # noqa: B010
             _numba.append(numba)
             _register_marked()
     return _numba[0] is not None
 
 
-def kernel_cache_folder(base: str | Path | None = None, sources: Path = CORE_DIR) -> Path:
-    """The folder numba keeps the kernels' machine code in: under `base` (default the
-    user's cache, ``$XDG_CACHE_HOME`` or ~/.cache, then hlcmp_drake), named by a hash of
-    every Python file of `sources`, so that an edit of any equation gets newly compiled
-    kernels (older folders stay until removed; each is a few MB).
+def sources_digest(sources: Path = CORE_DIR) -> str:
+    """A hash of every Python file of `sources` (name and bytes).
 
     Parameters
     ----------
-    base : str or Path, optional
-        Where the folders go (``NUMBA_CACHE_DIR`` when the user set it).
     sources : Path
         The package of the jitable functions.
 
     Returns
     -------
-    Path
+    str
+        Hex digits.
     """
     digest = hashlib.sha256()
     for path in sorted(sources.glob("*.py")):
         digest.update(path.name.encode() + b"\0" + path.read_bytes())
+    return digest.hexdigest()
+
+
+# core's sources as this process imports them: core's modules are imported together, and a
+# process that outlives an edit (a notebook, a sweep's fork server) keeps compiling the
+# equations it imported, whose machine code must not be filed under the edited sources.
+IMPORTED_SOURCES_DIGEST = sources_digest()
+
+
+def kernel_cache_folder(base: str | Path | None = None, digest: str | None = None) -> Path:
+    """The folder numba keeps the kernels' machine code in: under `base` (default the
+    user's cache, ``$XDG_CACHE_HOME`` or ~/.cache, then hlcmp_drake), named by the hash of
+    core's sources as this process imported them (`IMPORTED_SOURCES_DIGEST`), so that an
+    edit of any equation gets newly compiled kernels (older folders stay until removed;
+    each is a few MB).
+
+    Parameters
+    ----------
+    base : str or Path, optional
+        Where the folders go (``NUMBA_CACHE_DIR`` when the user set it).
+    digest : str, optional
+        Another `sources_digest` (default the imported sources').
+
+    Returns
+    -------
+    Path
+    """
     if base is None:
         base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "hlcmp_drake"
-    return Path(base) / f"numba-{digest.hexdigest()[:16]}"
+    return Path(base) / f"numba-{(digest or IMPORTED_SOURCES_DIGEST)[:16]}"
 
 
 def kernel_path(requested: str | None = None) -> str:
