@@ -607,7 +607,43 @@ def test_local_workers_start_with_the_task_imports_and_the_pools_environment(mon
     run_in_processes(_imported, ["matplotlib.backends.backend_agg"], 1, keep)
     monkeypatch.setenv("HLCMP_SWEEP_TEST", "set after the fork server started")
     run_in_processes(os.getenv, ["HLCMP_SWEEP_TEST"], 2, keep)
+    # A variable the fork server's imports read when imported (matplotlib's, here): the
+    # pool is spawned, its workers importing under the new value.
+    monkeypatch.setenv("MPL_HLCMP_SWEEP_TEST", "set after the fork server started")
+    run_in_processes(_imported, ["matplotlib.backends.backend_agg"], 1, keep)
     assert results == [
         ("matplotlib.backends.backend_agg", True, None),
         ("HLCMP_SWEEP_TEST", "set after the fork server started", None),
+        ("matplotlib.backends.backend_agg", False, None),
     ]
+
+
+SIGINT_PROBE = """\
+import os, signal
+with open(os.environ["SIGINT_PROBE"], "w") as record:
+    record.write(str(signal.getsignal(signal.SIGINT) == signal.SIG_IGN))
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="spawned elsewhere")
+def test_the_fork_server_ignores_ctrl_c_while_it_imports(tmp_path):
+    """Ctrl-C reaches the whole process group: the fork server, still importing what tasks
+    need, must not print a traceback of its own under the sweep's one-line message."""
+    (tmp_path / "sigint_probe.py").write_text(SIGINT_PROBE)
+    script = (
+        "from hlcmp_drake.run.sweep import engines\n"
+        "engines.WORKER_IMPORTS = ('sigint_probe', *engines.WORKER_IMPORTS)\n"
+        "if __name__ == '__main__':\n"
+        "    engines.run_in_processes(abs, [-1], 1, lambda *done: print(done))\n"
+    )
+    record = tmp_path / "record"
+    done = subprocess.run(
+        [sys.executable, "-c", script],
+        capture_output=True,
+        text=True,
+        # PYTHONPATH, not sys.path: Python 3.11's fork server imports from its own path
+        env={**os.environ, "SIGINT_PROBE": str(record), "PYTHONPATH": str(tmp_path)},
+        timeout=120,
+    )
+    assert done.stdout.split() == ["(-1,", "1,", "None)"], done.stderr
+    assert record.read_text() == "True"  # ignored from the server's first import on

@@ -22,6 +22,7 @@ import threading
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
+from pathlib import Path
 from typing import Callable, Iterator
 
 from hlcmp_drake.config.sweep import SweepTask
@@ -86,24 +87,62 @@ def _end_with_parent(parent: int) -> None:
 
 
 def _alive(pid: int) -> bool:
+    """Whether process `pid` runs (a zombie, ended but not yet collected, does not)."""
     try:
         os.kill(pid, 0)
-    except ProcessLookupError:
+    except (ProcessLookupError, PermissionError):  # gone, or its number taken by another's
         return False
-    except PermissionError:  # another user's process took the number: not the sweep
-        return False
-    return True
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:  # no /proc to tell a zombie by
+        return True
+    return stat.rpartition(")")[2].split()[0] not in ("Z", "X")
+
+
+# Environment variables the fork server's imports read when imported (numba's, matplotlib's,
+# the BLAS thread pools', Drake's): a pool made after one of them changed is spawned, so
+# that its workers import under the new value, as they would in a new process.
+IMPORT_TIME_VARIABLES = ("NUMBA_", "MPL", "OMP_", "OPENBLAS_", "MKL_", "DRAKE_")
+_fork_server_environment: list[dict] = []  # those variables when the fork server started
+
+
+def _import_time_environment() -> dict:
+    return {k: v for k, v in os.environ.items() if k.startswith(IMPORT_TIME_VARIABLES)}
 
 
 def _worker_context() -> multiprocessing.context.BaseContext:
     """On Linux the fork server's context, with `WORKER_IMPORTS` to import when it starts
-    (once a process); elsewhere spawn, as macOS's system libraries are not safe to use in a
-    fork of a process that has loaded them, and Windows has no fork server."""
+    (once a process); spawn where the variables its imports read have changed since it
+    started (`IMPORT_TIME_VARIABLES`), and elsewhere than on Linux, as macOS's system
+    libraries are not safe to use in a fork of a process that has loaded them, and Windows
+    has no fork server."""
     if not sys.platform.startswith("linux"):
         return multiprocessing.get_context("spawn")
-    context = multiprocessing.get_context("forkserver")
-    context.set_forkserver_preload(list(WORKER_IMPORTS))
-    return context
+    if not _fork_server_environment:
+        _fork_server_environment.append(_import_time_environment())
+        multiprocessing.get_context("forkserver").set_forkserver_preload(list(WORKER_IMPORTS))
+        _start_fork_server()
+    elif _import_time_environment() != _fork_server_environment[0]:
+        return multiprocessing.get_context("spawn")
+    return multiprocessing.get_context("forkserver")
+
+
+def _start_fork_server() -> None:
+    """Start the fork server with Ctrl-C ignored from its first instruction (inherited
+    through exec, which Python keeps): while it imports `WORKER_IMPORTS` it would
+    otherwise print a KeyboardInterrupt's traceback of its own under the sweep's one-line
+    message. Only the main thread may set a signal's handler; elsewhere it starts as it
+    is."""
+    from multiprocessing import forkserver
+
+    if threading.current_thread() is not threading.main_thread():
+        forkserver.ensure_running()
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        forkserver.ensure_running()
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 Done = Callable[[SweepTask, "dict | None", "str | None"], None]
