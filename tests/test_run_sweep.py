@@ -647,3 +647,13 @@ def test_the_fork_server_ignores_ctrl_c_while_it_imports(tmp_path):
     )
     assert done.stdout.split() == ["(-1,", "1,", "None)"], done.stderr
     assert record.read_text() == "True"  # ignored from the server's first import on
+
+
+def _refuse(value):
+    raise ValueError(f"refused {value}\nsecond line of the message")
+
+
+def test_a_local_tasks_error_reaches_the_sweep_in_one_line():
+    results = []
+    run_in_processes(_refuse, [1], 1, lambda item, result, error: results.append(error))
+    assert results == ["ValueError: refused 1 second line of the message"]

@@ -186,7 +186,7 @@ def run_in_processes(
             ) as failure:  # a worker died (killed, out of memory): so did the pool
                 result, error = None, f"a worker process died ({failure})"
             except Exception as failure:  # the task's own error: record it, go on
-                result, error = None, f"{type(failure).__name__}: {failure}"
+                result, error = None, " ".join(f"{type(failure).__name__}: {failure}".split())
             on_done(futures[future], result, error)
     except BaseException:
         _stop_pool(executor)
