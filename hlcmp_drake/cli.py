@@ -704,6 +704,8 @@ def cmd_generalize(args):
         )
     # The skill is accepted only in its query's world: each command with those --set.
     uses = " ".join(f"--set {shlex.quote(o)}" for o in library.overrides(query))
+    if library.record.get("controller"):  # the learner the library's skills were learned by
+        uses = f"--controller {shlex.quote(library.record['controller'])} {uses}"
     skill_file, scenario = shlex.quote(str(args.out)), shlex.quote(library.scenario_argument())
     print(f"replay it: hlcmp reproduce {skill_file} --scenario {scenario} --out DIR {uses}")
     print(

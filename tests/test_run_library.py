@@ -11,10 +11,20 @@ from pathlib import Path
 import pytest
 from conftest import INSERTION_DEMO, one_line_error, run_cli
 
+from hlcmp_drake.config.library import load_library_spec, plan_library_tasks
 from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.config.sweep import INPUTS_FILE
 from hlcmp_drake.config.world import world_of_scenario
+from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.io.skill import load_skill
-from hlcmp_drake.run.library import TASK_RECORD, build_library
+from hlcmp_drake.run.library import (
+    TASK_RECORD,
+    build_library,
+    library_learner,
+    library_tasks,
+    run_library_task,
+    skill_state,
+)
 
 DEPTH = "task.puncture.depth_m"
 TINY = """\
@@ -203,10 +213,7 @@ def test_a_ray_address_with_no_cluster_is_one_line_and_writes_nothing(tmp_path):
 def test_a_skill_whose_demonstration_changed_is_learned_again(tmp_path):
     """A skill's scenario.yaml names its demonstration by path: it is finished only while
     the demonstration holds what it was learned from (inputs.sha256)."""
-    from hlcmp_drake.config.library import load_library_spec, plan_library_tasks
-    from hlcmp_drake.config.sweep import INPUTS_FILE
     from hlcmp_drake.io.paths import DIAGRAMS_DIR
-    from hlcmp_drake.run.library import skill_state
 
     demo = tmp_path / "demo.csv"
     demo.write_bytes(INSERTION_DEMO.read_bytes())
@@ -220,14 +227,73 @@ def test_a_skill_whose_demonstration_changed_is_learned_again(tmp_path):
     )
 
     def first_task():
-        return plan_library_tasks(load_library_spec(spec), tmp_path / "L")[0]
+        return library_tasks(load_library_spec(spec), tmp_path / "L")[0]
 
     task = first_task()
     run_dir = Path(task.run_dir)
     run_dir.mkdir(parents=True)
     (run_dir / "scenario.yaml").write_text(task.scenario_yaml)
     (run_dir / INPUTS_FILE).write_text(task.inputs_digest + "\n")
-    (run_dir / TASK_RECORD).write_text(json.dumps({"trials": 1, "demo_force": False}))
+    record = {"trials": 1, "demo_force": False, "controller": "hlcmp"}
+    (run_dir / TASK_RECORD).write_text(json.dumps(record))
     assert skill_state(task) == "done"
     demo.write_bytes(INSERTION_DEMO.read_bytes() + b"\n")
     assert skill_state(first_task()) == "stale"
+
+
+PEG = """\
+scenario: peg_in_hole
+trials: 1
+{controller}
+set:
+  duration_s: 0.3
+grid:
+  reference.duration_s: [6.5, 7.5]
+"""
+
+
+def _peg_tasks(folder, controller=""):
+    path = Path(folder) / "peg.yaml"
+    path.write_text(PEG.format(controller=f"controller: {controller}" if controller else ""))
+    spec = load_library_spec(path)
+    return spec, plan_library_tasks(spec, Path(folder) / "L")
+
+
+def test_the_learner_is_the_scenarios_first_in_its_own_order_or_the_one_named(tmp_path):
+    """A YAML dump sorts the controllers by label: peg_in_hole's skills were learned by
+    'hlcmp', its second learner, where `hlcmp learn` takes 'hlcmp_6d', its first."""
+    spec, tasks = _peg_tasks(tmp_path)
+    assert library_learner(spec, tasks[0]) == "hlcmp_6d"
+    spec, tasks = _peg_tasks(tmp_path, "hlcmp")
+    assert library_learner(spec, tasks[0]) == "hlcmp"
+    spec, tasks = _peg_tasks(tmp_path, "const_6d_stiff")
+    with pytest.raises(InputError, match=r"peg.yaml:3: controller: 'const_6d_stiff' is not a"):
+        library_learner(spec, tasks[0])
+
+
+def test_a_skill_learned_before_the_learner_was_recorded_is_kept_only_if_it_is_the_same(
+    tmp_path,
+):
+    """A record without `controller` was learned by the first learner of its sorted
+    scenario.yaml: kept for the insertion (hlcmp either way), learned again for the peg."""
+    peg = library_tasks(*_peg_tasks(tmp_path)[:1], tmp_path / "L")[0]
+    insertion = library_tasks(load_library_spec(tiny(tmp_path)), tmp_path / "I")[0]
+    for task in (peg, insertion):
+        run_dir = Path(task.run_dir)
+        run_dir.mkdir(parents=True)
+        (run_dir / "scenario.yaml").write_text(task.scenario_yaml)
+        (run_dir / INPUTS_FILE).write_text(task.inputs_digest + "\n")
+        record = {"id": task.id, "trials": task.trials, "demo_force": False, "status": "ok"}
+        (run_dir / TASK_RECORD).write_text(json.dumps(record))
+    assert skill_state(peg) == "stale" and skill_state(insertion) == "done"
+    (Path(peg.run_dir) / TASK_RECORD).write_text(json.dumps({**record, "controller": "hlcmp_6d"}))
+    assert skill_state(peg) == "done"
+
+
+def test_a_peg_skill_is_learned_by_its_learner(tmp_path):
+    task = library_tasks(_peg_tasks(tmp_path)[0], tmp_path / "L")[0]
+    info = run_library_task(task)
+    assert info["controller"] == "hlcmp_6d" and info["status"] == "ok"
+    metrics = json.loads((Path(task.run_dir) / "metrics.json").read_text())
+    assert metrics["controller"] == "hlcmp_6d"
+    assert load_skill(Path(task.run_dir) / "skill.npz").theta_kr is not None  # a 6-D skill

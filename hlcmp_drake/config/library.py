@@ -62,6 +62,9 @@ class LibraryConfig:
     demo_force : bool
         Start each skill's first trial's feed-forward from the demonstration's force, as
         `hlcmp learn --demo-force` (the demonstration must carry force columns).
+    controller : str
+        The label of the learning controller that learns every skill, as `hlcmp learn
+        --controller` (default: the scenario's first learner, in its file's order).
     set : dict of str to str
         Fixed overrides, every skill (YAML value text).
     grid : dict of str to list of str
@@ -72,6 +75,7 @@ class LibraryConfig:
     scenario: str = ""
     trials: int = 3
     demo_force: bool = False
+    controller: str = ""
     set: dict[str, str] = dc.field(default_factory=dict)
     grid: dict[str, list[str]] = dc.field(default_factory=dict)
 
@@ -130,6 +134,9 @@ class LibraryTask:
     inputs_digest : str
         `config.world.inputs_digest` of its scenario (its model files and demonstration
         by content).
+    controller : str
+        The learner's label ("": not yet chosen; `hlcmp_drake.run.library` chooses it, by
+        the controller registry, before any skill is learned).
     """
 
     id: str
@@ -141,6 +148,7 @@ class LibraryTask:
     demo_force: bool
     run_dir: str
     inputs_digest: str
+    controller: str = ""
 
 
 def resolve_library_path(name_or_path: str | Path) -> Path:

@@ -6,15 +6,16 @@ DIR/library.json, the index that `hlcmp generalize` reads.
 DIR/skills/ID/ holds what `hlcmp learn` writes (skill.npz, metrics.json, timeseries.npz,
 figures/, recording.html), after the skill's scenario.yaml (first) and before its
 library_task.json (last). A skill is finished when its folder holds library_task.json for
-the same number of trials beside a scenario.yaml equal to the one planned (and the same
-contents of the files it names: inputs.sha256, as a sweep's task); anything else is
-learned (again). library.json is rewritten after every finished skill, so an
+the same number of trials and the same learner beside a scenario.yaml equal to the one
+planned (and the same contents of the files it names: inputs.sha256, as a sweep's task);
+anything else is learned (again). library.json is rewritten after every finished skill, so an
 interrupted library loses none, and the same command again learns only what is missing.
 
 library.json::
 
     {"format_version": 1, "scenario": NAME, "scenario_path": PATH, "library_file": PATH,
-     "set": {KEY: YAML}, "trials": K, "demo_force": BOOL, "parameters": [KEY, ...],
+     "set": {KEY: YAML}, "trials": K, "demo_force": BOOL, "controller": LABEL,
+     "parameters": [KEY, ...],
      "skills": [{"id": ID, "query": {KEY: VALUE}, "skill": "skills/ID/skill.npz",
                  "metrics": {the last trial's row of the skill's metrics.json}}],
      "not_learned": [{"id": ID, "query": {...}, "status": "unstable|error|pending", ...}]}
@@ -34,7 +35,7 @@ from hlcmp_drake.config.library import (
     load_library_spec,
     plan_library_tasks,
 )
-from hlcmp_drake.config.loading import line_of, load_scenario
+from hlcmp_drake.config.loading import line_of, load_scenario, load_scenario_text
 from hlcmp_drake.config.sweep import INPUTS_FILE
 from hlcmp_drake.io import outputs
 from hlcmp_drake.io.errors import InputError, located
@@ -48,6 +49,7 @@ from hlcmp_drake.run.sweep.engines import (
     run_in_processes,
 )
 from hlcmp_drake.run.sweep.tasks import ran_with, run_in_temporary_folder
+from hlcmp_drake.worlds.controllers import learners
 
 LIBRARY_FILE = "library.json"
 LIBRARY_FORMAT_VERSION = 1
@@ -79,6 +81,7 @@ def run_library_task(task: LibraryTask) -> dict:
         run_dir,
         trials=task.trials,
         demo_force=task.demo_force,
+        controller=task.controller or None,
         overrides=task.overrides,
     )
     info = {
@@ -86,6 +89,7 @@ def run_library_task(task: LibraryTask) -> dict:
         "query": task.query,
         "trials": task.trials,
         "demo_force": task.demo_force,
+        "controller": task.controller,
         "overrides": task.overrides,
         "status": result.metrics["status"],
         "wall_s": round(time.perf_counter() - start, 3),
@@ -111,7 +115,7 @@ def run_library_task_returning_files(task: LibraryTask) -> tuple[dict, dict]:
 
 
 def skill_state(task: LibraryTask) -> str:
-    """ "done" (learned with the same scenario and trials), "stale" (learned with others:
+    """ "done" (learned with the same scenario, trials and learner), "stale" (with others:
     learned again) or "pending".
 
     Parameters
@@ -123,11 +127,23 @@ def skill_state(task: LibraryTask) -> str:
         record = json.loads((run_dir / TASK_RECORD).read_text())
     except (OSError, ValueError):
         return "pending"
-    same = ran_with(run_dir, task.scenario_yaml, task.inputs_digest)
-    learned_alike = record.get("trials") == task.trials and (
-        record.get("demo_force", False) == task.demo_force
-    )
-    return "done" if same and learned_alike else "stale"
+    if (
+        not ran_with(run_dir, task.scenario_yaml, task.inputs_digest)
+        or record.get("trials") != task.trials
+        or record.get("demo_force", False) != task.demo_force
+    ):
+        return "stale"
+    return "done" if _learned_by(record, task) == task.controller else "stale"
+
+
+def _learned_by(record: dict, task: LibraryTask) -> str | None:
+    """The learner a skill's record names; for a record from before it named one, the
+    learner `learn` took then: the first of its scenario.yaml, whose controllers a YAML
+    dump sorts by label."""
+    if "controller" in record:
+        return record["controller"]
+    dumped = load_scenario_text(task.scenario_yaml, task.scenario_path)
+    return next(iter(learners(dumped)), None)
 
 
 @dc.dataclass
@@ -159,15 +175,22 @@ class LibraryResult:
     wall_s: float
 
 
-def check_learnable(spec: LibrarySpec, task: LibraryTask) -> None:
-    """Refuse, naming the library file's `scenario` line, a scenario that `hlcmp learn`
-    cannot learn in (no demonstration, no learning controller).
+def library_learner(spec: LibrarySpec, task: LibraryTask) -> str:
+    """The label of the controller that learns the library's skills: the file's
+    `controller`, else the scenario's first learner in its file's order (as `hlcmp learn`
+    takes it). Refuses, naming the library file's line, a scenario that `hlcmp learn`
+    cannot learn in (no demonstration, no learning controller) or a `controller` that is
+    not one of its learners.
 
     Parameters
     ----------
     spec : LibrarySpec
     task : LibraryTask
-        Any of the library's skills (they share the scenario).
+        Any of the library's skills (they share the scenario and its controllers).
+
+    Returns
+    -------
+    str
 
     Raises
     ------
@@ -178,6 +201,39 @@ def check_learnable(spec: LibrarySpec, task: LibraryTask) -> None:
         learning_scenario(scenario)
     except InputError as error:
         raise located(spec.path, line_of(spec.text, "scenario"), f"scenario: {error}") from None
+    labels, wanted = learners(scenario), spec.config.controller
+    if wanted and wanted not in labels:
+        raise located(
+            spec.path,
+            line_of(spec.text, "controller"),
+            f"controller: '{wanted}' is not a learning controller of scenario "
+            f"'{scenario.name}' (its learners: {', '.join(labels)})",
+        )
+    return wanted or labels[0]
+
+
+def library_tasks(spec: LibrarySpec, out_dir: str | Path) -> list[LibraryTask]:
+    """Every skill of a library (`plan_library_tasks`), each with its learner
+    (`library_learner`).
+
+    Parameters
+    ----------
+    spec : LibrarySpec
+    out_dir : str or Path
+        The library's folder.
+
+    Returns
+    -------
+    list of LibraryTask
+
+    Raises
+    ------
+    InputError
+        As `plan_library_tasks` and `library_learner`.
+    """
+    tasks = plan_library_tasks(spec, out_dir)
+    controller = library_learner(spec, tasks[0])
+    return [dc.replace(task, controller=controller) for task in tasks]
 
 
 def build_library(
@@ -222,8 +278,7 @@ def build_library(
         start = time.perf_counter()
         spec = load_library_spec(name_or_path)
         out_dir = Path(out_dir)
-        tasks = plan_library_tasks(spec, out_dir)
-        check_learnable(spec, tasks[0])
+        tasks = library_tasks(spec, out_dir)
         states = {task.id: skill_state(task) for task in tasks}
         errors: dict = {}
         pending = [task for task in tasks if states[task.id] != "done"]
@@ -308,6 +363,7 @@ def library_record(spec: LibrarySpec, tasks: list, errors: dict) -> dict:
         "set": dict(spec.config.set),
         "trials": spec.config.trials,
         "demo_force": spec.config.demo_force,
+        "controller": tasks[0].controller,
         "parameters": list(spec.parameters),
         "skills": skills,
         "not_learned": not_learned,
