@@ -133,6 +133,7 @@ def test_the_command_prints_the_skills_and_a_rerun_says_nothing_was_relearned(
     # shares), and is refused in the bundled plank's.
     made = run_cli("generalize", out, "--query", f"{DEPTH}=0.012", "--out", tmp_path / "s.npz")
     assert made.returncode == 0, made.stderr
+    assert "replay it: hlcmp reproduce" in made.stdout and "--controller hlcmp " in made.stdout
     replay = ["reproduce", tmp_path / "s.npz", "--scenario", "insertion", "--freeze", "--quiet"]
     here = run_cli(
         *replay, "--set", f"{DEPTH}=0.012", "--set", "duration_s=0.3", "--out", tmp_path / "r"
