@@ -51,6 +51,7 @@ EXIT_UNSTABLE = 3
 EXIT_DRIVER_ABORT = 4
 EXIT_DEGRADED = 5  # served to the end, but missed more ticks than iiwa_driver allows
 EXIT_INTERRUPTED = 130  # Ctrl-C, as a shell reports SIGINT
+EXIT_BROKEN_PIPE = 141  # the output's reader has gone, as a shell reports SIGPIPE
 
 
 class _Parser(argparse.ArgumentParser):
@@ -1230,6 +1231,11 @@ def main(argv=None):
         )
         print(f"hlcmp: interrupted; {done}; every other file is as it was before", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except BrokenPipeError:
+        # Whoever read the output has gone (`hlcmp run ... | head`): the rest of it goes
+        # nowhere, as Python would otherwise report the pipe again when it flushes at exit.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_BROKEN_PIPE
 
 
 if __name__ == "__main__":

@@ -7,11 +7,13 @@ import gc
 import io
 import re
 import socket
+import subprocess
+import sys
 import time
 
 import numpy as np
 import pytest
-from conftest import DEMO_CSV, REPO_ROOT, one_line_error, run_cli, tilted_turn
+from conftest import DEMO_CSV, INSERTION_DEMO, REPO_ROOT, one_line_error, run_cli, tilted_turn
 
 from hlcmp_drake.core import quaternion as quat
 from hlcmp_drake.io.demos import read_demonstration
@@ -468,3 +470,26 @@ def test_a_file_of_another_kind_is_named_as_such(tmp_path, args, message):
     result = run_cli(*args)
     assert result.returncode == 2 and result.stderr.strip().endswith(message), result.stderr
     assert len(result.stderr.strip().splitlines()) == 1
+
+
+def test_output_into_a_closed_pipe_ends_quietly(tmp_path):
+    """`hlcmp ... | head`: the reader gone, the command stops printing without a traceback
+    and exits as a shell reports SIGPIPE; its files are written."""
+    process = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "hlcmp_drake.cli",
+            "fit",
+            str(INSERTION_DEMO),
+            "--out",
+            str(tmp_path / "s.npz"),
+        ],  # fmt: skip
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    process.stdout.close()  # the reader leaves before the first line
+    errors = process.stderr.read()
+    assert process.wait(timeout=120) == 141 and errors == "", errors
+    assert (tmp_path / "s.npz").is_file()
