@@ -65,7 +65,8 @@ def test_a_runs_scenario_yaml_runs_it_again_to_the_same_files(tmp_path):
     assert list(recorded.controllers) == order
     assert recorded.duration_s == 0.5 and list(recorded.controllers["hlcmp"].q_k) == [1500.0]
     assert main(["run", str(first / "scenario.yaml"), "--out", str(again), "--quiet"]) == 0
-    for name in ("metrics.json", "timeseries.npz", "scenario.yaml"):
+    figures = sorted(p.relative_to(first) for p in (first / "figures").iterdir())
+    for name in ("metrics.json", "timeseries.npz", "scenario.yaml", "recording.html", *figures):
         assert (first / name).read_bytes() == (again / name).read_bytes(), name
 
 
