@@ -352,3 +352,18 @@ def test_a_trend_the_regression_cannot_find_is_said(tmp_path):
     three = SkillLibrary.load(write_library(tmp_path / "three", [0.010, 0.0125, 0.015], [60, 120]))
     _, _, notes = three.generalize({DEPTH: 0.01125, FRICTION: 90.0})
     assert notes == [] and three.length_scales()["theta_v"][0] > 0.5
+
+
+def test_a_weight_that_differs_only_by_round_off_has_no_standard_deviation(tmp_path):
+    """Learned weights that every skill holds at one value up to round-off (here 4e-16
+    apart, as a peg library's were) are known exactly: std 0, not the unit-scale std the
+    GP gives a spread it takes for none."""
+
+    def flat_first_row(depth, friction):
+        values = smooth(depth, friction)
+        values[0] = 2.6e-4 + (4e-16 if depth > 0.011 else 0.0)
+        return values
+
+    library = SkillLibrary.load(write_library(tmp_path, *GRID, function=flat_first_row)).fit()
+    std = library.predict({DEPTH: 0.01125, FRICTION: 90.0}).std["theta_v"]
+    assert (std[0] == 0).all() and (std[1:] > 0).all()

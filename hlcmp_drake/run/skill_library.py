@@ -57,6 +57,9 @@ KERNEL_DESCRIPTION = (
 # at the tau it learned at, e.g. a grid over reference.duration_s).
 PROFILE_FIELDS = ("theta_k", "theta_d", "theta_v")
 DMP_FIELDS = ("theta_p", "start", "goal", "amplitude", "tau")
+# scikit-learn's normalize_y treats a weight whose standard deviation over the library is
+# below this as constant (sklearn.preprocessing's _handle_zeros_in_scale).
+NO_SPREAD = 10 * np.finfo(float).eps
 
 
 @dc.dataclass(frozen=True)
@@ -358,9 +361,11 @@ class SkillLibrary:
         for field, model in self._models.items():
             shape = _array(self.skills[0], field).shape
             mu, sigma = model.predict(self.normalized(x), return_std=True)
-            # A weight every skill of the library holds at one value is known exactly (the
-            # GP's std of it would be in the unit normalize_y substitutes for a zero spread).
-            varies = np.ptp([_array(s, field) for s in self.skills], axis=0) > 0
+            # A weight every skill of the library holds at one value, up to round-off, is
+            # known exactly: normalize_y takes a spread below ten machine epsilons for none
+            # and substitutes a unit scale, in which the GP's std of it would come out.
+            spread = np.std([_array(s, field) for s in self.skills], axis=0)
+            varies = spread >= NO_SPREAD
             mean[field] = np.asarray(mu).reshape(shape)
             std[field] = np.asarray(sigma).reshape(shape) * varies
         return Prediction(mean, std, method, self.ids[nearest])
