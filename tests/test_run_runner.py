@@ -3,6 +3,7 @@ gives the same metrics, a run's scenario.yaml runs it again, an interrupt writes
 live Meshcat shows the runs."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -129,3 +130,20 @@ def test_a_reused_out_folder_loses_the_previous_runs_files_and_keeps_the_users(
     assert {"notes.txt", "metrics.json", "timeseries.npz", "recording.html"} <= {
         p.name for p in out.iterdir()
     }
+
+
+def test_a_run_records_a_bundled_demonstration_by_its_package_url(tmp_path):
+    """So that the record runs wherever the package is installed; a demonstration of one's
+    own keeps its absolute path."""
+    from hlcmp_drake.run.runner import scenario_record
+
+    scenario, _ = load_scenario("insertion")
+    text = scenario_record(scenario)
+    assert "file: package://hlcmp_drake/diagrams/demos/insertion_demo.csv" in text
+    record = tmp_path / "scenario.yaml"
+    record.write_text(text)
+    assert load_scenario(record)[0].reference.file == scenario.reference.file
+    mine = tmp_path / "mine.csv"
+    mine.write_bytes(Path(scenario.reference.file).read_bytes())
+    scenario.reference.file = str(mine)
+    assert f"file: {mine}" in scenario_record(scenario)

@@ -64,6 +64,25 @@ def data_file(file: str, folder: Path) -> Path:
     return Path(folder) / file
 
 
+def data_url(path: str | Path) -> str:
+    """A data file's name as a scenario may give it wherever the package is installed: a
+    bundled file (under the bundled data's diagrams/) as package://hlcmp_drake/PATH, which
+    `data_file` reads back; any other as its absolute path.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    str
+    """
+    absolute = Path(path).resolve()
+    if absolute.is_relative_to(DIAGRAMS_DIR.resolve()):
+        return f"package://{PACKAGE_NAME}/{absolute.relative_to(DATA_ROOT.resolve()).as_posix()}"
+    return str(absolute)
+
+
 def bundled_scenarios() -> list[str]:
     """Names of the bundled scenarios (diagrams/NAME.yaml), sorted."""
     return sorted(p.stem for p in DIAGRAMS_DIR.glob("*.yaml"))

@@ -3,17 +3,19 @@ series, figures, the recording and the diagram's graph."""
 
 from __future__ import annotations
 
+import copy
 import dataclasses as dc
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable, Sequence
 
 from hlcmp_drake.config.loading import dump_scenario, load_scenario
-from hlcmp_drake.config.scenario import Scenario
+from hlcmp_drake.config.scenario import DemonstrationConfig, Scenario
 from hlcmp_drake.config.variants import use_drake_models_iiwa
 from hlcmp_drake.experiments import EXPERIMENTS, Experiment, experiment_of
 from hlcmp_drake.experiments.table import Table
 from hlcmp_drake.io import outputs
+from hlcmp_drake.io.paths import data_url
 from hlcmp_drake.io.runs import RunResult, instability_record, timeseries_arrays
 from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.present.recording import LiveView
@@ -229,6 +231,27 @@ def run_scenario(
     )
 
 
+def scenario_record(scenario: Scenario) -> str:
+    """A run's scenario.yaml: the scenario as it ran (`dump_scenario`, its controllers in
+    their order), its demonstration named as `data_url` gives it (a bundled one by its
+    package URL, which any installation finds; another by its absolute path).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        As loaded (its demonstration's path resolved).
+
+    Returns
+    -------
+    str
+        A YAML document `hlcmp run` takes.
+    """
+    recorded = copy.deepcopy(scenario)
+    if isinstance(recorded.reference, DemonstrationConfig):
+        recorded.reference.file = data_url(recorded.reference.file)
+    return dump_scenario(recorded, controllers_in_order=True)
+
+
 def without_claims(experiment: Experiment) -> Experiment:
     """`experiment` judging no claim: for runs that keep only some of a scenario's
     controllers (a sweep's, a served one), since the claims compare controllers.
@@ -345,7 +368,7 @@ def write_scenario(
             metrics,
             figures,
             build(next(iter(scenario.controllers))).diagram,
-            dump_scenario(scenario, controllers_in_order=True) if record_scenario else None,
+            scenario_record(scenario) if record_scenario else None,
         )
     return ScenarioResult(
         metrics, out_dir, experiment.table(metrics["controllers"]), experiment, scenario
