@@ -122,6 +122,17 @@ def _quiet_drake(args):
         logging.getLogger("drake").setLevel(logging.WARNING)
 
 
+@functools.cache
+def _notes_on_a_terminal() -> None:
+    """The package's notes (its INFO log records: a first compile of the kernels) as plain
+    lines on stderr, as the progress lines: only on a terminal, never in a pipe or a log."""
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("%(message)s"))
+    package = logging.getLogger("hlcmp_drake")
+    package.addHandler(handler)
+    package.setLevel(logging.INFO)
+
+
 def _print_table(table):
     """A table on stdout; on a terminal its first column wraps to the terminal's width
     (the benchmark's labels are long), into a pipe or a file each row stays one line."""
@@ -1214,6 +1225,8 @@ def main(argv=None):
     args = parser.parse_args(argv)
     args.debug = getattr(args, "debug", False)
     WRITTEN.clear()  # this command's files only (main may run more than once in a process)
+    if not getattr(args, "quiet", False) and sys.stderr.isatty():
+        _notes_on_a_terminal()
     try:
         _check_kernel()
         _check_output(args)

@@ -300,3 +300,27 @@ def test_numba_keeps_the_kernels_in_the_folder_of_these_sources():
     from hlcmp_drake.core.kernels import kernel_cache_folder
 
     assert Path(numba.config.CACHE_DIR).name == kernel_cache_folder().name
+
+
+@needs_numba
+def test_a_first_compile_is_said_once_before_the_wait(tmp_path):
+    """Where the kernels' folder does not exist yet (a new installation, an edit of core),
+    one note (an INFO record, which `hlcmp` shows on a terminal) says why the run is slow;
+    nothing is compiled to say it."""
+    script = (
+        "import logging; logging.basicConfig(level=logging.INFO, format='%(message)s')\n"
+        "from hlcmp_drake.core.kernels import implementation\n"
+        "from hlcmp_drake.core import slider_tick\n"
+        "implementation(slider_tick.impedance_slider_tick, 'compiled')\n"
+        "implementation(slider_tick.hlcmp_slider_tick, 'compiled')\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)},
+    )
+    lines = done.stderr.splitlines()
+    assert done.returncode == 0 and len(lines) == 1, done.stderr
+    assert lines[0].startswith("hlcmp: compiling the controller's kernels with numba")
+    assert str(tmp_path) in lines[0] and not [p for p in tmp_path.rglob("*") if p.is_file()]

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import logging
 import os
 from collections.abc import Iterator
 from pathlib import Path
@@ -40,6 +41,7 @@ PATHS = ("compiled", "numpy")
 CORE_DIR = Path(__file__).parent
 
 F = TypeVar("F", bound=Callable)
+_log = logging.getLogger(__name__)
 _compiled: dict[Callable, Callable] = {}
 _jitable: list[Callable] = []  # marked, not yet registered with numba
 _compiled_by: list[tuple[Callable, Callable]] = []  # (function, numba typing), not yet registered
@@ -239,5 +241,12 @@ def implementation(func: F, path: str) -> F:
         return func
     if func not in _compiled:
         assert numba_available(), "kernel_path refuses 'compiled' without numba"
+        folder = Path(_numba[0].config.CACHE_DIR)
+        if not _compiled and not folder.exists():  # said once a process, before the wait
+            _log.info(
+                "hlcmp: compiling the controller's kernels with numba, once for this version of "
+                "hlcmp_drake/core (kept in %s): this run takes longer, by tens of seconds",
+                folder,
+            )
         _compiled[func] = _numba[0].njit(cache=True)(func)
     return _compiled[func]  # type: ignore[return-value]
