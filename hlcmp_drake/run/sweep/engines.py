@@ -5,8 +5,9 @@ finished task to an `on_done` callback as it comes.
 The local workers are forked from a fork server (a fresh interpreter that has imported what
 a task needs, `WORKER_IMPORTS`, and started no thread of Drake's), not spawned: a spawned
 worker spends about a second a worker importing pydrake, numba and matplotlib before its
-first task, a forked one nothing (docs/performance.md, "The test suite"). Elsewhere than on
-Linux they are spawned. Either way no worker is a fork of the sweep's own
+first task, a forked one nothing (docs/performance.md, "The test suite"). They are spawned
+elsewhere than on Linux, and for a pool made after a variable those imports read has
+changed (`IMPORT_TIME_VARIABLES`). Either way no worker is a fork of the sweep's own
 process, whose Meshcat, LCM or Ray threads a fork would copy in a broken state."""
 
 from __future__ import annotations
