@@ -274,6 +274,16 @@ def test_the_real_arm_variant_sets_every_imperfection_and_renames_the_runs():
     assert load_scenario("insertion")[0].robot_imperfection.perfect
 
 
+def test_a_run_of_the_variant_reruns_from_its_record_with_the_variant_once(tmp_path):
+    from hlcmp_drake.run.runner import scenario_record
+
+    record = tmp_path / "scenario.yaml"
+    record.write_text(scenario_record(_variant()))
+    again = load_scenario(str(record), [], experiment_worlds(), "real_arm")[0]
+    assert again.name == "insertion_real_arm"  # not insertion_real_arm_real_arm
+    assert again.robot_imperfection == _variant().robot_imperfection
+
+
 @pytest.mark.parametrize(
     "override, message",
     [

@@ -462,7 +462,8 @@ def load_scenario(
     variant : str or Path, optional
         A bundled variant's name (e.g. "real_arm": diagrams/variants/real_arm.yaml) or a
         YAML file, layered over the scenario's file before the overrides; the scenario's
-        name gets "_" and the variant's name appended (its runs go to their own folder).
+        name gets "_" and the variant's name appended (its runs go to their own folder),
+        unless it already ends so (a run's record of that variant).
 
     Returns
     -------
@@ -630,7 +631,11 @@ def _load_text(
             )
         except Exception as error:
             raise _yaml_error(variant_path, variant_text, error) from None
-        scenario.name = f"{scenario.name}_{variant_path.stem}"
+        # A variant sets values, so layering it again changes none; a run's own record
+        # (DIR/scenario.yaml) already carries its name, which keeps its folder.
+        suffix = f"_{variant_path.stem}"
+        if not scenario.name.endswith(suffix):
+            scenario.name += suffix
     base, parsed = scenario, [item for o in overrides for item in _parse_override(o)]
     for label, key, value in parsed:
         scenario = _overridden(scenario, label, key, value)
