@@ -731,6 +731,13 @@ def cmd_generalize(args):
 # Built once a process: main may run many times in one (the tests), and building costs
 # about 4 ms (argparse looks up its messages' translations and the terminal's size).
 @functools.cache
+def _typed_override(text: str) -> str:
+    """`--set`'s value as `config.loading.command_line_override` reads it."""
+    from hlcmp_drake.config.loading import command_line_override
+
+    return command_line_override(text)
+
+
 def build_parser():
     from hlcmp_drake import __version__
     from hlcmp_drake.io.paths import bundled_scenarios, bundled_variants
@@ -748,9 +755,11 @@ def build_parser():
         "--set",
         action="append",
         default=[],
+        type=_typed_override,
         metavar="KEY=VALUE",
         help="override a scenario value, e.g. duration_s=4 or "
-        "controllers.hlcmp.q_k=[300,300,300] (repeatable)",
+        "controllers.hlcmp.q_k=[300,300,300] (repeatable; a file, reference.file, is read "
+        "from the working directory)",
     )
 
     world = argparse.ArgumentParser(add_help=False)  # where learn and reproduce run

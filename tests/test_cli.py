@@ -493,3 +493,32 @@ def test_output_into_a_closed_pipe_ends_quietly(tmp_path):
     errors = process.stderr.read()
     assert process.wait(timeout=120) == 141 and errors == "", errors
     assert (tmp_path / "s.npz").is_file()
+
+
+def test_a_demonstration_given_with_set_is_read_from_the_working_directory(tmp_path, monkeypatch):
+    from hlcmp_drake.cli import build_parser
+    from hlcmp_drake.config.loading import load_scenario
+
+    (tmp_path / "mine.csv").write_bytes(INSERTION_DEMO.read_bytes())
+    monkeypatch.chdir(tmp_path)
+    args = build_parser().parse_args(
+        ["run", "insertion", "--set", "reference.file=mine.csv", "--set", "duration_s=1"]
+    )
+    assert args.set[1] == "duration_s=1"  # other fields as typed
+    scenario, _ = load_scenario(args.scenario, args.set)
+    assert scenario.reference.file == str(tmp_path / "mine.csv")  # not beside insertion.yaml
+
+
+@pytest.mark.parametrize(
+    "typed",
+    [
+        "reference.file=package://hlcmp_drake/diagrams/demos/insertion_demo.csv",
+        "reference.file=/abs/demo.csv",
+        "controllers.hlcmp.q_k=[1,2,3]",
+        "reference.file=[unclosed",
+    ],
+)
+def test_set_leaves_urls_absolute_paths_and_other_fields_as_typed(typed):
+    from hlcmp_drake.config.loading import command_line_override
+
+    assert command_line_override(typed) == typed

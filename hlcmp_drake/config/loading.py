@@ -13,6 +13,7 @@ import copy
 import dataclasses as dc
 import difflib
 import functools
+import json
 import re
 import typing
 from pathlib import Path
@@ -438,6 +439,40 @@ def _parse_override(override) -> list[tuple[str, str, str]]:
             "e.g. controllers.hlcmp.q_k=[300,300,300]"
         )
     return [(str(override), key.strip(), value.strip())]
+
+
+# Scenario fields that name a file: in a scenario or a sweep's file a relative path is read
+# beside that file; typed with --set, it is read from the working directory.
+PATH_FIELDS = ("reference.file",)
+
+
+def command_line_override(override: str) -> str:
+    """KEY=VALUE as typed after `--set`: a relative path given to a field of PATH_FIELDS
+    made absolute from the working directory, as a shell's user means it (not read beside
+    the scenario's file, where it would be in a scenario's own text); anything else as
+    typed.
+
+    Parameters
+    ----------
+    override : str
+        KEY=VALUE, the value in YAML.
+
+    Returns
+    -------
+    str
+    """
+    import yaml
+
+    key, sep, value = override.partition("=")
+    if not sep or key.strip() not in PATH_FIELDS:
+        return override
+    try:
+        path = yaml.safe_load(value)
+    except yaml.YAMLError:
+        return override  # load_scenario says what is wrong with it
+    if not isinstance(path, str) or not path or "://" in path or Path(path).is_absolute():
+        return override
+    return f"{key.strip()}={json.dumps(str(Path(path).resolve()))}"
 
 
 def load_scenario(
