@@ -441,8 +441,8 @@ def _parse_override(override) -> list[tuple[str, str, str]]:
     return [(str(override), key.strip(), value.strip())]
 
 
-# Scenario fields that name a file: in a scenario or a sweep's file a relative path is read
-# beside that file; typed with --set, it is read from the working directory.
+# Scenario fields that name a file: a relative path in a scenario's file is read beside that
+# file; typed with --set, it is read from the working directory.
 PATH_FIELDS = ("reference.file",)
 
 
