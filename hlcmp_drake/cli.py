@@ -150,6 +150,16 @@ def _verdict_word(holds):
     return NOT_JUDGED if holds is None else ("reproduced" if holds else "NOT reproduced")
 
 
+def _evidence(verdict: dict, undone: dict) -> str:
+    """A claim's evidence as the summary prints it: for a claim not judged, the runs that
+    did not do the task by name (their reasons are printed once above the claims)."""
+    evidence = verdict["evidence"]
+    if verdict["holds"] is not None:
+        return evidence
+    named = [name for name, why in undone.items() if f"{name}: {why}" in evidence]
+    return ", ".join(named) if named else evidence
+
+
 def print_summary(result) -> None:
     """A scenario's table, instabilities, claims and where its files went."""
     metrics = result.metrics
@@ -159,11 +169,17 @@ def print_summary(result) -> None:
             f"UNSTABLE {controller}: {problem['reason']} at t = {problem['time_s']:.3f} s "
             "(stopped there; its logs up to then are in timeseries.npz)"
         )
+    undone = {
+        name: run["task"]["evidence"]
+        for name, run in metrics.get("controllers", {}).items()
+        if run.get("task") and not run["task"]["done"]
+    }
+    for name, why in undone.items():
+        print(f"task not done by {name}: {why}")
     for learner, claims in metrics.get("claims", {}).items():
         for claim, verdict in claims.items():
-            print(
-                f"{claim} [{learner}]: {_verdict_word(verdict['holds'])} -- {verdict['evidence']}"
-            )
+            word = _verdict_word(verdict["holds"])
+            print(f"{claim} [{learner}]: {word} -- {_evidence(verdict, undone)}")
     print(f"status: {metrics['status']}; results in {result.out_dir}")
 
 

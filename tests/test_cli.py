@@ -522,3 +522,34 @@ def test_set_leaves_urls_absolute_paths_and_other_fields_as_typed(typed):
     from hlcmp_drake.config.loading import command_line_override
 
     assert command_line_override(typed) == typed
+
+
+def test_a_claim_not_judged_names_its_runs_whose_reasons_are_printed_once(capsys):
+    from types import SimpleNamespace
+
+    from hlcmp_drake.cli import print_summary
+    from hlcmp_drake.present.tables import Table
+
+    why = "did not go through the plank: the tool point stayed 119.7 mm above its top"
+    runs = {"hlcmp": False, "const_500": False, "const_1000": True}
+    metrics = {
+        "status": "ok",
+        "controllers": {n: {"task": {"done": d, "evidence": why}} for n, d in runs.items()},
+        "claims": {
+            "hlcmp": {
+                "C1": {"holds": None, "evidence": f"const_500: {why}"},
+                "C2": {"holds": None, "evidence": f"hlcmp: {why}; const_500: {why}"},
+                "C3": {"holds": True, "evidence": "K rose 3x"},
+            }
+        },
+    }
+    print_summary(SimpleNamespace(metrics=metrics, table=Table(["a"], [["1"]]), out_dir="D"))
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[-6:] == [
+        f"task not done by hlcmp: {why}",
+        f"task not done by const_500: {why}",
+        "C1 [hlcmp]: not judged (task not done) -- const_500",
+        "C2 [hlcmp]: not judged (task not done) -- hlcmp, const_500",
+        "C3 [hlcmp]: reproduced -- K rose 3x",
+        "status: ok; results in D",
+    ]
