@@ -657,3 +657,24 @@ def test_a_local_tasks_error_reaches_the_sweep_in_one_line():
     results = []
     run_in_processes(_refuse, [1], 1, lambda item, result, error: results.append(error))
     assert results == ["ValueError: refused 1 second line of the message"]
+
+
+def _dies_on_negative(value):
+    if value < 0:
+        os.kill(os.getpid(), signal.SIGKILL)
+    time.sleep(0.05)
+    return value * 10
+
+
+def test_a_task_that_kills_its_worker_fails_alone_and_the_others_finish():
+    """A worker killed outright breaks its pool; the tasks it had not run, and those that
+    ran beside the culprit, still finish, and the culprit fails with how its worker ended."""
+    results = {}
+
+    def keep(item, result, error):
+        assert item not in results  # each task reported once
+        results[item] = (result, error)
+
+    run_in_processes(_dies_on_negative, [1, 2, -3, 4, 5, 6, 7], 2, keep)
+    assert results.pop(-3) == (None, "its worker process died (killed by SIGKILL)")
+    assert results == {v: (10 * v, None) for v in (1, 2, 4, 5, 6, 7)}

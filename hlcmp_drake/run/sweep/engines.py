@@ -17,8 +17,10 @@ import logging
 import multiprocessing
 import os
 import select
+import shutil
 import signal
 import sys
+import tempfile
 import threading
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -161,6 +163,12 @@ def run_in_processes(
     one line. The workers end with this process; an interrupt cancels the queue and
     terminates them.
 
+    A worker that dies (killed, out of memory, a crash in C++) breaks its pool, and the
+    pool fails every task it had not finished. Those that had not started go on in a new
+    pool; each that had started runs again alone, so that the one that kills its worker
+    again fails by itself ("its worker process died (killed by SIGKILL)") and a task that
+    only shared the pool is not lost.
+
     Parameters
     ----------
     function : callable
@@ -171,28 +179,87 @@ def run_in_processes(
         The number of processes.
     on_done : callable(item, result, error)
     """
+    marks = Path(tempfile.mkdtemp(prefix="hlcmp-workers-"))
+    try:
+        queue = list(range(len(items)))
+        while queue:
+            broken = _pool_round(function, items, queue, workers, on_done, marks)
+            if broken is None:
+                return
+            started, queue = broken
+            for index in started:
+                alone = _pool_round(function, items, [index], 1, on_done, marks)
+                if alone is not None:
+                    on_done(items[index], None, f"its worker process died ({alone[1]})")
+    finally:
+        shutil.rmtree(marks, ignore_errors=True)
+
+
+def _marked_call(function: Callable, marks: str, index: int, item):
+    """In a worker: `function(item)`, with a file named by the worker's pid holding `index`
+    while it runs, so that the pool's owner knows which tasks had started if it breaks."""
+    mark = Path(marks) / str(os.getpid())
+    mark.write_text(str(index))
+    try:
+        return function(item)
+    finally:
+        mark.unlink()
+
+
+def _pool_round(function, items, indices, workers, on_done, marks):
+    """The tasks `indices` in one pool of `workers` (`run_in_processes`): None when the pool
+    held to the end; else, when a worker died, (the indices that had started and not
+    finished, those that had not started) -- or, for a pool of one, (the index, how its
+    worker ended)."""
     executor = ProcessPoolExecutor(
         max_workers=workers,
         mp_context=_worker_context(),
         initializer=_local_worker_init,
         initargs=(os.getpid(), dict(os.environ)),
     )
+    failed: list[int] = []
     try:
-        futures = {executor.submit(function, item): item for item in items}
+        futures = {
+            executor.submit(_marked_call, function, str(marks), index, items[index]): index
+            for index in indices
+        }
+        processes = list((getattr(executor, "_processes", None) or {}).values())
         for future in as_completed(futures):
+            index = futures[future]
             try:
                 result, error = future.result(), None
-            except (
-                BrokenProcessPool
-            ) as failure:  # a worker died (killed, out of memory): so did the pool
-                result, error = None, f"a worker process died ({failure})"
+            except BrokenProcessPool:  # a worker died: the pool fails what it had not done
+                failed.append(index)
+                continue
             except Exception as failure:  # the task's own error: record it, go on
                 result, error = None, " ".join(f"{type(failure).__name__}: {failure}".split())
-            on_done(futures[future], result, error)
+            on_done(items[index], result, error)
     except BaseException:
         _stop_pool(executor)
         raise
     executor.shutdown()
+    if not failed:
+        return None
+    running = set()
+    for mark in marks.iterdir():  # the dead worker's, and those the broken pool ended
+        with contextlib.suppress(ValueError):  # one ended while it wrote its mark
+            running.add(int(mark.read_text()))
+        mark.unlink()
+    if workers == 1 and len(indices) == 1:
+        return indices, _how_it_ended(processes)
+    ordered = sorted(failed)
+    return [i for i in ordered if i in running], [i for i in ordered if i not in running]
+
+
+def _how_it_ended(processes: list) -> str:
+    """How a pool's dead worker ended, e.g. "killed by SIGKILL" or "exit code 3"."""
+    codes = [p.exitcode for p in processes if p.exitcode not in (None, 0)]
+    if not codes:
+        return "ended"
+    if codes[0] < 0:
+        with contextlib.suppress(ValueError):
+            return f"killed by {signal.Signals(-codes[0]).name}"
+    return f"exit code {codes[0]}"
 
 
 def _run_local(tasks: list, workers: int, on_done: Done) -> None:
