@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import multiprocessing
+import multiprocessing.util
 import os
 import select
 import shutil
@@ -179,7 +180,8 @@ def run_in_processes(
         The number of processes.
     on_done : callable(item, result, error)
     """
-    marks = Path(tempfile.mkdtemp(prefix="hlcmp-workers-"))
+    # In multiprocessing's own temporary folder, which it removes when this process ends.
+    marks = Path(tempfile.mkdtemp(prefix="workers-", dir=multiprocessing.util.get_temp_dir()))
     try:
         queue = list(range(len(items)))
         while queue:
