@@ -319,6 +319,11 @@ def cmd_bench(args):
     return 0
 
 
+def _rounded(value: float, digits: int) -> str:
+    """`value` to `digits` decimals, a value that rounds to zero without a minus sign."""
+    return f"{round(value, digits) + 0.0:.{digits}f}"
+
+
 def cmd_probe(args):
     from hlcmp_drake.run.probe import run_probe
 
@@ -327,10 +332,10 @@ def cmd_probe(args):
     readings = result.readings
     print(
         f"probe {readings['scenario']} at {readings['speed_m_per_s']:.3g} m/s: peak "
-        f"{readings['peak_force_N']:.2f} N "
-        f"at {1000 * readings['depth_at_peak_m']:.1f} mm, residual "
-        f"{readings['residual_force_N']:.2f} N, "
-        f"max lateral {readings['max_lateral_force_N']:.3f} N; {readings['status']}"
+        f"{_rounded(readings['peak_force_N'], 2)} N "
+        f"at {_rounded(1000 * readings['depth_at_peak_m'], 1)} mm, residual "
+        f"{_rounded(readings['residual_force_N'], 2)} N, "
+        f"max lateral {_rounded(readings['max_lateral_force_N'], 3)} N; {readings['status']}"
     )
     print(f"probe.json, probe.png, probe.npz in {result.out_dir}")
     if readings["status"] == "ok" and not result.touched:

@@ -553,3 +553,14 @@ def test_a_claim_not_judged_names_its_runs_whose_reasons_are_printed_once(capsys
         "C3 [hlcmp]: reproduced -- K rose 3x",
         "status: ok; results in D",
     ]
+
+
+def test_a_reading_that_rounds_to_zero_is_printed_without_a_minus_sign():
+    from hlcmp_drake.cli import _rounded
+
+    assert [_rounded(v, 2) for v in (-1e-4, -0.0, -0.006, 13.814)] == [
+        "0.00",
+        "0.00",
+        "-0.01",
+        "13.81",
+    ]
