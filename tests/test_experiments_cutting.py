@@ -103,4 +103,19 @@ def test_the_cut_is_done_at_depth_along_its_length():
     assert cutting.cut_done(_cut(0.002, 1.0), None)["done"]
     short = cutting.cut_done(_cut(0.006, 1.0), None)  # 6 mm above: not at depth
     assert not short["done"] and short["stroke_covered"] == 0.0
-    assert not cutting.cut_done(_cut(0.0, 0.5), None)["done"]  # half the stroke
+    assert short["evidence"].endswith("its deepest point stayed 6.0 mm above the reference's")
+    half = cutting.cut_done(_cut(0.0, 0.5), None)  # at depth over half the stroke
+    assert not half["done"] and half["stroke_covered"] == pytest.approx(0.5, abs=0.01)
+    assert half["evidence"].endswith("of the 18 cm stroke, short of the 90 % the task needs")
+
+
+@pytest.mark.parametrize("seconds", [1.0, 4.0, 8.0])  # descending; along the stroke; at its end
+def test_a_run_that_ends_before_the_references_cut_did_not_do_the_task(seconds):
+    """The stroke is read off the logged reference: cut short, the run would see a short
+    stroke that it covers whole."""
+    whole = _cut(0.0, 1.0)
+    kept = whole.t <= seconds
+    run = RunResult("blade", whole.t[kept], {k: v[kept] for k, v in whole.series.items()})
+    verdict = cutting.cut_done(run, None)
+    assert not verdict["done"] and verdict["stroke_covered"] is None
+    assert verdict["evidence"].startswith(f"the run ended at t = {seconds:.2f} s, before the ")

@@ -32,10 +32,15 @@ STROKE_FRACTION = 0.9
 def cut_done(run: RunResult, scenario: Scenario) -> dict:
     """Whether the blade cut at the demonstrated depth along the cut's length.
 
+    The stroke is read off the reference the run logged, so the run must have lasted until
+    the reference's cut was over (it rose again from its deepest stretch); a run that ended
+    before did not do the task, however much of the stroke it had seen covered.
+
     Parameters
     ----------
     run : RunResult
-        Its x and xd series (T, 3) [m]; the cut runs along y at the reference's deepest z.
+        Its t (T,) [s], x and xd series (T, 3) [m]; the cut runs along y at the
+        reference's deepest z.
     scenario : Scenario
         Unused: the stroke is read off the reference.
 
@@ -43,11 +48,18 @@ def cut_done(run: RunResult, scenario: Scenario) -> dict:
     -------
     dict
         {"done", "evidence", "stroke_covered"}: the fraction of the stroke's length [-] over
-        which the blade was at depth.
+        which the blade was at depth (None when the run ended before the cut did).
     """
     x, xd = run.series["x"], run.series["xd"]
     deepest = float(xd[:, 2].min())
     stroke = xd[:, 2] <= deepest + STROKE_BAND_M
+    if not np.any(xd[np.flatnonzero(stroke)[-1] :, 2] > deepest + STROKE_BAND_M):
+        return {
+            "done": False,
+            "evidence": f"the run ended at t = {float(run.t[-1]):.2f} s, before the "
+            "reference's cut did (it had not risen from its deepest stretch)",
+            "stroke_covered": None,
+        }
     start, end = float(xd[stroke, 1].min()), float(xd[stroke, 1].max())
     at_depth = x[:, 2] <= deepest + DEPTH_TOLERANCE_M
     covered = 0.0
@@ -59,8 +71,13 @@ def cut_done(run: RunResult, scenario: Scenario) -> dict:
     evidence = (
         f"cut at depth (within {1000 * DEPTH_TOLERANCE_M:.0f} mm) over {100 * covered:.0f} % "
         f"of the {100 * (end - start):.0f} cm stroke"
-        + ("" if done else f"; its deepest point stayed {shortfall:.1f} mm above the reference's")
     )
+    if not done:  # say which of the two it missed
+        evidence += (
+            f"; its deepest point stayed {shortfall:.1f} mm above the reference's"
+            if not at_depth.any()
+            else f", short of the {100 * STROKE_FRACTION:.0f} % the task needs"
+        )
     return {"done": done, "evidence": evidence, "stroke_covered": covered}
 
 
