@@ -1219,17 +1219,48 @@ def _check_output(args):
         default = _default_out(args)
         if default is not None:
             check_output_folder(default, "output folder")
+            _check_skill_not_lost(args, default)
         return
     if args.command in WRITES_A_FILE:
         check_output_file(out)
         _check_not_an_input(args, out)
         return
     check_output_folder(out)
+    _check_skill_not_lost(args, out)
     if args.command == "report" and args.scenarios:  # one folder per scenario, by its name
         from hlcmp_drake.run.report import report_folders
 
         for folder in report_folders(out, args.scenarios).values():
             check_output_folder(folder, "--out")
+
+
+def _check_skill_not_lost(args, folder):
+    """Refuse (exit 2) a command that would lose a learned skill in its output folder: one
+    that writes no skill where an earlier learn left one (a reused folder keeps only the
+    last command's files), or a learn or replay that would write over the skill it was
+    given."""
+    from pathlib import Path
+
+    from hlcmp_drake.io.outputs import listed_outputs
+
+    skill = Path(folder) / "skill.npz"
+    if not skill.is_file():
+        return
+    given = getattr(args, "skill", None)
+    is_input = given is not None and os.path.isfile(given) and os.path.samefile(given, skill)
+    writes_skill = args.command == "learn" or (args.command == "reproduce" and not args.freeze)
+    if writes_skill and is_input:
+        other = "another --out" + (", or --freeze" if args.command == "reproduce" else "")
+        raise InputError(
+            f"--out {folder}: holds the input skill {given}, which {args.command} would "
+            f"overwrite with the skill it learns: give {other}"
+        )
+    kept = is_input and args.command in ("learn", "reproduce")  # they keep their input
+    if not writes_skill and not kept and "skill.npz" in listed_outputs(folder):
+        raise InputError(
+            f"--out {folder}: holds a learned skill ({skill}), which {args.command} would "
+            "remove as a file of an earlier command: give another --out, or move the skill"
+        )
 
 
 # The positional arguments of the commands that write a file, as their usage lines name them.

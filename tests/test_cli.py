@@ -13,7 +13,15 @@ import time
 
 import numpy as np
 import pytest
-from conftest import DEMO_CSV, INSERTION_DEMO, REPO_ROOT, one_line_error, run_cli, tilted_turn
+from conftest import (
+    DEMO_CSV,
+    INSERTION_DEMO,
+    REPO_ROOT,
+    one_line_error,
+    run_cli,
+    short_one_dof,
+    tilted_turn,
+)
 
 from hlcmp_drake.core import quaternion as quat
 from hlcmp_drake.io.demos import read_demonstration
@@ -564,3 +572,55 @@ def test_a_reading_that_rounds_to_zero_is_printed_without_a_minus_sign():
         "-0.01",
         "13.81",
     ]
+
+
+def _learned_folder(folder):
+    """A folder as `hlcmp learn` leaves it: skill.npz listed in the folder's manifest."""
+    from hlcmp_drake.io import outputs
+
+    with outputs.replacing_outputs(folder):
+        outputs.write_text(folder / "skill.npz", "a learned skill")
+        outputs.write_text(folder / "metrics.json", "{}")
+    return folder / "skill.npz"
+
+
+def test_a_command_that_would_remove_a_learned_skill_is_refused(tmp_path):
+    skill = _learned_folder(tmp_path / "L")
+    result = run_cli("run", *short_one_dof(0.1), "--out", tmp_path / "L")
+    line = one_line_error(result)
+    assert f"holds a learned skill ({skill})" in line and "which run would remove" in line
+    assert skill.read_text() == "a learned skill"
+    (tmp_path / "mine").mkdir()  # a skill the user put there, not in the manifest: not ours
+    (tmp_path / "mine" / "skill.npz").write_text("my own")
+    assert "holds" not in run_cli("run", *short_one_dof(0.1), "--out", tmp_path / "mine").stderr
+    assert (tmp_path / "mine" / "skill.npz").read_text() == "my own"
+
+
+@pytest.mark.parametrize(
+    "command, extra, refused",
+    [
+        (
+            "reproduce",
+            [],
+            "would overwrite with the skill it learns: give another --out, or --freeze",
+        ),
+        ("reproduce", ["--freeze"], None),  # writes no skill and keeps its input
+        ("learn", [], "would overwrite with the skill it learns: give another --out"),
+        ("serve", [], "which serve would remove"),
+    ],
+)
+def test_a_skill_given_from_the_output_folder_is_never_written_over(
+    tmp_path, command, extra, refused
+):
+    import argparse
+
+    from hlcmp_drake.cli import _check_skill_not_lost
+    from hlcmp_drake.io.errors import InputError
+
+    skill = _learned_folder(tmp_path / "L")
+    args = argparse.Namespace(command=command, skill=str(skill), freeze="--freeze" in extra)
+    if refused is None:
+        _check_skill_not_lost(args, tmp_path / "L")
+    else:
+        with pytest.raises(InputError, match=refused):
+            _check_skill_not_lost(args, tmp_path / "L")
