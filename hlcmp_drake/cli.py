@@ -861,7 +861,7 @@ def build_parser():
         metavar="VARIANT",
         help="also run every arm scenario under these variants and show them beside its "
         f"perfect robot: bundled ({', '.join(bundled_variants())}) or .yaml files of your "
-        "own (default none: each runs the arm scenarios again)",
+        "own; each variant runs the arm scenarios once more (default: no variant)",
     )
     report.add_argument(
         "--engine",

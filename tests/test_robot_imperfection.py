@@ -301,8 +301,9 @@ def test_bad_values_are_refused_in_one_line(override, message):
 
 
 def test_a_slider_is_no_real_arm_and_a_bad_variant_file_names_its_line(tmp_path):
-    with pytest.raises(InputError, match="needs an !ArmTask"):
+    with pytest.raises(InputError, match="applies to the arm scenarios only") as error:
         _variant(name="one_dof")
+    assert str(error.value).endswith("not to a SliderTask")
     bad = tmp_path / "shaky.yaml"
     bad.write_text("robot_imperfection:\n  velocity_filter_hz: -3.0\n")
     with pytest.raises(InputError, match=rf"{bad}:2: velocity_filter_hz: must be finite"):

@@ -1368,10 +1368,16 @@ class RobotImperfection:
         if self.perfect:
             return
         if not isinstance(scenario.task, ArmTask) or scenario.task.control_path != "fast":
+            arm = isinstance(scenario.task, ArmTask)
             fail(
                 "robot_imperfection",
-                "a robot that is not its model needs an !ArmTask on the fast control path "
-                "(task.control_path: fast)",
+                "a robot that is not its model applies to the arm scenarios only (insertion, "
+                "cutting, peg_in_hole: an !ArmTask on the fast control path), "
+                + (
+                    "not with task.control_path: modular"
+                    if arm
+                    else f"not to a {type(scenario.task).__name__}"
+                ),
             )
         step = scenario.plant_config.time_step
         steps = self.control_period_s / step if step > 0 else 0.0
