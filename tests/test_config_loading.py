@@ -262,6 +262,13 @@ def test_a_copied_scenario_finds_the_bundled_demonstration_by_package_url(tmp_pa
         r"'package://hlcmp_drake/diagrams/demos/nope.csv' not found \(looked for ",
     ):
         load_scenario(copy)
+    copy.write_text(text)  # copied as it is: its relative path looks beside the copy
+    with pytest.raises(InputError) as error:
+        load_scenario(copy)
+    assert str(error.value).endswith(
+        f"(looked for {tmp_path / 'demos' / 'insertion_demo.csv'}); the bundled one is "
+        "package://hlcmp_drake/diagrams/demos/insertion_demo.csv"
+    )
 
 
 @pytest.mark.parametrize(

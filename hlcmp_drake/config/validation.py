@@ -30,7 +30,7 @@ from hlcmp_drake.config.scenario import (
     check_number,
 )
 from hlcmp_drake.io.demos import MAX_DURATION_S
-from hlcmp_drake.io.paths import MODELS_DIR, PACKAGE_NAME, data_file
+from hlcmp_drake.io.paths import DATA_ROOT, MODELS_DIR, PACKAGE_NAME, data_file, data_url
 
 # MultibodyPlantConfig's names that Drake reads as one of a list of options.
 PLANT_OPTIONS = (
@@ -204,9 +204,12 @@ def _check_reference(scenario: Scenario, folder: Path, fail: Fail) -> None:
     if isinstance(reference, DemonstrationConfig):
         demo = data_file(reference.file, Path(folder))
         if not reference.file or not demo.is_file():
+            bundled = DATA_ROOT / "diagrams" / "demos" / Path(reference.file).name
             fail(
                 "reference.file",
-                f"demonstration file '{reference.file}' not found (looked for {demo})",
+                f"demonstration file '{reference.file}' not found (looked for "
+                f"{demo.resolve()})"
+                + (f"; the bundled one is {data_url(bundled)}" if bundled.is_file() else ""),
             )
         if not (math.isfinite(reference.duration_s) and reference.duration_s >= 0):
             fail(
