@@ -69,3 +69,11 @@ def test_wrist_readings_tilt_the_tool_axis_and_hold_it_with_k_q_plus_d_v():
     # Rx(a) Ry(b) e_z makes an angle arccos(cos a cos b) with e_z; Rz turns about the axis.
     assert readings["final_tilt_rad"] == pytest.approx(np.arccos(np.cos(0.03) * np.cos(0.04)))
     assert readings["max_abs_wrist_torque_Nm"] == pytest.approx([3.0, 20.0, 1.0])
+
+
+def test_a_probe_reading_of_no_force_is_zero_without_a_sign():
+    from hlcmp_drake.core.metrics import probe_readings
+
+    untouched = -np.zeros(5)  # the force against the push, negated: -0.0 everywhere
+    readings = probe_readings(np.arange(5) * 1e-3, untouched, np.zeros(5), np.ones(5, bool))
+    assert all(np.copysign(1.0, value) == 1.0 for value in readings.values()), readings

@@ -160,13 +160,15 @@ def probe_readings(
     first_contact = touching[0] if touching.size else push[0]
     after_peak = push[push >= peak]
     last_third = after_peak[len(after_peak) - max(1, len(after_peak) // 3) :]
-    return {
-        "peak_force_N": float(resisting[peak]),
-        "depth_at_peak_m": float(distance[peak] - distance[first_contact]),
-        "residual_force_N": float(np.mean(resisting[last_third])),
-        "max_lateral_force_N": float(np.max(np.abs(lateral))),
-        "min_resisting_force_N": float(np.min(resisting[push])),
+    readings = {
+        "peak_force_N": resisting[peak],
+        "depth_at_peak_m": distance[peak] - distance[first_contact],
+        "residual_force_N": np.mean(resisting[last_third]),
+        "max_lateral_force_N": np.max(np.abs(lateral)),
+        "min_resisting_force_N": np.min(resisting[push]),
     }
+    # + 0.0: no force is 0.0, not the -0.0 of a negated zero (it reached probe.json so).
+    return {name: float(value) + 0.0 for name, value in readings.items()}
 
 
 def wrist_readings(
