@@ -34,6 +34,12 @@ def test_a_report_of_ones_own_scenario_file(tmp_path):
     text = (out / "index.html").read_text()
     assert "my_one_dof/recording.html" in text and (out / "my_one_dof" / "metrics.json").exists()
     assert "1-DOF comparison with a variable-impedance controller: my_one_dof" in text
+    # Each scenario's folder is a run's: its scenario.yaml reruns it to the same metrics.
+    again = tmp_path / "again"
+    assert main(["run", str(out / "my_one_dof" / "scenario.yaml"), "--out", str(again),
+                 "--quiet"]) == 0  # fmt: skip
+    for name in ("metrics.json", "timeseries.npz"):
+        assert (again / name).read_bytes() == (out / "my_one_dof" / name).read_bytes(), name
 
 
 def test_report_scenarios_are_all_checked_before_the_first_runs(tmp_path):

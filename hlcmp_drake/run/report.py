@@ -267,6 +267,7 @@ class _ScenarioWriter:
             scenario,
             {piece.controller: self._runs.pop(piece) for piece in tasks},
             out_dir=task.run_dir,
+            record_scenario=True,  # as `hlcmp run` writes it: DIR/scenario.yaml reruns one
         )
         self.status[task.run_dir] = written.metrics["status"]
         self._reporter.say(
