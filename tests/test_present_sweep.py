@@ -41,3 +41,6 @@ def test_the_table_shows_values_as_the_readme_does():
     assert sweep_table(summary).rows[1] == ["30", "1", "3.0000", "never", "n/a", "unstable"]
     assert parameter_number("[3.0, 3.0]") == 3.0 and parameter_number("[1, 2]") is None
     assert parameter_text("abc") == "abc" and parameter_text("1.0e-3") == "0.001"
+    # YAML 1.1 (PyYAML) reads an exponent without its sign as text; Drake reads a number.
+    assert parameter_text("[1.0e7]") == "1e+07" and parameter_text("2e3") == "2000"
+    assert parameter_number("[nan]") is None and parameter_number("[1.0e7, 2.0e7]") is None

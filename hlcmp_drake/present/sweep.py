@@ -44,6 +44,11 @@ def parameter_number(text: str) -> float | None:
         return None
     if isinstance(value, list) and value and all(v == value[0] for v in value):
         value = value[0]
+    if isinstance(value, str):  # PyYAML reads 1.0e7 (no exponent sign) as text; Drake, a number
+        try:
+            value = float(value)
+        except ValueError:
+            return None
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         return None
     return float(value)
