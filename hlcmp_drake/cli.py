@@ -325,9 +325,11 @@ def _rounded(value: float, digits: int) -> str:
 
 
 def cmd_probe(args):
-    from hlcmp_drake.run.probe import run_probe
+    from hlcmp_drake.run.probe import run_probe, unused_by_the_probe
 
     _quiet_drake(args)
+    for override in unused_by_the_probe(args.set):
+        _warn(f"--set {override}: the probe does not use it (it pushes the tool alone)")
     result = run_probe(args.scenario, args.out, speed=args.speed, overrides=args.set)
     readings = result.readings
     print(

@@ -129,3 +129,11 @@ def test_a_peg_held_stiffly_in_rotation_jams_in_the_tilted_hole(tmp_path):
     assert readings["peak_force_N"] > JAM_FORCE_N
     assert _travel_where_axial_force_first_exceeds(tmp_path, JAM_FORCE_N) < FULL_TRAVEL_M
     assert readings["final_tilt_rad"] > math.radians(0.5)  # still off the hole's axis
+
+
+def test_settings_the_probe_never_reads_are_named():
+    from hlcmp_drake.run.probe import unused_by_the_probe
+
+    given = ["duration_s=1", "probe.tilt_rad=0.001", "controllers.hlcmp.q_k=[1,1,1]",
+             "task.puncture.depth_m=0.01", "recording.frames_per_second=30"]  # fmt: skip
+    assert unused_by_the_probe(given) == [given[0], given[2], given[4]]

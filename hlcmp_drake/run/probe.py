@@ -151,6 +151,35 @@ def probe_figure(
     return fig
 
 
+# The scenario's parts a probe never reads: it pushes the tool alone through the world.
+NOT_PROBED = (
+    "duration_s",
+    "controllers",
+    "reference",
+    "dmp",
+    "log_period_s",
+    "recording",
+    "iiwa_driver",
+    "robot_imperfection",
+)
+
+
+def unused_by_the_probe(overrides: Sequence[str]) -> list[str]:
+    """The overrides a probe would take and never read (`NOT_PROBED`), for a warning.
+
+    Parameters
+    ----------
+    overrides : sequence of str
+        ``dotted.key=value``.
+
+    Returns
+    -------
+    list of str
+        Those whose first key is in NOT_PROBED, as given.
+    """
+    return [o for o in overrides if o.partition("=")[0].strip().split(".")[0] in NOT_PROBED]
+
+
 def run_probe(
     name_or_path: str | Path,
     out_dir: str | Path | None = None,
