@@ -515,6 +515,9 @@ def test_a_demonstration_given_with_set_is_read_from_the_working_directory(tmp_p
     assert args.set[1] == "duration_s=1"  # other fields as typed
     scenario, _ = load_scenario(args.scenario, args.set)
     assert scenario.reference.file == str(tmp_path / "mine.csv")  # not beside insertion.yaml
+    line = one_line_error(run_cli("run", "insertion", "--set", "reference.file=nope.csv"))
+    assert line.startswith("hlcmp: error: override 'reference.file=nope.csv': ")  # as typed
+    assert line.endswith(f"(looked for {tmp_path / 'nope.csv'})")
 
 
 @pytest.mark.parametrize(

@@ -438,7 +438,7 @@ def _parse_override(override) -> list[tuple[str, str, str]]:
             f"override '{override}': expected KEY=VALUE with a dotted KEY, "
             "e.g. controllers.hlcmp.q_k=[300,300,300]"
         )
-    return [(str(override), key.strip(), value.strip())]
+    return [(getattr(override, "typed", str(override)), key.strip(), value.strip())]
 
 
 # Scenario fields that name a file: a relative path in a scenario's file is read beside that
@@ -472,7 +472,22 @@ def command_line_override(override: str) -> str:
         return override  # load_scenario says what is wrong with it
     if not isinstance(path, str) or not path or "://" in path or Path(path).is_absolute():
         return override
-    return f"{key.strip()}={json.dumps(str(Path(path).resolve()))}"
+    return TypedOverride(f"{key.strip()}={json.dumps(str(Path(path).resolve()))}", override)
+
+
+class TypedOverride(str):
+    """An override that `command_line_override` rewrote, which keeps the text as it was
+    typed for messages (`typed`)."""
+
+    typed: str
+
+    def __new__(cls, text: str, typed: str) -> TypedOverride:
+        override = super().__new__(cls, text)
+        override.typed = typed
+        return override
+
+    def __reduce__(self):  # pickled into a sweep's or a report's workers as it is
+        return (TypedOverride, (str(self), self.typed))
 
 
 def load_scenario(
