@@ -678,3 +678,19 @@ def test_a_task_that_kills_its_worker_fails_alone_and_the_others_finish():
     run_in_processes(_dies_on_negative, [1, 2, -3, 4, 5, 6, 7], 2, keep)
     assert results.pop(-3) == (None, "its worker process died (killed by SIGKILL)")
     assert results == {v: (10 * v, None) for v in (1, 2, 4, 5, 6, 7)}
+
+
+class _KillsTheWorkerThatReceivesIt:
+    """A task argument whose unpickling ends the worker, before any task can run."""
+
+    def __reduce__(self):
+        return os._exit, (1,)
+
+
+def test_a_pool_whose_workers_die_before_any_task_fails_every_task_and_returns():
+    from hlcmp_drake.run.sweep.engines import NO_TASK_RAN
+
+    results = []
+    items = [_KillsTheWorkerThatReceivesIt() for _ in range(3)]
+    run_in_processes(str, items, 2, lambda item, result, error: results.append((result, error)))
+    assert results == [(None, NO_TASK_RAN)] * 3

@@ -168,7 +168,8 @@ def run_in_processes(
     pool fails every task it had not finished. Those that had not started go on in a new
     pool; each that had started runs again alone, so that the one that kills its worker
     again fails by itself ("its worker process died (killed by SIGKILL)") and a task that
-    only shared the pool is not lost.
+    only shared the pool is not lost. A pool whose workers die before any task runs fails
+    every task left (`NO_TASK_RAN`): a new pool would die the same way.
 
     Parameters
     ----------
@@ -188,13 +189,25 @@ def run_in_processes(
             broken = _pool_round(function, items, queue, workers, on_done, marks)
             if broken is None:
                 return
-            started, queue = broken
+            started, unstarted = broken
+            if not started and len(unstarted) == len(queue):  # none ran: nor would they again
+                for index in unstarted:
+                    on_done(items[index], None, NO_TASK_RAN)
+                return
+            queue = unstarted
             for index in started:
                 alone = _pool_round(function, items, [index], 1, on_done, marks)
                 if alone is not None:
                     on_done(items[index], None, f"its worker process died ({alone[1]})")
     finally:
         shutil.rmtree(marks, ignore_errors=True)
+
+
+# Why every task of a pool failed whose workers all died before any task ran.
+NO_TASK_RAN = (
+    "the pool's workers died before any task ran (one cause: a script that starts them at "
+    "its top level, not under if __name__ == '__main__':, which each worker imports again)"
+)
 
 
 def _marked_call(function: Callable, marks: str, index: int, item):
