@@ -987,3 +987,22 @@ def test_a_6d_skill_is_served_with_its_rotational_weights(tmp_path):
             "peg_in_hole", "memq://", tmp_path / "three", skill=skill, controller="hlcmp"
         )
     assert "\n" not in str(refused.value)
+
+
+@pytest.mark.parametrize(
+    "period, given, lead",
+    [
+        (0.001, None, 0.0),
+        (0.005, None, 0.002),
+        (0.005, 0.0, 0.0),
+        (0.001, 0.0004, 0.0004),
+        (0.004, None, 0.0016),
+    ],  # fmt: skip
+)
+def test_the_warm_up_is_on_by_default_only_for_a_period_that_leaves_the_client_idle(
+    period, given, lead
+):
+    from hlcmp_drake.config.scenario import IiwaDriverConfig
+
+    config = IiwaDriverConfig(period_s=period, warm_up_lead_s=given)
+    assert config.warm_up_lead() == pytest.approx(lead, abs=1e-15)

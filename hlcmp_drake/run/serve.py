@@ -317,13 +317,14 @@ class TorqueClient:
         return self._latest is not None
 
     def warm_up(self) -> None:
-        """With `warm_up_lead_s` > 0, once per answered status: listen until that long
-        before the next status is expected (the answered one's stamp plus `period_s`, on
-        the driver's clock as the stamps' receipts place it), then run one throw-away tick
+        """With a warm-up lead > 0 (`IiwaDriverConfig.warm_up_lead`), once per answered
+        status: listen until that long before the next status is expected (the answered
+        one's stamp plus `period_s`, on the driver's clock as the stamps' receipts place
+        it), then run one throw-away tick
         at the answered status's inputs, so that the next tick starts from warm caches. A
         status that comes first is left for `poll`; one that comes during the warm-up
         counts as received when the client stopped listening (`warm_up_overlaps`)."""
-        lead = self.config.warm_up_lead_s
+        lead = self.config.warm_up_lead()
         if not lead or self._warm_inputs is None or self._warmed_after == self._answered_stamp:
             return
         self._warmed_after = self._answered_stamp
@@ -700,7 +701,7 @@ class TorqueClient:
             "force_source": self.config.force_source,
             "period_s": self.config.period_s,
             "status_period_s": self.status_period_s,
-            "warm_up_lead_s": self.config.warm_up_lead_s,
+            "warm_up_lead_s": self.config.warm_up_lead(),
             "warm_up_overlaps": self.warm_up_overlaps,
             "realtime_priority": served_priority(self.config, lcm_url),
             "ticks": self.ticks,
