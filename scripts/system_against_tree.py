@@ -8,11 +8,14 @@ was tried" for the foam's `HoleFriction`, "One logger" for the loggers).
 
     git worktree add /tmp/old 3633177
     python scripts/system_against_tree.py control_loop /tmp/old one_dof 10 hlcmp,vic_fd_1.5
-    python scripts/system_against_tree.py hole_friction /tmp/old insertion 3 const_2000
+    python scripts/system_against_tree.py hole_friction /tmp/newer insertion 3 const_2000
     python scripts/system_against_tree.py loggers /tmp/old one_dof 10 hlcmp_per_step
 
 Prints, per controller, µs per plant step on each side, their ratio, and whether the two
-ended in the same state to the bit; the load average first and last.
+ended in the same state to the bit; the load average first and last. The other checkout's
+class is made with this checkout's arguments, so it must take the same ones: `HoleFriction`
+took two fewer before cf0ee4e (the face's extent), so compare it with a checkout from then
+on (/tmp/newer above) (the measurements the docs quote were made when the two agreed).
 """
 
 from __future__ import annotations
@@ -78,7 +81,11 @@ def main() -> None:
         for side, system_class in sides.items():
             for world in worlds:  # what the world's builder adds
                 setattr(world, name, system_class)
-            simulators[side] = prepared_simulator(factory(controller), scenario)
+            try:
+                built = factory(controller)
+            except TypeError as error:  # a constructor of another signature
+                sys.exit(f"{args.other}'s {name} takes other arguments than this one's: {error}")
+            simulators[side] = prepared_simulator(built, scenario)
             simulators[side].Initialize()
         for world in worlds:
             setattr(world, name, this)

@@ -1,7 +1,10 @@
-"""This checkout's arm tick against another revision's, side by side in one process
-(docs/performance.md). The revision's systems/task_space.py, systems/arm.py,
+"""This checkout's arm tick against another revision's `ControlTick`, side by side in one
+process (docs/performance.md). The revision's systems/task_space.py, systems/arm.py,
 systems/control_loop.py and core/operational_space.py are read with `git show` and imported
 under other names; everything else is this checkout's. Compiled or numpy as HLCMP_KERNEL says.
+The revision's side is always its generic `ControlTick`, which was the arm's tick until
+10cc4e0; this checkout's arm tick is `FusedArmTick`. So against 10cc4e0 or later (main,
+HEAD) it compares the generic tick with the fused one, not a tick with itself.
 
     python scripts/tick_against.py REV [--runs 3] [--insertion-s 3] [--rounds 5]
 
