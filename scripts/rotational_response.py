@@ -9,6 +9,7 @@ D_r + L_r, and held by K_r + L_r π_r. The script prints Λ_ωω (tool axes) at 
 posture, the static tilt τ / (K_r + L_r π_r), and the tilt reached at each listed time.
 
     python scripts/rotational_response.py [--torque 0.2] [--axis 1] [--stiffness 0 10 100]
+        [--times 0.5 2 5]
 """
 
 from __future__ import annotations

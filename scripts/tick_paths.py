@@ -5,7 +5,9 @@ per-round ratios (docs/performance.md).
     python scripts/tick_paths.py [--rounds 3] [--insertion-s 3] [--one-dof-s 5]
 
 Prints, per path: the insertion's Hl-CMP tick inside the running fast path (p50 / p99 µs)
-and the run's wall time, and each 1-DOF controller's fast-path RTF; then numpy / compiled.
+and the run's RTF, and each 1-DOF controller's fast-path RTF; then how many times longer
+the numpy path took (numpy's tick time / compiled's; for the RTF rows, compiled's RTF /
+numpy's).
 """
 
 import argparse
@@ -67,7 +69,7 @@ def main() -> None:
                 built = built_on(path, lambda label=label: sliders(label))
                 walls[path][label].append(timed(built, one_dof))
     print(f"load average (1 min) at the end: {os.getloadavg()[0]:.1f}")
-    print("| | " + " | ".join(PATHS) + " | numpy / compiled |\n|---|---|---|---|")
+    print("| | " + " | ".join(PATHS) + " | numpy's time / compiled's |\n|---|---|---|---|")
     for stat in (50, 99):
         values = {p: [np.percentile(t, stat) for t in ticks[p]] for p in PATHS}
         print(

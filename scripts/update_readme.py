@@ -16,12 +16,14 @@ import json
 import shutil
 from pathlib import Path
 
+from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.experiments import EXPERIMENTS
 from hlcmp_drake.present.report import robot_comparison, update_readme, write_block
 from hlcmp_drake.present.sweep import sweep_table
 from hlcmp_drake.present.tables import to_markdown
 from hlcmp_drake.run.benchmark import table as bench_table
 from hlcmp_drake.run.learning import trials_table
+from hlcmp_drake.run.runner import scenario_record
 
 ROOT = Path(__file__).resolve().parent.parent
 # The README's blocks made from bundled sweeps: sweep file name (diagrams/sweeps/NAME.yaml,
@@ -96,6 +98,13 @@ def main():
         for name in EXPERIMENTS
         if (args.runs / name / "metrics.json").exists()
     }
+    if not run_dirs and not (args.sweeps or args.learn or args.bench):
+        parser.error(f"{args.runs}: no scenario folder with metrics.json in it")
+    for name, run_dir in run_dirs.items():
+        # The README's results are the bundled scenarios' as they are, not a shortened run's.
+        record = run_dir / "scenario.yaml"
+        if record.exists() and record.read_text() != scenario_record(load_scenario(name)[0]):
+            parser.error(f"{record}: not the bundled {name} as it is (run with --set?)")
     update_readme(ROOT / "README.md", run_dirs)
     comparisons = []
     for name, run_dir in run_dirs.items():
