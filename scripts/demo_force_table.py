@@ -28,6 +28,7 @@ from hlcmp_drake.io.paths import DIAGRAMS_DIR
 from hlcmp_drake.io.skill import load_skill
 from hlcmp_drake.present.tables import to_markdown
 from hlcmp_drake.run.learning import learn
+from hlcmp_drake.run.sweep.tasks import quiet_drake
 
 TASKS = ("insertion", "cutting")
 READINGS = {"per_second": "Q per second (Eq. 31)", "per_step": "Q per control step (Table I)"}
@@ -128,6 +129,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", type=Path, default=Path("out/demo_force"))
     args = parser.parse_args()
+    quiet_drake()  # each run's recording starts a Meshcat, whose INFO line is noise here
     trials = {}
     for task in TASKS:
         for reading in READINGS:
