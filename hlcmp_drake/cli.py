@@ -761,7 +761,11 @@ def _typed_override(text: str) -> str:
     return command_line_override(text)
 
 
+@functools.cache
 def build_parser():
+    """The `hlcmp` argument parser, built once a process: every help string passes through
+    gettext's file lookups, about 3 ms a parser (the test suite runs `main` a thousand
+    times)."""
     from hlcmp_drake import __version__
     from hlcmp_drake.io.paths import bundled_scenarios, bundled_variants
 
