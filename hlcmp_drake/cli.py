@@ -751,21 +751,18 @@ def cmd_generalize(args):
     return 0
 
 
-# Built once a process: main may run many times in one (the tests), and building costs
-# about 4 ms (argparse looks up its messages' translations and the terminal's size).
-@functools.cache
 def _typed_override(text: str) -> str:
-    """`--set`'s value as `config.loading.command_line_override` reads it."""
+    """`--set`'s value as `config.loading.command_line_override` reads it (at parse time:
+    it depends on the working directory)."""
     from hlcmp_drake.config.loading import command_line_override
 
     return command_line_override(text)
 
 
+# Built once a process: main may run many times in one (the tests), and building costs
+# about 4 ms (argparse looks up its messages' translations and the terminal's size).
 @functools.cache
 def build_parser():
-    """The `hlcmp` argument parser, built once a process: every help string passes through
-    gettext's file lookups, about 3 ms a parser (the test suite runs `main` a thousand
-    times)."""
     from hlcmp_drake import __version__
     from hlcmp_drake.io.paths import bundled_scenarios, bundled_variants
 

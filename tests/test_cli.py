@@ -515,6 +515,11 @@ def test_a_demonstration_given_with_set_is_read_from_the_working_directory(tmp_p
     assert args.set[1] == "duration_s=1"  # other fields as typed
     scenario, _ = load_scenario(args.scenario, args.set)
     assert scenario.reference.file == str(tmp_path / "mine.csv")  # not beside insertion.yaml
+    (tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(tmp_path / "elsewhere")  # the same text, another working directory
+    again = build_parser().parse_args(["run", "insertion", "--set", "reference.file=mine.csv"])
+    assert again.set == [f'reference.file="{tmp_path / "elsewhere" / "mine.csv"}"']
+    monkeypatch.chdir(tmp_path)
     line = one_line_error(run_cli("run", "insertion", "--set", "reference.file=nope.csv"))
     assert line.startswith("hlcmp: error: override 'reference.file=nope.csv': ")  # as typed
     assert line.endswith(f"(looked for {tmp_path / 'nope.csv'})")
