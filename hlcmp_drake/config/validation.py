@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
 import numpy as np
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlant, MultibodyPlantConfig
@@ -391,6 +391,45 @@ def _parsed(
     return plant
 
 
+def _refused_directive(scenario: Scenario, problem: str) -> int:
+    """The index of the directive Drake refuses with `problem`, which all of the scenario's
+    directives fail with and none of them (the plant config alone) does not: the first k
+    directives do not fail so, the first k + 1 do.
+
+    A shorter list may fail for another reason, which is not this problem: a collision
+    filter group may ignore a group that a later directive makes, or name a body that a
+    later one adds. So the lists are bisected by whether they fail at all, each parsed as
+    the worlds parse it (`process_directives`, about a fifteenth of Drake's own parse of
+    the bundled models), and the answer is checked by Drake's own parse; only where that
+    disagrees is every try Drake's."""
+
+    def fails(count: int, so: bool) -> bool:
+        try:
+            _parsed(scenario.plant_config, scenario.directives[:count], by_drake=so)
+        except RuntimeError as error:
+            return not so or loading_problem(error) == problem
+        return False
+
+    count = len(scenario.directives)
+    first = _shortest(count, lambda n: fails(n, so=False))
+    if first == count or fails(first, so=True):
+        return first - 1
+    return _shortest(count, lambda n: fails(n, so=True)) - 1
+
+
+def _shortest(count: int, fails: Callable[[int], bool]) -> int:
+    """The n in 1..count where fails(n) and not fails(n - 1), bisected: fails(count) and
+    not fails(0) are given."""
+    loads, refused = 0, count
+    while refused - loads > 1:
+        middle = (loads + refused) // 2
+        if fails(middle):
+            refused = middle
+        else:
+            loads = middle
+    return refused
+
+
 def scenario_plant(scenario: Scenario, fail: Fail) -> MultibodyPlant:
     """The scenario's models parsed into a finalized plant of its plant config: what
     Drake says about an option of the config or a directive, as the config's or the
@@ -436,23 +475,7 @@ def scenario_plant(scenario: Scenario, fail: Fail) -> MultibodyPlant:
         return _parsed(scenario.plant_config, scenario.directives, by_drake=True)
     except RuntimeError as error:
         problem = loading_problem(error)
-    # The directive Drake refuses: the first k directives do not fail as all of them do,
-    # the first k + 1 do. Bisected, as each try parses the models again: none of them
-    # fails so (the plant config alone loaded, above), all of them do. A shorter list may
-    # fail for another reason, which is not this problem: a collision filter group may
-    # ignore a group that a later directive makes.
-    loads, refused = 0, len(scenario.directives)
-    while refused - loads > 1:
-        middle = (loads + refused) // 2
-        try:
-            _parsed(scenario.plant_config, scenario.directives[:middle], by_drake=True)
-            loads = middle
-        except RuntimeError as error:
-            if loading_problem(error) == problem:
-                refused = middle
-            else:
-                loads = middle
-    k = refused - 1
+    k = _refused_directive(scenario, problem)
     directive = scenario.directives[k]
     kind = next((n for n in DIRECTIVE_KINDS if getattr(directive, n) is not None), "")
     fail(f"directives.{k}.{kind}".rstrip("."), problem)
