@@ -48,6 +48,15 @@ def slider_control_tick(
     return ControlTick(model, None, law, effort_limits)
 
 
+class SliderTickResult(DeferredTermsResult):
+    """`DeferredTermsResult` that keeps the kernel's output it was sliced from (`kernel_output`:
+    the torque, the number of saturated joints, x and the law's output), for the log row."""
+
+    def __init__(self, kernel_output: np.ndarray, *arguments):
+        super().__init__(*arguments)
+        self.kernel_output = kernel_output
+
+
 class FusedSliderTick(ControlTick):
     """`ControlTick` for the slider (`PrismaticTaskModel`, nothing below the task): the law's
     `core.slider_tick` function, one compiled call (or numpy, as `core.kernels.kernel_path`
@@ -102,6 +111,20 @@ class FusedSliderTick(ControlTick):
         m = self.n_axes
         self._nv = model.nv
         self._rates_from = model.nv + 1 + m + (6 * m if self._kind == "hlcmp" else m)
+        # The log row's entries in the kernel's output, sliced as `evaluate` slices it: x,
+        # f_c, the number of saturated joints, the law's series (`ControlTick.log_row`'s
+        # layout), gathered in one indexing instead of forming the terms and the series.
+        where = np.arange(self._rates_from)
+        after = where[model.nv + 1 + m :]
+        series = law._logs(after) if self._kind == "hlcmp" else {}
+        self._log_order = np.concatenate(
+            [
+                where[model.nv + 1 : model.nv + 1 + m],
+                after[:m],
+                where[model.nv : model.nv + 1],
+                *(series[name] for name in law.log_fields),
+            ]
+        )
 
     def evaluate(
         self,
@@ -142,7 +165,13 @@ class FusedSliderTick(ControlTick):
             law_output = LawOutput(after, {})
         else:
             law_output = LawOutput(after[:m], {}, lambda: after[m:])
-        return DeferredTermsResult(self.model.terms, (state,), law_output, out[:nv], int(out[nv]))
+        return SliderTickResult(out, self.model.terms, (state,), law_output, out[:nv], int(out[nv]))
+
+    def log_row(self, result: TickResult) -> np.ndarray:
+        """As `ControlTick.log_row`, gathered from the kernel's output (the same numbers:
+        the kernel's x is x(0) + J q as the terms' is, tests/test_systems_slider_tick.py)."""
+        assert isinstance(result, SliderTickResult), "a result of this tick's `evaluate`"
+        return result.kernel_output[self._log_order]
 
     def _torque_and_rates(self, state, reference, theta, time, external_force):
         """The torque and θ' sliced from the kernel's output, nothing else formed."""
