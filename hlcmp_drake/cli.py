@@ -1223,6 +1223,7 @@ def _check_output(args):
         if default is not None:
             check_output_folder(default, "output folder")
             _check_skill_not_lost(args, default)
+            _check_inputs_kept(args, default)
         return
     if args.command in WRITES_A_FILE:
         check_output_file(out)
@@ -1230,6 +1231,7 @@ def _check_output(args):
         return
     check_output_folder(out)
     _check_skill_not_lost(args, out)
+    _check_inputs_kept(args, out)
     if args.command == "report" and args.scenarios:  # one folder per scenario, by its name
         from hlcmp_drake.run.report import report_folders
 
@@ -1264,6 +1266,30 @@ def _check_skill_not_lost(args, folder):
             f"--out {folder}: holds a learned skill ({skill}), which {args.command} would "
             "remove as a file of an earlier command: give another --out, or move the skill"
         )
+
+
+def _check_inputs_kept(args, folder):
+    """Refuse (exit 2) a command whose output folder holds one of its own input files
+    under a name it writes there (a scenario.yaml of yours, a demonstration called
+    recording.html), unless an earlier command of this tool wrote that file (a run's
+    scenario.yaml run again into its own folder). A skill.npz is `_check_skill_not_lost`'s."""
+    from pathlib import Path
+
+    from hlcmp_drake.io.outputs import is_output_name, listed_outputs
+
+    root = Path(folder).resolve()
+    for name, value in vars(args).items():
+        if name == "out" or not isinstance(value, str) or not os.path.isfile(value):
+            continue
+        path = Path(value).resolve()
+        if root not in path.parents or path.name == "skill.npz":
+            continue
+        inside = path.relative_to(root).as_posix()
+        if is_output_name(inside) and inside not in listed_outputs(root):
+            raise InputError(
+                f"--out {folder}: holds the input {value}, which {args.command} would write "
+                f"over with its own {inside}: give another --out, or move the file"
+            )
 
 
 # The positional arguments of the commands that write a file, as their usage lines name them.

@@ -298,6 +298,15 @@ def one_line_error(result, code=2):
     return lines[0]
 
 
+def assert_output_names(folder):
+    """Every file a command wrote in its output folder has a name `io.outputs` knows, so
+    that an input of that name there is refused before it is written over."""
+    from hlcmp_drake.io.outputs import is_output_name
+
+    files = [p.relative_to(folder) for p in Path(folder).rglob("*") if p.is_file()]
+    assert files and all(is_output_name(p) for p in files), files
+
+
 def short_one_dof(seconds=3.0):
     """The `run` arguments of the 1-DOF scenario cut short."""
     return ["one_dof", "--set", f"duration_s={seconds}"]

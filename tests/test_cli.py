@@ -604,6 +604,35 @@ def test_a_command_that_would_remove_a_learned_skill_is_refused(tmp_path):
     assert (tmp_path / "mine" / "skill.npz").read_text() == "my own"
 
 
+def test_an_input_under_a_name_the_command_writes_in_its_folder_is_refused(tmp_path):
+    """Your own scenario.yaml run with --out its folder, or a demonstration called
+    recording.html learned into its folder, would be written over: refused before any
+    simulation, the file as it was. A run's own scenario.yaml runs again into its folder."""
+    from hlcmp_drake.config.loading import dump_scenario, load_scenario
+
+    mine = tmp_path / "project" / "scenario.yaml"
+    mine.parent.mkdir()
+    text = "# my notes\n" + dump_scenario(load_scenario("one_dof")[0])
+    mine.write_text(text)
+    line = one_line_error(run_cli("run", mine, "--set", "duration_s=0.1", "--out", mine.parent))
+    assert line.endswith(
+        f"holds the input {mine}, which run would write over with its own scenario.yaml: "
+        "give another --out, or move the file"
+    )
+    assert mine.read_text() == text and sorted(mine.parent.iterdir()) == [mine]
+    demo = tmp_path / "project" / "figures" / "demo.png"  # anything under figures/ too
+    demo.parent.mkdir()
+    demo.write_text(INSERTION_DEMO.read_text())
+    learn = ["learn", demo, "--scenario", "insertion", "--out", mine.parent]
+    assert "which learn would write over with its own figures/demo.png" in one_line_error(
+        run_cli(*learn)
+    )
+    ran = tmp_path / "ran"
+    assert run_cli("run", *short_one_dof(0.1), "--out", ran).returncode == 0
+    again = run_cli("run", ran / "scenario.yaml", "--out", ran, "--quiet")
+    assert again.returncode == 0, again.stderr
+
+
 @pytest.mark.parametrize(
     "command, extra, refused",
     [

@@ -5,7 +5,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import INSERTION_DEMO
+from conftest import INSERTION_DEMO, assert_output_names
 
 from hlcmp_drake.cli import main
 from hlcmp_drake.core.dmp import basis_centers_and_widths, normalized_basis, phase_at
@@ -401,6 +401,7 @@ def test_a_short_skill_runs_its_own_time_and_records_its_world(tmp_path):
     assert main(["reproduce", str(tmp_path / "learn" / "skill.npz"), *world, "--freeze",
                  "--out", str(tmp_path / "frozen")]) == 0  # fmt: skip
     for out in ("learn", "frozen"):
+        assert_output_names(tmp_path / out)
         metrics = json.loads((tmp_path / out / "metrics.json").read_text())
         assert metrics["duration_s"] == pytest.approx(3.0) and metrics["settle_s"] == 1.0
         assert metrics["world"]["digest"] == skill.world.digest

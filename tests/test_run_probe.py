@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 import pytest
+from conftest import assert_output_names
 
 from hlcmp_drake.cli import main
 from hlcmp_drake.config.loading import load_scenario
@@ -59,6 +60,7 @@ def test_probe_command_writes_its_files(tmp_path):
     }
     assert result["speed_m_per_s"] == pytest.approx(0.05)
     assert (tmp_path / "probe.png").read_bytes()[:4] == b"\x89PNG"
+    assert_output_names(tmp_path)
 
 
 def test_a_probe_that_touches_nothing_says_so(tmp_path, capsys):

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import run_cli, short_one_dof
+from conftest import assert_output_names, run_cli, short_one_dof
 from pydrake.geometry import Meshcat
 
 from hlcmp_drake.cli import main
@@ -66,6 +66,7 @@ def test_a_runs_scenario_yaml_runs_it_again_to_the_same_files(tmp_path):
     assert list(recorded.controllers) == order
     assert recorded.duration_s == 0.5 and list(recorded.controllers["hlcmp"].q_k) == [1500.0]
     assert main(["run", str(first / "scenario.yaml"), "--out", str(again), "--quiet"]) == 0
+    assert_output_names(again)
     figures = sorted(p.relative_to(first) for p in (first / "figures").iterdir())
     for name in ("metrics.json", "timeseries.npz", "scenario.yaml", "recording.html", *figures):
         assert (first / name).read_bytes() == (again / name).read_bytes(), name

@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 import pytest
-from conftest import INSERTION_DEMO, one_line_error, run_cli
+from conftest import INSERTION_DEMO, assert_output_names, one_line_error, run_cli
 from pydrake.lcm import DrakeLcm
 from pydrake.multibody.tree import JacobianWrtVariable
 
@@ -598,6 +598,7 @@ def test_serve_in_one_process_from_the_command_line(tmp_path, capsys):
     printed = capsys.readouterr().out.strip().splitlines()
     last = printed[-1]
     assert last == f"serve.json, metrics.json, timeseries.npz, recording.html in {out}"
+    assert_output_names(out)
     assert all((out / name).is_file() for name in last.split(" in ")[0].split(", "))
     record = json.loads((out / "serve.json").read_text())
     assert record["ticks"] == 301 and record["missed_ticks"] == 0 and record["status"] == "ok"

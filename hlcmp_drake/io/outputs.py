@@ -34,6 +34,43 @@ os.umask(_UMASK)
 WRITTEN: list[Path] = []  # every path written in this process, in order (for the interrupt message)
 # The list of the files the last command wrote in an output folder (relative POSIX paths).
 MANIFEST = ".hlcmp-outputs.json"
+# The names the commands that write a folder give their files, wherever in it (a report's
+# per-scenario folders too), besides everything under a figures/ folder: what an input of
+# the command must not be called inside its --out (tests/test_cli.py checks each command's
+# files against it).
+OUTPUT_NAMES = frozenset(
+    {
+        MANIFEST,
+        "scenario.yaml",
+        "metrics.json",
+        "timeseries.npz",
+        "recording.html",
+        "diagram.svg",
+        "diagram.dot",
+        "skill.npz",
+        "serve.json",
+        "probe.json",
+        "probe.npz",
+        "probe.png",
+        "index.html",
+    }
+)
+
+
+def is_output_name(relative: str | Path) -> bool:
+    """Whether a path inside an output folder is one the folder commands may write there.
+
+    Parameters
+    ----------
+    relative : str or Path
+        Relative to the output folder.
+
+    Returns
+    -------
+    bool
+    """
+    parts = Path(relative).parts
+    return bool(parts) and (parts[-1] in OUTPUT_NAMES or "figures" in parts[:-1])
 
 
 def _existing_ancestor(path: Path) -> Path:
