@@ -29,7 +29,7 @@ from hlcmp_drake.config.scenario import (
     StepReferenceConfig,
     check_number,
 )
-from hlcmp_drake.io.demos import MAX_DURATION_S
+from hlcmp_drake.io.demos import MAX_DURATION_S, replay_speed_problem
 from hlcmp_drake.io.paths import DATA_ROOT, MODELS_DIR, PACKAGE_NAME, data_file, data_url
 
 # MultibodyPlantConfig's names that Drake reads as one of a list of options.
@@ -217,6 +217,10 @@ def _check_reference(scenario: Scenario, folder: Path, fail: Fail) -> None:
                 "the demonstration's duration_s must be finite and >= 0 (0: as demonstrated), "
                 f"got {reference.duration_s}",
             )
+        if reference.duration_s > 0:
+            problem = replay_speed_problem(demo, reference.duration_s)
+            if problem:
+                fail("reference.duration_s", problem)
 
 
 def check_directives(scenario: Scenario, fail: Fail) -> None:

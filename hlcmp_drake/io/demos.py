@@ -355,17 +355,9 @@ def _refuse_jumps(path, t, lines, distance, limit, describe_step):
     bound. `distance(a, b)`: the distances between the samples of index arrays a and b;
     `limit`: (bound, its unit, the verb); `describe_step(step)`: the step in words."""
     bound, unit, verb = limit
-    count = len(t)
-    start = np.arange(count)
-    end = np.minimum(np.searchsorted(t, t + SPEED_WINDOW_S - 1e-12), count - 1)
-    start, end = start[end > start], end[end > start]
-    if not len(start):
+    rate, i, j = _fastest_window(t, distance)
+    if rate <= bound:
         return
-    speed = distance(start, end) / np.maximum(t[end] - t[start], SPEED_WINDOW_S)
-    fastest = int(np.argmax(speed))
-    if speed[fastest] <= bound:
-        return
-    i, j = start[fastest], end[fastest]
     steps = distance(np.arange(i, j), np.arange(i + 1, j + 1))
     k = i + int(np.argmax(steps))  # the largest step inside that window: k -> k + 1
     raise located(
@@ -373,10 +365,81 @@ def _refuse_jumps(path, t, lines, distance, limit, describe_step):
         lines[k + 1],
         f"the demonstration {describe_step(float(steps[k - i]))} in "
         f"{1000 * (t[k + 1] - t[k]):.0f} ms from line {lines[k]} (t = {t[k]:g} s to "
-        f"{t[k + 1]:g} s): {speed[fastest]:.1f} {unit} over "
+        f"{t[k + 1]:g} s): {rate:.1f} {unit} over "
         f"{1000 * max(t[j] - t[i], SPEED_WINDOW_S):.0f} ms, faster than the {bound:g} {unit} "
         f"a demonstration may {verb} (a jump in the recording?); remove or fix those samples",
     )
+
+
+def _fastest_window(t, distance) -> tuple[float, int, int]:
+    """(the fastest rate, its window's first and last sample) over the windows from each
+    sample to the first one SPEED_WINDOW_S or more later (the distance over at least
+    SPEED_WINDOW_S); (0, 0, 0) for a single sample. `distance(a, b)` as for
+    `_refuse_jumps`."""
+    count = len(t)
+    start = np.arange(count)
+    end = np.minimum(np.searchsorted(t, t + SPEED_WINDOW_S - 1e-12), count - 1)
+    start, end = start[end > start], end[end > start]
+    if not len(start):
+        return 0.0, 0, 0
+    rate = distance(start, end) / np.maximum(t[end] - t[start], SPEED_WINDOW_S)
+    fastest = int(np.argmax(rate))
+    return float(rate[fastest]), int(start[fastest]), int(end[fastest])
+
+
+def replay_speed_problem(path: str | Path, duration_s: float) -> str | None:
+    """What is wrong with replaying a demonstration in `duration_s` instead of its own
+    duration (a scenario's `reference.duration_s`), or None: every speed and turn rate
+    scales by its duration over `duration_s`, and the fastest must stay within what a
+    demonstration may move and turn (MAX_SPEED_M_PER_S, MAX_TURN_RATE_RAD_PER_S; the
+    bounds `check_speed` and `check_turn_rate` apply to the file itself).
+
+    Parameters
+    ----------
+    path : str or Path
+        The demonstration CSV.
+    duration_s : float
+        The replay's duration [s], > 0.
+
+    Returns
+    -------
+    str or None
+
+    Raises
+    ------
+    InputError
+        From `read_demonstration`, for a file it refuses.
+    """
+    t, positions, _, quaternions = read_demonstration(path, with_orientation=True)
+    demonstrated = float(t[-1] - t[0])
+    scale = demonstrated / duration_s
+    moves = [
+        (
+            lambda a, b: np.linalg.norm(positions[b] - positions[a], axis=-1),
+            MAX_SPEED_M_PER_S,
+            "m/s",
+            "move",
+        )
+    ]
+    if quaternions is not None:
+        moves.append(
+            (
+                lambda a, b: geodesic_angle(quaternions[b], quaternions[a]),
+                MAX_TURN_RATE_RAD_PER_S,
+                "rad/s",
+                "turn",
+            )
+        )
+    for distance, bound, unit, verb in moves:
+        rate, _, _ = _fastest_window(t, distance)
+        if rate * scale > bound:
+            return (
+                f"replays the {demonstrated:g} s demonstration in {duration_s:g} s, "
+                f"{scale:.3g} times as fast: it would {verb} at {rate * scale:.3g} {unit} at its "
+                f"fastest, more than the {bound:g} {unit} a demonstration may {verb}; give at "
+                f"least {demonstrated * rate / bound:.3g} s (0: as demonstrated)"
+            )
+    return None
 
 
 def _without_force(path, line, header):
