@@ -160,15 +160,23 @@ def _evidence(verdict: dict, undone: dict) -> str:
     return ", ".join(named) if named else evidence
 
 
+def _print_instabilities(metrics: dict, controller: str | None = None) -> None:
+    """One line per unstable run of a metrics.json's `instability`: which run, why and
+    when (a learning's runs are its trials, of `controller`)."""
+    for label, problem in metrics.get("instability", {}).items():
+        run = f"{label.replace('_', ' ')} ({controller})" if controller else label
+        when = "" if problem["time_s"] is None else f" at t = {problem['time_s']:.3f} s"
+        print(
+            f"UNSTABLE {run}: {problem['reason']}{when} "
+            "(stopped there; its logs up to then are in timeseries.npz)"
+        )
+
+
 def print_summary(result) -> None:
     """A scenario's table, instabilities, claims and where its files went."""
     metrics = result.metrics
     _print_table(result.table)
-    for controller, problem in metrics.get("instability", {}).items():
-        print(
-            f"UNSTABLE {controller}: {problem['reason']} at t = {problem['time_s']:.3f} s "
-            "(stopped there; its logs up to then are in timeseries.npz)"
-        )
+    _print_instabilities(metrics)
     undone = {
         name: run["task"]["evidence"]
         for name, run in metrics.get("controllers", {}).items()
@@ -293,6 +301,7 @@ def _print_learning(result):
 
     _print_table(trials_table(result.metrics))
     metrics = result.metrics
+    _print_instabilities(metrics, metrics["controller"])
     last = metrics["trials"][-1]
     task = last["task"]
     verdict = "done" if task["done"] else "NOT done"

@@ -5,7 +5,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import INSERTION_DEMO, assert_output_names
+from conftest import INSERTION_DEMO, assert_output_names, run_cli
 
 from hlcmp_drake.cli import main
 from hlcmp_drake.core.dmp import basis_centers_and_widths, normalized_basis, phase_at
@@ -642,3 +642,19 @@ def test_a_6d_learner_starts_from_the_demonstrated_force_and_its_rotational_thet
     assert np.all(theta[1] == 0.0) and not np.any(theta[4:])
     translational = learning_scenario(load_scenario("peg_in_hole")[0], controller="hlcmp")
     assert len(demo_force_start(translational, force)) == 3
+
+
+def test_an_unstable_trial_says_why_and_when(tmp_path):
+    """As `hlcmp run` does for a controller: the trial, the learner, the reason and the
+    time, from metrics.json's `instability`."""
+    absurd = "controllers.hlcmp.gain_l=[1.0e6, 1.0e6, 1.0e6]"
+    learned = run_cli(
+        "learn", INSERTION_DEMO, "--scenario", "insertion", "--set", absurd,
+        "--set", "duration_s=0.5", "--out", tmp_path / "L", "--quiet",
+    )  # fmt: skip
+    assert learned.returncode == 3, learned.stderr
+    problem = json.loads((tmp_path / "L" / "metrics.json").read_text())["instability"]["trial_1"]
+    assert (
+        f"UNSTABLE trial 1 (hlcmp): {problem['reason']} at t = {problem['time_s']:.3f} s"
+        in learned.stdout
+    )
