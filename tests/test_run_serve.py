@@ -216,7 +216,7 @@ def _client_fed_by_hand(scenario_overrides=(), controller="hlcmp"):
     commands = []
     lcm.Subscribe(scenario.iiwa_driver.command_channel, commands.append)
 
-    def send(utime, q, v=None, torque_external=None, wrench=True):
+    def send(utime, q, v=None, torque_external=None, wrench=True, also=()):
         zeros = np.zeros(7)
         if wrench and scenario.iiwa_driver.force_source == "wrist_sensor":  # reading nothing
             lcm.Publish(
@@ -236,7 +236,8 @@ def _client_fed_by_hand(scenario_overrides=(), controller="hlcmp"):
             ),
         )
         lcm.HandleSubscriptions(0)
-        client.poll()
+        for each in (client, *also):  # clients answering before they hear each other
+            each.poll()
         lcm.HandleSubscriptions(0)
 
     return client, send, commands
@@ -709,6 +710,45 @@ def _served_with_gaps(skipped, overrides=()):
             send(1000 * (k + 1), client.q0)
     client.assess()
     return client, commands
+
+
+def test_a_second_client_on_the_command_channel_stops():
+    """A client that sees a command it did not send on the command channel stops, naming
+    it: one that joins a running client never commands, two that answer the same status
+    both stop. Alone, its own commands coming back (LCM hands a process what it
+    published, a repeated status's command too) never stop it."""
+    client, send, commands = _client_fed_by_hand()
+    late = TorqueClient(client.scenario, "hlcmp", client._lcm)
+    send(0, client.q0, also=[late])
+    time.sleep(0.002)
+    send(0, client.q0)  # the first client's first command
+    send(1000, client.q0, also=[late])
+    assert late.status == STOPPED and late.stopped_because.startswith(
+        "another client commands the arm on IIWA_COMMAND (iiwa_driver.command_channel) at "
+    )
+    assert not client.done and len(commands) == 2  # the late one sent none
+
+    client, send, commands = _client_fed_by_hand()
+    other = TorqueClient(client.scenario, "hlcmp", client._lcm)
+    send(0, client.q0, also=[other])
+    time.sleep(0.002)
+    send(0, client.q0, also=[other])  # both answer it
+    assert len(commands) == 2
+    assert client.status == other.status == STOPPED
+    assert "another client commands the arm" in client.stopped_because
+    send(1000, client.q0, also=[other])
+    assert len(commands) == 2  # neither commands again
+
+    alone, send, commands = _client_fed_by_hand(["duration_s=0.1"])
+    send(0, alone.q0)
+    time.sleep(0.002)
+    for k in range(0, 102):
+        send(1000 * k, alone.q0)
+        if k % 10 == 0:
+            send(1000 * k, alone.q0)
+    alone.assess()
+    # 101 ticks (0 to 0.1 s), the repeats of k = 0, 10, ..., 90 re-sent (k = 100 ended it)
+    assert alone.status == "ok" and alone.ticks == 101 and len(commands) == 101 + 10
 
 
 def test_missed_ticks_above_the_allowed_share_make_the_run_degraded():

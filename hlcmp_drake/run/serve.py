@@ -28,7 +28,7 @@ import os
 import signal
 import threading
 import time
-from collections import Counter
+from collections import Counter, deque
 from pathlib import Path
 from typing import Callable, Iterator, Sequence
 
@@ -78,6 +78,10 @@ PERIOD_EVIDENCE_STEPS = 10
 # commands: one at 1 kHz sends 50; a status repeated after a slow tick, or a lockstep
 # driver's resend of an unanswered status (every 20 ms), is no such evidence.
 STUCK_EVIDENCE_STATUSES = 10
+# The client's own commands it keeps to recognize when they come back on the command
+# channel (LCM hands a process what it published): any other command there is another
+# client's. A command not back after this many newer ones is taken as lost.
+OWN_COMMANDS_KEPT = 64
 
 
 def served_scenario(
@@ -246,6 +250,8 @@ class TorqueClient:
         self._statuses_since_advance = 0
         self._utime0 = self._last_utime = None
         self._last_command = None
+        self._own_commands: Counter[bytes] = Counter()  # published, not yet come back
+        self._own_order: deque[bytes] = deque()
         self.ticks = self.missed_ticks = 0
         self.longest_missed_run = 0
         # The status period as the driver's stamps say, from the steps between two
@@ -283,6 +289,7 @@ class TorqueClient:
         self.stopped_because: str | None = None
         self.status = FINISHED
         lcm.Subscribe(self.config.status_channel, self._on_status)
+        lcm.Subscribe(self.config.command_channel, self._on_command)
         if self.config.force_source == "wrist_sensor":
             lcm.Subscribe(self.config.wrist_channel, self._on_wrench)
 
@@ -310,6 +317,32 @@ class TorqueClient:
             now = self._deaf_since
         self._latest = (now, data)
         self._measure_period(stamp)
+
+    def _publish(self, command: bytes) -> None:
+        """Send a command, then keep it to recognize it when it comes back (`_on_command`:
+        called from `HandleSubscriptions` only, never while this runs)."""
+        self._lcm.Publish(self.config.command_channel, command)
+        self._own_commands[command] += 1
+        self._own_order.append(command)
+        if len(self._own_order) > OWN_COMMANDS_KEPT:
+            lost = self._own_order.popleft()
+            self._own_commands[lost] -= 1
+            if not self._own_commands[lost]:
+                del self._own_commands[lost]
+
+    def _on_command(self, data: bytes) -> None:
+        """A command on the command channel: one of this client's, back, or another
+        client's, which stops this one: two controllers must not drive one arm (each
+        would read the other's torques as the arm's response)."""
+        if self._own_commands[data]:
+            self._own_commands[data] -= 1
+            return
+        self.stop(
+            STOPPED,
+            f"another client commands the arm on {self.config.command_channel} "
+            f"(iiwa_driver.command_channel) at t = {self.served_time():.3f} s; one arm takes "
+            "one controller's commands",
+        )
 
     @property
     def pending(self) -> bool:
@@ -493,9 +526,7 @@ class TorqueClient:
             if not self._ready_to_start(status, received):
                 return
         elif status.utime == self._last_utime and self._last_command is not None:
-            self._lcm.Publish(
-                self.config.command_channel, self._last_command
-            )  # its answer was lost
+            self._publish(self._last_command)  # its answer was lost
             return
         elif status.utime < self._last_utime:
             return  # older than one already answered
@@ -531,7 +562,7 @@ class TorqueClient:
             self._check(t, status, state, command, result)
             return
         self._last_command = encode_torque_command(status.utime, status.position, command)
-        self._lcm.Publish(self.config.command_channel, self._last_command)
+        self._publish(self._last_command)
         self.tick_seconds.append(time.perf_counter() - received)
         self.ticks += 1
         self._warm_inputs, self._answered_stamp = (state, reference, self.theta), status.utime
