@@ -465,6 +465,11 @@ def test_saturated_torques_stop_the_client_after_max_saturation_s():
             ["serve", "insertion", "--lcm", "memq://", "--set", "iiwa_driver.force_source=guess"],
             "iiwa_driver.force_source",
         ),
+        (
+            ["serve", "insertion", "--lcm", "memq://", "--set", "iiwa_driver.period_s=1"]
+            + ["--duration", "0.2"],
+            "period_s: a status every 1 s is longer than the whole run (0.2 s, duration_s)",
+        ),
     ],
 )
 def test_bad_serve_input_is_one_line_and_exit_2(args, message, tmp_path):
