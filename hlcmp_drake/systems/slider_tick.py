@@ -169,7 +169,17 @@ class FusedSliderTick(ControlTick):
 
     def log_row(self, result: TickResult) -> np.ndarray:
         """As `ControlTick.log_row`, gathered from the kernel's output (the same numbers:
-        the kernel's x is x(0) + J q as the terms' is, tests/test_systems_slider_tick.py)."""
+        the kernel's x is x(0) + J q as the terms' is, tests/test_systems_slider_tick.py).
+
+        Parameters
+        ----------
+        result : SliderTickResult
+            From this tick's `evaluate`.
+
+        Returns
+        -------
+        (log_size,) array
+        """
         assert isinstance(result, SliderTickResult), "a result of this tick's `evaluate`"
         return result.kernel_output[self._log_order]
 
