@@ -402,9 +402,9 @@ def _parsed(
 
 
 def _refused_directive(scenario: Scenario, problem: str) -> int:
-    """The index of the directive Drake refuses with `problem`, which all of the scenario's
-    directives fail with and none of them (the plant config alone) does not: the first k
-    directives do not fail so, the first k + 1 do.
+    """The index of the directive Drake refuses with `problem`: the scenario's whole list
+    of directives fails with it, an empty one (the plant config alone) loads, and the
+    answer k is where the first k directives do not fail so and the first k + 1 do.
 
     A shorter list may fail for another reason, which is not this problem: a collision
     filter group may ignore a group that a later directive makes, or name a body that a
