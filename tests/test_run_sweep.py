@@ -18,7 +18,7 @@ from conftest import one_line_error, run_cli, tiny
 
 from hlcmp_drake.config.loading import load_scenario_text
 from hlcmp_drake.config.sweep import load_sweep, plan_tasks
-from hlcmp_drake.run.sweep import plan_sweep, run_sweep, task_state, task_values
+from hlcmp_drake.run.sweep import plan_sweep, read_task_results, run_sweep, task_state
 from hlcmp_drake.run.sweep.engines import run_in_processes
 
 # --- loading -------------------------------------------------------------------------
@@ -71,15 +71,56 @@ def test_a_task_is_done_only_beside_its_own_scenario(tmp_path):
     task = plan_tasks(load_sweep(tiny(tmp_path)), tmp_path / "out")[0]
     run_dir = Path(task.run_dir)
     run_dir.mkdir(parents=True)
-    assert task_state(task) == "pending"
+    assert task_state(task, []) == "pending"
     (run_dir / "scenario.yaml").write_text(task.scenario_yaml)
-    assert task_state(task) == "pending"  # started, never finished
-    (run_dir / "metrics.json").write_text("{}")
-    assert task_state(task) == "done"
+    assert task_state(task, []) == "pending"  # started, never finished
+    (run_dir / "metrics.json").write_text('{"status": "ok"}')
+    assert task_state(task, []) == "done"
     (run_dir / "scenario.yaml").write_text(
         task.scenario_yaml.replace("duration_s: 0.1", "duration_s: 0.2")
     )
-    assert task_state(task) == "stale"
+    assert task_state(task, []) == "stale"
+
+
+def _finished_task_folder(tmp_path):
+    """The tiny sweep's first task, its folder as the runner leaves it (the files its
+    metrics read, made up), and the sweep's metrics."""
+    sweep = load_sweep(tiny(tmp_path))
+    task = plan_tasks(sweep, tmp_path / "out")[0]
+    run_dir = Path(task.run_dir)
+    run_dir.mkdir(parents=True)
+    (run_dir / "scenario.yaml").write_text(task.scenario_yaml)
+    metrics = {"status": "ok", "controllers": {"hlcmp": {"final_position_m": 0.03}}}
+    (run_dir / "metrics.json").write_text(json.dumps(metrics))
+    t = np.linspace(0.0, 0.1, 5)
+    np.savez_compressed(run_dir / "timeseries.npz", t=t, **{"hlcmp/x": t, "hlcmp/Ks": t})
+    return task, sweep.config.metrics
+
+
+@pytest.mark.parametrize(
+    "file, damage",
+    [
+        ("timeseries.npz", None),
+        ("timeseries.npz", lambda data: data[: len(data) // 2]),
+        ("timeseries.npz", lambda data: b"t,x\n0,1\n"),
+        ("metrics.json", lambda data: data[: len(data) // 2]),
+        ("metrics.json", lambda data: b"[1, 2]"),
+        ("metrics.json", lambda data: b'{"controllers": {}}'),
+        ("metrics.json", lambda data: b"\xff\xfe"),
+    ],
+    ids=["npz gone", "npz cut", "npz text", "json cut", "json list", "no status", "not utf-8"],
+)
+def test_a_task_whose_outputs_are_missing_or_unreadable_runs_again(tmp_path, file, damage):
+    task, metrics = _finished_task_folder(tmp_path)
+    assert task_state(task, metrics) == "done"
+    assert read_task_results(task.run_dir, metrics).values["final x [m]"] == 0.03
+    path = Path(task.run_dir) / file
+    if damage is None:
+        path.unlink()
+    else:
+        path.write_bytes(damage(path.read_bytes()))
+    assert task_state(task, metrics) == "pending"
+    assert read_task_results(task.run_dir, metrics) is None
 
 
 def test_a_task_whose_model_or_demonstration_changed_is_stale(tmp_path):
@@ -104,17 +145,17 @@ def test_a_task_whose_model_or_demonstration_changed_is_stale(tmp_path):
     run_dir.mkdir(parents=True)
     (run_dir / "scenario.yaml").write_text(task.scenario_yaml)
     (run_dir / INPUTS_FILE).write_text(task.inputs_digest + "\n")
-    (run_dir / "metrics.json").write_text("{}")
-    assert task_state(task) == "done"
+    (run_dir / "metrics.json").write_text('{"status": "ok"}')
+    assert task_state(task, []) == "done"
     for changed in (foam, demo):
         kept = changed.read_bytes()
         changed.write_bytes(kept + b"\n")  # the same path, another content
         again = plan_tasks(load_sweep(sweep), tmp_path / "out")[0]
-        assert again.scenario_yaml == task.scenario_yaml and task_state(again) == "stale"
+        assert again.scenario_yaml == task.scenario_yaml and task_state(again, []) == "stale"
         changed.write_bytes(kept)
-        assert task_state(plan_tasks(load_sweep(sweep), tmp_path / "out")[0]) == "done"
+        assert task_state(plan_tasks(load_sweep(sweep), tmp_path / "out")[0], []) == "done"
     (run_dir / INPUTS_FILE).unlink()  # a folder from before the digest: its text decides
-    assert task_state(task) == "done"
+    assert task_state(task, []) == "done"
 
 
 # --- results -------------------------------------------------------------------------
@@ -159,8 +200,9 @@ def test_metric_values_come_from_metrics_json_and_the_time_series(tmp_path):
         SweepMetric(label="past its end", path="controllers.vic_fd_0.5.tau.2"),
         SweepMetric(label="no series", series="pid/Ks"),
     ]
-    values, missing = task_values(tmp_path, metrics)
-    assert values == {
+    results = read_task_results(tmp_path, metrics)
+    assert results.status == "ok"
+    assert results.values == {
         "reach": None,
         "z mm": 250.0,
         "C5": False,
@@ -176,7 +218,7 @@ def test_metric_values_come_from_metrics_json_and_the_time_series(tmp_path):
         "past its end": None,
         "no series": None,
     }
-    assert missing == ["typo", "a dict", "a list", "past its end", "no series"]
+    assert results.missing == ["typo", "a dict", "a list", "past its end", "no series"]
 
 
 # --- engines -------------------------------------------------------------------------
@@ -223,6 +265,15 @@ def test_the_local_engine_runs_a_tiny_sweep_and_a_rerun_skips_it(tmp_path):
     assert again.ran == [] and again.already_done == 2
     assert {p: p.stat().st_mtime_ns for p in out.glob("tasks/*/metrics.json")} == stamps
     assert _read_csv(out / "sweep.csv") == rows
+
+    (out / "tasks" / "pi=5.0" / "timeseries.npz").unlink()  # a series metric reads it
+    damaged = run_sweep(tiny(tmp_path), out, workers=2)
+    assert damaged.ran == ["pi=5.0"] and damaged.already_done == 1 and not damaged.failed
+
+    def timeless(table):
+        return [{k: v for k, v in row.items() if k != "wall_s"} for row in table]
+
+    assert timeless(_read_csv(out / "sweep.csv")) == timeless(rows)
 
 
 @pytest.mark.slow

@@ -2,8 +2,10 @@
 an engine, and keep sweep.csv, sweep.json and one plot per swept parameter current.
 
 A task is finished when its run folder OUT/tasks/ID holds a metrics.json (written last and
-atomically by the runner) beside a scenario.yaml equal to the task's scenario; a folder
-whose scenario.yaml differs (the sweep or its scenario was edited since) runs again.
+atomically by the runner) beside a scenario.yaml equal to the task's scenario, and the
+files its metrics read (metrics.json, timeseries.npz) can be read; a folder whose
+scenario.yaml differs (the sweep or its scenario was edited since), or whose files are
+missing or unreadable, runs again.
 sweep.csv and sweep.json are rewritten atomically after every finished task, so an
 interrupted sweep loses none, and the same command again runs only what is missing.
 
@@ -25,7 +27,7 @@ names used elsewhere are imported from here.
 from hlcmp_drake.run.sweep.engines import ENGINES, check_engine
 from hlcmp_drake.run.sweep.orchestrate import run_sweep
 from hlcmp_drake.run.sweep.planning import SweepPlan, default_out_dir, plan_sweep, task_state
-from hlcmp_drake.run.sweep.results import FINISHED, SweepResult, task_values
+from hlcmp_drake.run.sweep.results import FINISHED, SweepResult, TaskResults, read_task_results
 from hlcmp_drake.run.sweep.tasks import run_task, run_task_returning_files, store_files
 
 __all__ = [
@@ -33,13 +35,14 @@ __all__ = [
     "FINISHED",
     "SweepPlan",
     "SweepResult",
+    "TaskResults",
     "check_engine",
     "default_out_dir",
     "plan_sweep",
+    "read_task_results",
     "run_sweep",
     "run_task",
     "run_task_returning_files",
     "store_files",
     "task_state",
-    "task_values",
 ]

@@ -3,7 +3,6 @@ sweep.csv, sweep.json and the plots current."""
 
 from __future__ import annotations
 
-import json
 import os
 import time
 from pathlib import Path
@@ -20,7 +19,13 @@ from hlcmp_drake.run.sweep.engines import (
     cluster_joined,
 )
 from hlcmp_drake.run.sweep.planning import check_metrics, foreign_task_folders, plan_sweep
-from hlcmp_drake.run.sweep.results import SweepResult, _summary, _wall_s, _write_tables, task_values
+from hlcmp_drake.run.sweep.results import (
+    SweepResult,
+    _summary,
+    _wall_s,
+    _write_tables,
+    read_task_results,
+)
 
 
 def run_sweep(
@@ -72,19 +77,24 @@ def run_sweep(
         reporter.say("checking the metrics on a short run of the scenario ...")
         check_metrics(plan)  # a typo stops the sweep here, not after every task
         metrics = plan.sweep.config.metrics
-        rows, missing = {}, []
+        rows, missing, failed = {}, [], {}
+
+        def failure(task: SweepTask, error: str) -> dict:
+            failed[task.id] = error
+            return {"status": "error", "values": {}, "wall_s": None, "error": error}
 
         def finished(task: SweepTask, info: dict | None) -> dict:
-            values, absent = task_values(task.run_dir, metrics)
-            status = json.loads((Path(task.run_dir) / "metrics.json").read_text())["status"]
-            if status == "ok":
+            results = read_task_results(task.run_dir, metrics)
+            if results is None:  # spoiled since it was planned or written: a rerun runs it
+                return failure(task, f"its outputs in {task.run_dir} cannot be read")
+            if results.status == "ok":
                 missing.extend(
                     f"{label} ({next(m.path or m.series for m in metrics if m.label == label)}): "
                     f"task {task.id}"
-                    for label in absent
+                    for label in results.missing
                 )
             wall = info["wall_s"] if info else _wall_s(Path(task.run_dir))
-            return {"status": status, "values": values, "wall_s": wall}
+            return {"status": results.status, "values": results.values, "wall_s": wall}
 
         pending = []
         for task in plan.tasks:
@@ -95,20 +105,16 @@ def run_sweep(
                 pending.append(task)
         already_done = len(plan.tasks) - len(pending)
         files = _write_tables(plan.out_dir, _summary(plan, rows))
-        ran, failed = [], {}
+        ran: list = []
 
         def on_done(task: SweepTask, info: dict | None, error: str | None) -> None:
             ran.append(task.id)
-            if error is None:
-                rows[task.id] = finished(task, info)
-            else:
-                failed[task.id] = error
-                rows[task.id] = {"status": "error", "values": {}, "wall_s": None, "error": error}
+            rows[task.id] = finished(task, info) if error is None else failure(task, error)
             _write_tables(plan.out_dir, _summary(plan, rows))
             row = rows[task.id]
             reporter.say(
                 f"[{already_done + len(ran)}/{len(plan.tasks)}] {task.id}: {row['status']}"
-                + (f" ({error})" if error else f", {row['wall_s']:.1f} s")
+                + (f" ({row['error']})" if "error" in row else f", {row['wall_s']:.1f} s")
             )
 
         if pending:

@@ -33,7 +33,8 @@ class SweepPlan:
     tasks : list of SweepTask
     states : dict of str to str
         By task id: "done" (finished, same scenario), "stale" (finished with another
-        scenario: runs again) or "pending".
+        scenario: runs again) or "pending" (not run, or its outputs are missing or
+        unreadable: runs again).
     """
 
     sweep: Sweep
@@ -52,15 +53,20 @@ def default_out_dir(sweep: Sweep) -> Path:
     return Path("out") / "sweeps" / sweep.path.stem
 
 
-def task_state(task: SweepTask) -> str:
-    """ "done", "stale" or "pending" (see `SweepPlan`).
+def task_state(task: SweepTask, metrics: list) -> str:
+    """ "done", "stale" or "pending" (see `SweepPlan`): a task whose metrics.json or
+    timeseries.npz is missing or unreadable (`results.read_task_results`) is pending.
 
     Parameters
     ----------
     task : SweepTask
+    metrics : list of SweepMetric
+        The sweep's metrics: what must be readable in the task's outputs.
     """
+    from hlcmp_drake.run.sweep.results import read_task_results  # it imports this module
+
     run_dir = Path(task.run_dir)
-    if not (run_dir / "metrics.json").is_file():
+    if read_task_results(run_dir, metrics) is None:
         return "pending"
     return "done" if ran_with(run_dir, task.scenario_yaml, task.inputs_digest) else "stale"
 
@@ -87,7 +93,8 @@ def plan_sweep(name_or_path: str | Path, out_dir: str | Path | None = None) -> S
     sweep = load_sweep(name_or_path)
     out_dir = Path(out_dir) if out_dir is not None else default_out_dir(sweep)
     tasks = plan_tasks(sweep, out_dir)
-    return SweepPlan(sweep, out_dir, tasks, {task.id: task_state(task) for task in tasks})
+    states = {task.id: task_state(task, sweep.config.metrics) for task in tasks}
+    return SweepPlan(sweep, out_dir, tasks, states)
 
 
 def foreign_task_folders(plan: SweepPlan) -> list[str]:

@@ -7,9 +7,12 @@ import csv
 import dataclasses as dc
 import io
 import json
+import zipfile
+import zlib
 from pathlib import Path
 
 import numpy as np
+from numpy.lib.npyio import NpzFile
 
 from hlcmp_drake.config.sweep import CASE, SweepMetric
 from hlcmp_drake.experiments.table import Table
@@ -105,8 +108,35 @@ def _finish(value: object, metric: SweepMetric) -> object:
     return value
 
 
-def task_values(run_dir: str | Path, metrics: list) -> tuple[dict, list]:
-    """A finished task's metric values, read from its run folder.
+@dc.dataclass
+class TaskResults:
+    """A finished task's outputs, as a sweep reads them from its run folder.
+
+    Attributes
+    ----------
+    status : str
+        One of FINISHED.
+    values : dict
+        {label: value (scaled; yes/no where `below` is set; None when null)}.
+    missing : list of str
+        The labels of the metrics that were not found there.
+    """
+
+    status: str
+    values: dict
+    missing: list
+
+
+# What reading a run folder's files raises when one is missing, cut short or not what the
+# runner writes (a hand-edited or half-copied folder); zlib's: timeseries.npz is compressed.
+UNREADABLE = (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile, zlib.error)
+
+
+def read_task_results(run_dir: str | Path, metrics: list) -> TaskResults | None:
+    """A finished task's status and metric values, read from its run folder.
+
+    This is the sweep's rule for a finished task (`planning.task_state`): one whose files
+    cannot be read is not finished, and runs again.
 
     Parameters
     ----------
@@ -116,31 +146,42 @@ def task_values(run_dir: str | Path, metrics: list) -> tuple[dict, list]:
 
     Returns
     -------
-    (dict, list of str)
-        {label: value (scaled; yes/no where `below` is set; None when null)}, and the
-        labels of the metrics that were not found there.
+    TaskResults or None
+        None when metrics.json, or timeseries.npz for a `series` metric, is missing or
+        unreadable, or metrics.json gives no finished status.
     """
     run_dir = Path(run_dir)
-    data = json.loads((run_dir / "metrics.json").read_text())
-    values, missing = {}, []
-    arrays = np.load(run_dir / "timeseries.npz") if any(m.series for m in metrics) else None
     try:
-        for metric in metrics:
-            found, value = _lookup(data, metric.path) if metric.path else _reduce(arrays, metric)
-            if not found:
-                missing.append(metric.label)
-            values[metric.label] = _finish(value, metric) if found else None
-    finally:
-        if arrays is not None:
-            arrays.close()
-    return values, missing
+        data = json.loads((run_dir / "metrics.json").read_text())
+        if not isinstance(data, dict) or data.get("status") not in FINISHED:
+            return None
+        values, missing = {}, []
+        arrays = np.load(run_dir / "timeseries.npz") if any(m.series for m in metrics) else None
+        if arrays is not None and not isinstance(arrays, NpzFile):
+            return None  # one array (an .npy's contents), not the runner's named ones
+        try:
+            for metric in metrics:
+                found, value = (
+                    _lookup(data, metric.path) if metric.path else _reduce(arrays, metric)
+                )
+                if not found:
+                    missing.append(metric.label)
+                values[metric.label] = _finish(value, metric) if found else None
+        finally:
+            if arrays is not None:
+                arrays.close()
+    except UNREADABLE:
+        return None
+    return TaskResults(data["status"], values, missing)
 
 
 def _wall_s(run_dir: Path) -> float | None:
     try:
-        return json.loads((run_dir / "sweep_task.json").read_text()).get("wall_s")
+        record = json.loads((run_dir / "sweep_task.json").read_text())
     except (OSError, ValueError):
         return None
+    wall = record.get("wall_s") if isinstance(record, dict) else None
+    return wall if isinstance(wall, (int, float)) and not isinstance(wall, bool) else None
 
 
 def _summary(plan: SweepPlan, rows: dict) -> dict:
