@@ -112,7 +112,27 @@ def _rewrite(path, **changes):
         ({"theta_v": None}, "missing field(s): theta_v"),
         ({"theta_d": np.full((3, 30), np.nan)}, "NaN"),
         ({"start": np.array([0.5, np.nan, 0.2])}, "field 'start' must hold finite numbers"),
-        ({"goal": np.array(["a", "b", "c"])}, "field 'goal' must hold finite numbers"),
+        ({"goal": np.array(["a", "b", "c"])}, "field 'goal' must hold real numbers, not text"),
+        (
+            {"theta_k": np.full((3, 30), 1 + 2j)},
+            "field 'theta_k' must hold real numbers, not complex numbers",
+        ),
+        (
+            {"format_version": np.array("two")},
+            "field 'format_version' must be an integer, got 'two'",
+        ),
+        (
+            {"format_version": np.array([2, 2])},
+            "field 'format_version' must be an integer, got [2, 2]",
+        ),
+        ({"format_version": np.array(2.5)}, "field 'format_version' must be an integer, got 2.5"),
+        ({"format_version": np.array(b"2")}, "field 'format_version' must be an integer, got b'2'"),
+        ({"n_basis": np.array("30")}, "field 'n_basis' must be an integer, got '30'"),
+        ({"n_basis": np.array(-3)}, "invalid DMP settings: n_basis must be between 2 and"),
+        ({"alpha": np.array([25.0, 25.0])}, "field 'alpha' must be a number, got [25.0, 25.0]"),
+        ({"tau": np.array("x")}, "field 'tau' must be a number, got 'x'"),
+        ({"axis_names": np.array([1, 2, 3])}, "field 'axis_names' must be a list of strings"),
+        ({"goal_scaled": np.array(["a", "b", "c"])}, "field 'goal_scaled' must hold true/false"),
         ({"amplitude": np.full(3, np.inf)}, "field 'amplitude' must hold finite numbers"),
         ({"tau": np.array(np.inf)}, "field 'tau' must be positive and finite, got inf"),
         ({"tau": np.array(-1.0)}, "field 'tau' must be positive and finite, got -1.0"),
@@ -219,6 +239,14 @@ def test_a_pose_skill_round_trips_as_format_3_and_a_position_skill_stays_format_
         ({"orientation_goal": np.array([1.0, 0, 0, 0.1])}, "'orientation_goal' is not a unit"),
         ({"orientation_rotation": np.array([np.nan, 0, 0])}, "must hold finite numbers"),
         ({"orientation_amplitude": np.array(0.0)}, "'orientation_amplitude' must be positive"),
+        (
+            {"orientation_amplitude": np.array(1j)},
+            "field 'orientation_amplitude' must hold real numbers, not complex numbers",
+        ),
+        (
+            {"orientation_goal_scaled": np.array("yes")},
+            "field 'orientation_goal_scaled' must hold true/false values",
+        ),
     ],
 )
 def test_bad_pose_skill_files(tmp_path, pose_skill, changes, message):

@@ -24,10 +24,10 @@ the skill, so an older reader refuses what it would otherwise read in part:
   of a 6-D Hl-CMP's trials): format 3's fields and the rotational profiles' weights
   ``theta_kr`` [N m/rad], ``theta_dr`` [N m s/rad], ``theta_vr`` [N m], (3, N) each.
 
-Loading checks the version, the keys and every shape. Older files still load: a format 1
-file (written before skills recorded their world) has its world unknown (`Skill.world`
-None), as has a skill `hlcmp fit` made from a demonstration alone; a format 3 file has no
-rotational profiles (`Skill.theta_kr` None).
+Loading checks the version, the keys, and every field's shape and type. Older files still
+load: a format 1 file (written before skills recorded their world) has its world unknown
+(`Skill.world` None), as has a skill `hlcmp fit` made from a demonstration alone; a format
+3 file has no rotational profiles (`Skill.theta_kr` None).
 """
 
 from __future__ import annotations
@@ -366,7 +366,7 @@ def load_skill(path: str | Path) -> Skill:
         raise fail(f"not a readable skill file ({' '.join(str(error).split())[:120]})") from None
     if "format_version" not in arrays:
         raise fail("not a skill file: no 'format_version'")
-    version = int(arrays["format_version"])
+    version = _number(arrays, "format_version", fail, integer=True)
     if version not in READABLE_VERSIONS:
         raise fail(
             f"format_version {version} is not supported (this version reads "
@@ -392,38 +392,42 @@ def load_skill(path: str | Path) -> Skill:
     missing = [key for key in required if key not in arrays]
     if missing:
         raise fail(f"missing field(s): {', '.join(missing)}")
+    if arrays["axis_names"].ndim > 1 or arrays["axis_names"].dtype.kind != "U":
+        raise fail("field 'axis_names' must be a list of strings")
     axes = tuple(str(a) for a in np.atleast_1d(arrays["axis_names"]))
-    m, n = len(axes), int(arrays["n_basis"])
-    for key in ("start", "goal", "amplitude", "goal_scaled"):
-        if arrays[key].shape != (m,):
-            raise fail(
-                f"field '{key}' has shape {arrays[key].shape}, expected ({m},) for axes {axes}"
-            )
-        if key != "goal_scaled" and not _finite_numbers(arrays[key]):
-            raise fail(f"field '{key}' must hold finite numbers")
-    has_force = DEMO_FORCE_FIELD in arrays
-    for key in ("theta_p", "theta_k", "theta_d", "theta_v") + (DEMO_FORCE_FIELD,) * has_force:
-        if arrays[key].shape != (m, n):
-            raise fail(f"field '{key}' has shape {arrays[key].shape}, expected ({m}, {n})")
-        if not _finite_numbers(arrays[key]):
-            raise fail(f"field '{key}' holds NaN or infinite values")
+    m, n = len(axes), _number(arrays, "n_basis", fail, integer=True)
+    alpha, beta, alpha_s, smoothing_s, tau = (
+        _number(arrays, key, fail) for key in ("alpha", "beta", "alpha_s", "smoothing_s", "tau")
+    )
     try:
-        alpha, beta = float(arrays["alpha"]), float(arrays["beta"])
         # The file holds beta's value; alpha / 4 is the settings' default (None), kept as such.
         settings = DmpSettings(
             n_basis=n,
             alpha=alpha,
             beta=None if beta == alpha / 4.0 else beta,
-            alpha_s=float(arrays["alpha_s"]),
-            smoothing_s=float(arrays["smoothing_s"]),
+            alpha_s=alpha_s,
+            smoothing_s=smoothing_s,
         )
     except ValueError as error:
         raise fail(f"invalid DMP settings: {error}") from None
-    if not (_finite_numbers(arrays["tau"]) and float(arrays["tau"]) > 0):
-        raise fail(f"field 'tau' must be positive and finite, got {arrays['tau']}")
+    for key in ("start", "goal", "amplitude", "goal_scaled"):
+        if arrays[key].shape != (m,):
+            raise fail(
+                f"field '{key}' has shape {arrays[key].shape}, expected ({m},) for axes {axes}"
+            )
+        if key != "goal_scaled":
+            _check_finite_numbers(arrays, key, fail)
+    _check_true_false(arrays, "goal_scaled", fail)
+    has_force = DEMO_FORCE_FIELD in arrays
+    for key in ("theta_p", "theta_k", "theta_d", "theta_v") + (DEMO_FORCE_FIELD,) * has_force:
+        if arrays[key].shape != (m, n):
+            raise fail(f"field '{key}' has shape {arrays[key].shape}, expected ({m}, {n})")
+        _check_finite_numbers(arrays, key, fail)
+    if not (np.isfinite(tau) and tau > 0):
+        raise fail(f"field 'tau' must be positive and finite, got {tau}")
     dmp = Dmp(
         settings,
-        float(arrays["tau"]),
+        tau,
         arrays["start"].astype(float),
         arrays["goal"].astype(float),
         arrays["theta_p"].astype(float),
@@ -444,9 +448,37 @@ def load_skill(path: str | Path) -> Skill:
     )
 
 
-def _finite_numbers(array: np.ndarray) -> bool:
-    """Whether a stored array holds numbers (not text or objects), all finite."""
-    return array.dtype.kind in "fiu" and bool(np.all(np.isfinite(array)))
+# What a stored array of another kind than real numbers holds, for messages (dtype.kind).
+_KIND_NAMES = {"b": "true/false values", "c": "complex numbers", "S": "bytes", "U": "text"}
+
+
+def _check_finite_numbers(arrays: dict, key: str, fail) -> None:
+    """Field `key` holds real numbers, all finite; else an InputError saying which not."""
+    kind = arrays[key].dtype.kind
+    if kind not in "fiu":
+        held = _KIND_NAMES.get(kind, f"{arrays[key].dtype} values")
+        raise fail(f"field '{key}' must hold real numbers, not {held}")
+    if not np.all(np.isfinite(arrays[key])):
+        raise fail(f"field '{key}' must hold finite numbers, not NaN or infinite values")
+
+
+def _check_true_false(arrays: dict, key: str, fail) -> None:
+    """Field `key` holds true/false values (booleans, or numbers 0 and 1)."""
+    value = arrays[key]
+    if value.dtype.kind not in "biuf" or not np.isin(value, (0, 1)).all():
+        raise fail(f"field '{key}' must hold true/false values")
+
+
+def _number(arrays: dict, key: str, fail, integer: bool = False) -> Any:
+    """Field `key` as one real number (float), or one integer (int) where `integer`;
+    anything else (text, bytes, complex, several values, a fraction for an integer) is an
+    InputError naming the field and what it holds."""
+    value = arrays[key]
+    if value.shape != () or value.dtype.kind not in ("iu" if integer else "fiu"):
+        shown = repr(value.tolist())
+        shown = shown if len(shown) <= 40 else shown[:37] + "..."
+        raise fail(f"field '{key}' must be {'an integer' if integer else 'a number'}, got {shown}")
+    return int(value) if integer else float(value)
 
 
 def _rotational(arrays, n, fail):
@@ -457,8 +489,7 @@ def _rotational(arrays, n, fail):
     for key in ROTATIONAL_FIELDS:
         if arrays[key].shape != (3, n):
             raise fail(f"field '{key}' has shape {arrays[key].shape}, expected (3, {n})")
-        if not _finite_numbers(arrays[key]):
-            raise fail(f"field '{key}' must hold finite numbers")
+        _check_finite_numbers(arrays, key, fail)
     return {key: arrays[key].astype(float) for key in ROTATIONAL_FIELDS}
 
 
@@ -472,8 +503,10 @@ def _orientation(arrays, dmp, fail):
         expected = tuple(n if size == "N" else size for size in shape)
         if arrays[key].shape != expected:
             raise fail(f"field '{key}' has shape {arrays[key].shape}, expected {expected}")
-        if arrays[key].dtype.kind not in "fb" or not np.all(np.isfinite(arrays[key])):
-            raise fail(f"field '{key}' must hold finite numbers")
+        if key == "orientation_goal_scaled":
+            _check_true_false(arrays, key, fail)
+        else:
+            _check_finite_numbers(arrays, key, fail)
     for key in ("orientation_start", "orientation_goal"):
         if abs(np.linalg.norm(arrays[key]) - 1.0) > UNIT_NORM_TOLERANCE:
             raise fail(f"field '{key}' is not a unit quaternion")
