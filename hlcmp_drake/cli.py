@@ -1183,8 +1183,13 @@ def _add_library_parsers(sub, common, quiet):
     generalize.set_defaults(func=cmd_generalize)
 
 
-# Commands whose --out is a file; every other --out is a folder.
-WRITES_A_FILE = ("fit", "rollout", "generalize")
+# Commands whose --out is a file, and what each writes there (its kind, its suffix); every
+# other --out is a folder.
+WRITES_A_FILE = {
+    "fit": ("a skill file", ".npz"),
+    "rollout": ("a trajectory CSV", ".csv"),
+    "generalize": ("a skill file", ".npz"),
+}
 
 
 def _default_out(args):
@@ -1236,7 +1241,7 @@ def _check_output(args):
         return
     if args.command in WRITES_A_FILE:
         check_output_file(out)
-        _check_not_an_input(args, out)
+        _check_output_file_kind(args, out)
         return
     check_output_folder(out)
     _check_skill_not_lost(args, out)
@@ -1305,16 +1310,35 @@ def _check_inputs_kept(args, folder):
 _POSITIONAL = {"fit": ("demo",), "rollout": ("skill",)}
 
 
-def _check_not_an_input(args, out):
-    """Refuse an output file that is one of the command's input files (exit 2)."""
-    if not os.path.isfile(out):
-        return
+def _check_output_file_kind(args, out):
+    """Refuse (exit 2) an output file the command would wrongly write over: one of its
+    input files, a path whose suffix is not the kind of file it writes (a skill over a
+    demonstration, a CSV over a skill), or, for fit, which learns nothing, a learned skill
+    (an earlier fit's may be replaced)."""
+    from hlcmp_drake.io.skill import load_skill
+
+    exists = os.path.isfile(out)
     for name, value in vars(args).items():
-        if name != "out" and isinstance(value, str) and os.path.isfile(value):
+        if exists and name != "out" and isinstance(value, str) and os.path.isfile(value):
             if os.path.samefile(value, out):
                 option = name.replace("_", "-")
                 where = option if name in _POSITIONAL.get(args.command, ()) else f"--{option}"
                 raise InputError(f"--out {out}: is the input {where}; it would be overwritten")
+    kind, suffix = WRITES_A_FILE[args.command]
+    if os.path.splitext(out)[1].lower() != suffix:
+        raise InputError(
+            f"--out {out}: {args.command} writes {kind}: give a path ending in {suffix}"
+        )
+    if args.command == "fit" and exists:
+        try:
+            learned = load_skill(out).learned
+        except InputError:  # no skill there to lose: fit replaces it as any file
+            learned = False
+        if learned:
+            raise InputError(
+                f"--out {out}: holds a learned skill, which fit would replace with one that "
+                "has learned nothing: choose another path"
+            )
 
 
 def main(argv=None):

@@ -289,6 +289,40 @@ def test_fit_and_rollout_refuse_to_write_over_their_input(tmp_path):
     assert skill.read_bytes() == kept
 
 
+def test_fit_and_rollout_refuse_an_output_file_of_another_kind(tmp_path):
+    import dataclasses as dc
+
+    from hlcmp_drake.io.skill import SkillWorld, load_skill, save_skill
+
+    demo = tmp_path / "demo.csv"
+    demo.write_text(DEMO_CSV)
+    other_demo = tmp_path / "other_demo.csv"
+    other_demo.write_text(DEMO_CSV)
+    line = one_line_error(run_cli("fit", demo, "--out", other_demo))
+    assert line == (
+        f"hlcmp: error: --out {other_demo}: fit writes a skill file: give a path ending in .npz"
+    )
+    assert other_demo.read_text() == DEMO_CSV
+    fitted = tmp_path / "fitted.npz"
+    assert run_cli("fit", demo, "--out", fitted).returncode == 0
+    assert run_cli("fit", demo, "--out", fitted).returncode == 0  # an earlier fit's is replaced
+    learned = tmp_path / "learned.npz"  # as learn writes it: with the world it learned in
+    save_skill(learned, dc.replace(load_skill(fitted), world=SkillWorld("one_dof", "k", "0" * 64)))
+    kept = learned.read_bytes()
+    for out in (learned, tmp_path / "trajectory"):
+        line = one_line_error(run_cli("rollout", fitted, "--out", out))
+        assert line == (
+            f"hlcmp: error: --out {out}: rollout writes a trajectory CSV: give a path ending "
+            "in .csv"
+        )
+    line = one_line_error(run_cli("fit", demo, "--out", learned))
+    assert line == (
+        f"hlcmp: error: --out {learned}: holds a learned skill, which fit would replace with "
+        "one that has learned nothing: choose another path"
+    )
+    assert learned.read_bytes() == kept and not (tmp_path / "trajectory").exists()
+
+
 def test_a_dry_run_sweep_writes_nothing_so_needs_no_writable_folder(tmp_path):
     result = run_cli("sweep", "tiny", "--dry-run", "--out", "/proc/hlcmp_sweep")
     assert result.returncode == 0

@@ -191,6 +191,13 @@ class Skill:
                 raise ValueError(f"theta_kr, theta_dr and theta_vr must each be {shape}")
 
     @property
+    def learned(self) -> bool:
+        """Whether its profiles were learned (by `hlcmp learn` or `reproduce`, or generalized
+        from a library's): those record the world they were learned in, which `hlcmp fit`'s
+        zero weights have none of."""
+        return self.world is not None
+
+    @property
     def six_d(self) -> bool:
         """Whether it holds the rotational profiles (a 6-D Hl-CMP's skill)."""
         return self.theta_kr is not None
