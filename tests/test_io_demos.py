@@ -127,6 +127,27 @@ def test_numpys_commented_header_is_read_and_a_row_index_is_named(tmp_path):
         read_demonstration(indexed)
 
 
+@pytest.mark.parametrize(
+    "text, line",
+    [
+        ("# recorded 2024-03-01 by the FRI logger\n" + DEMO_CSV, 1),
+        ("#\n" + DEMO_CSV, 1),
+        (DEMO_CSV.replace("\n0.3,", "\n# paused here\n0.3,"), 5),
+    ],
+    ids=["before the header", "an empty one", "between samples"],
+)
+def test_a_comment_line_is_refused_with_its_line(tmp_path, text, line):
+    path = tmp_path / "demo.csv"
+    path.write_text(text)
+    with pytest.raises(InputError) as error:
+        read_demonstration(path)
+    comment = text.splitlines()[line - 1]
+    assert str(error.value) == (
+        f"{path}:{line}: '{comment}': comment lines are not allowed (a '#' is read only "
+        "before the header's names, as numpy's savetxt writes '# t,x,y,z')"
+    )
+
+
 def test_the_bundled_demonstrations_pass_the_speed_bound():
     from hlcmp_drake.io.paths import DIAGRAMS_DIR
 
@@ -170,8 +191,10 @@ def test_a_pose_is_read_unit_and_hemisphere_continuous(tmp_path):
         (8, [1.05, 0, 0, 0], ":10: the orientation (1.05,0,0,0) has norm 1.05; a unit quaternion"),
         (3, [0.3, 0.2, 0.1, 0.1], ":5: the orientation (0.3,0.2,0.1,0.1) has norm 0.3873"),
         (4, [1, 0, float("nan"), 0], ":6: column 'qy' is not finite"),
+        (6, [1e200, 1e200, 0, 0], ":8: the orientation (1e+200,1e+200,0,0) has norm inf"),
     ],
 )
+@pytest.mark.filterwarnings("error")  # the one line is all: no numpy warning before it
 def test_a_bad_quaternion_is_refused_with_its_line(tmp_path, row, values, message):
     q = _turn().astype(object)
     q[row] = values

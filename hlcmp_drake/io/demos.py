@@ -4,7 +4,8 @@ Format: a header line `t,x,y,z` -- `t` in seconds first, then 1 to 3 position co
 named from x, y, z (metres, in that order) -- and one sample per line, time strictly
 increasing over at most MAX_DURATION_S, at least MIN_SAMPLES samples, less than
 MAX_SAMPLE_PERIOD_S apart (the median), never faster than MAX_SPEED_M_PER_S (see there). A
-'#' before the header's first name is ignored (numpy's `savetxt` writes one).
+'#' before the header's first name is ignored (numpy's `savetxt` writes one); any other
+line beginning with '#' (a comment) is refused, naming its line.
 A pose adds the tool frame's orientation in the world frame after the positions,
 `t,x,y,z,qw,qx,qy,qz`: a unit quaternion, scalar first (Drake's `Quaternion(w, x, y, z)`
 order), either sign (see `read_orientation`). Trajectory files may add velocity columns
@@ -149,6 +150,8 @@ def read_demonstration(
         raise InputError(f"{path}: the file is empty (expected a header line 't,x,y,z')")
     header_line, header_text = lines[0]
     header = [name.strip() for name in next(csv.reader([header_text.lstrip().removeprefix("#")]))]
+    if header_text.lstrip().startswith("#") and header[:1] != ["t"]:
+        raise _comment_refused(path, header_line, header_text)
     if "" in header:
         column = header.index("") + 1
         hint = (
@@ -171,6 +174,8 @@ def read_demonstration(
         )
     rows: list[tuple[int, list[float]]] = []
     for number, line in lines[1:]:
+        if line.lstrip().startswith("#"):
+            raise _comment_refused(path, number, line)
         fields = [f.strip() for f in next(csv.reader([line]))]
         if len(fields) != len(header):
             raise located(
@@ -265,7 +270,8 @@ def read_orientation(
         ``FILE:LINE: ...`` at the first quaternion that is zero or whose norm is off 1 by
         more than MAX_QUATERNION_NORM_ERROR, or where it turns too fast (`check_turn_rate`).
     """
-    norms = np.linalg.norm(quaternions, axis=1)
+    with np.errstate(over="ignore"):  # a component like 1e200: its norm is inf, refused below
+        norms = np.linalg.norm(quaternions, axis=1)
     bad = np.flatnonzero(np.abs(norms - 1.0) > MAX_QUATERNION_NORM_ERROR)
     if len(bad):
         k = int(bad[0])
@@ -488,6 +494,18 @@ def _without_orientation(path, line, header):
     if angular and rest[-3:] != list(ANGULAR_VELOCITY_COLUMNS):
         raise located(path, line, "angular velocity columns must be wx,wy,wz, last")
     return rest[:-3] if angular else rest
+
+
+def _comment_refused(path, line, text):
+    """The error for a comment line: a demonstration CSV has none (numpy's commented header
+    aside, which is no comment)."""
+    shown = text.strip() if len(text.strip()) <= 40 else text.strip()[:37] + "..."
+    return located(
+        path,
+        line,
+        f"'{shown}': comment lines are not allowed (a '#' is read only before the header's "
+        "names, as numpy's savetxt writes '# t,x,y,z')",
+    )
 
 
 def _check_header(path, line, header):
