@@ -43,6 +43,10 @@ from hlcmp_drake.io.errors import InputError
         ),
         ("scenario: one_dof\ncases: []\n", ":2: cases: the list is empty (leave cases out"),
         (
+            "scenario: one_dof\ncontrollers: []\n",
+            ":2: controllers: the list is empty (leave controllers out to run all of the",
+        ),
+        (
             "scenario: one_dof\nmetrics:\n- {label: x, series: hlcmp/x, digits: two}\n"
             "- label: y\n  series: hlcmp/x\n  digits: 1\n",
             ":3: metrics.0.digits: must be an integer, got 'two'",

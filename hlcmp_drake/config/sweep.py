@@ -283,12 +283,17 @@ def _normalized(raw: dict, fail) -> dict:
             if not isinstance(values, list) or not values:
                 fail(f"grid.{key}", f"grid: '{key}' needs a non-empty list of values")
         raw["grid"] = {str(k): [_yaml_text(v) for v in values] for k, values in grid.items()}
+    # An empty list would read as "none", where leaving the key out means its default.
+    for key, instead in (
+        ("cases", "leave cases out to sweep the grid alone"),
+        ("controllers", "leave controllers out to run all of the scenario's"),
+    ):
+        if raw.get(key) == []:
+            fail(key, f"{key}: the list is empty ({instead})")
     if "cases" in raw:
-        cases = raw["cases"] or []
+        cases = raw["cases"]
         if not isinstance(cases, list):
             fail("cases", "cases: expected a list of {label, set}")
-        if not cases:
-            fail("cases", "cases: the list is empty (leave cases out to sweep the grid alone)")
         raw["cases"] = [
             dict(
                 case,
