@@ -73,6 +73,17 @@ def test_a_library_file_plans_every_combination_with_numbers_as_queries(tmp_path
     assert tasks[0].overrides[0] == "duration_s=0.3"
 
 
+def test_a_grid_in_scientific_notation_holds_numbers_as_a_sweeps_does(tmp_path):
+    """PyYAML (YAML 1.1) reads 1e-2 as text; the scenario loader (Drake's YAML), and so a
+    sweep's grid, as a number: a library's grid reads it as they do."""
+    text = GOOD.replace("[0.010, 0.015]", "[1e-2, 1.5E-2]")
+    tasks = plan_library_tasks(load_library_spec(write(tmp_path, text)), tmp_path / "out")
+    assert [t.query["task.puncture.depth_m"] for t in tasks[::3]] == [0.01, 0.015]
+    assert tasks[0].id.startswith("depth_m=1e-2,")
+    scenario = load_scenario_text(tasks[0].scenario_yaml, tasks[0].scenario_path)
+    assert scenario.task.puncture.depth_m == 0.01
+
+
 @pytest.mark.parametrize(
     "text, line, expected",
     [
@@ -80,6 +91,7 @@ def test_a_library_file_plans_every_combination_with_numbers_as_queries(tmp_path
         (GOOD.replace("[0.010, 0.015]", "[0.010]"), 6, "needs at least two values"),
         (GOOD.replace("[0.010, 0.015]", "[0.010, abc]"), 6, "must be a finite number, got abc"),
         (GOOD.replace("[0.010, 0.015]", "[0.010, 0.010]"), 6, "lists a value twice"),
+        (GOOD.replace("[0.010, 0.015]", "[1e-2, 0.010]"), 6, "lists a value twice"),
         (GOOD.replace("task.puncture.depth_m:", "task.puncture.nope:"), 6, "no field 'nope'"),
         (GOOD.replace("scenario: insertion", "scenario: nowhere"), 1, "not a bundled scenario"),
         (

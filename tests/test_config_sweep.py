@@ -41,6 +41,10 @@ from hlcmp_drake.io.errors import InputError
             "scenario: one_dof\ngrid:\n  duration_s: [1, 2, 1.0]\n",
             ":3: grid: 'duration_s' lists a value twice: ['1', '2', '1.0']",
         ),
+        (
+            "scenario: one_dof\ngrid:\n  duration_s: [1e1, 10]\n",
+            ":3: grid: 'duration_s' lists a value twice: ['1e1', '10']",
+        ),
         ("scenario: one_dof\ncases: []\n", ":2: cases: the list is empty (leave cases out"),
         (
             "scenario: one_dof\ncontrollers: []\n",

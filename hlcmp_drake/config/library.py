@@ -15,7 +15,8 @@ A library file (``diagrams/libraries/*.yaml``)::
       task.puncture.hole_friction_N_per_m: [60.0, 120.0]
 
 A grid key is a task parameter of the library (a query key of `hlcmp generalize`): it
-takes at least two values, each a finite number, since a skill is regressed on them.
+takes at least two values, each a finite number (read as a sweep's grid reads it, 1e-2
+included), since a skill is regressed on them.
 Planning loads every skill's scenario with its overrides, so a bad key or value stops the
 library before anything runs, naming the library file's line.
 """
@@ -25,8 +26,6 @@ import itertools
 import math
 from pathlib import Path
 
-import yaml
-
 from hlcmp_drake.config.loading import dump_scenario, resolve_yaml
 from hlcmp_drake.config.sweep import (
     _KEY,
@@ -35,6 +34,7 @@ from hlcmp_drake.config.sweep import (
     _scenario_path,
     read_typed_file,
     task_id,
+    yaml_number,
 )
 from hlcmp_drake.config.world import inputs_digest
 from hlcmp_drake.io.errors import located
@@ -194,14 +194,10 @@ def load_library_spec(name_or_path: str | Path) -> LibrarySpec:
 
 
 def _number(text: str) -> float | None:
-    """The finite number a YAML value text holds, or None."""
-    try:
-        value = yaml.safe_load(text)
-    except yaml.YAMLError:
-        return None
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        return None
-    return float(value) if math.isfinite(value) else None
+    """The finite number a YAML value text holds (as a sweep reads it: `yaml_number`), or
+    None."""
+    value = yaml_number(text)
+    return value if value is not None and math.isfinite(value) else None
 
 
 def _check(config: LibraryConfig, fail) -> dict:
@@ -276,6 +272,7 @@ def plan_library_tasks(spec: LibrarySpec, out_dir: str | Path) -> list[LibraryTa
         loader found) or two skills whose ids collide.
     """
     config = spec.config
+    numbers = {key: dict(zip(texts, spec.values[key])) for key, texts in config.grid.items()}
     tasks: list[LibraryTask] = []
     seen: set[str] = set()
     for point in itertools.product(*config.grid.values()):
@@ -292,7 +289,7 @@ def plan_library_tasks(spec: LibrarySpec, out_dir: str | Path) -> list[LibraryTa
         tasks.append(
             LibraryTask(
                 identifier,
-                {key: float(yaml.safe_load(text)) for key, text in texts.items()},
+                {key: numbers[key][text] for key, text in texts.items()},
                 overrides,
                 dump_scenario(scenario),
                 str(spec.scenario_path),

@@ -434,18 +434,60 @@ def read_typed_file(path: Path, schema: type) -> tuple:
 REWRITTEN = ("set", "labels", "grid", "cases")
 
 
+# A YAML 1.2 float, as Drake's loader reads an override's value: PyYAML (YAML 1.1) reads
+# one with an exponent but no dot or no exponent sign (1e-2, 1.0e7) as text.
+_YAML_12_NUMBER = re.compile(r"[-+]?(\.[0-9]+|[0-9]+(\.[0-9]*)?)([eE][-+]?[0-9]+)?")
+
+
+def number_of(value: object) -> float | None:
+    """The number a parsed YAML value stands for as Drake reads it, or None (a bool, a
+    list, text that is no number).
+
+    Parameters
+    ----------
+    value : object
+        What `yaml.safe_load` returned for a value's text.
+
+    Returns
+    -------
+    float or None
+        Possibly infinite or NaN (.inf, .nan).
+    """
+    if isinstance(value, str) and _YAML_12_NUMBER.fullmatch(value):
+        return float(value)
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    return float(value)
+
+
+def yaml_number(text: str) -> float | None:
+    """The number an override value's YAML text holds (`number_of`), or None.
+
+    Parameters
+    ----------
+    text : str
+
+    Returns
+    -------
+    float or None
+    """
+    try:
+        return number_of(yaml.safe_load(text))
+    except yaml.YAMLError:
+        return None
+
+
 def _as_compared(text: str) -> tuple:
-    """A grid value as two values are compared: a number by its value (1 and 1.0 are one
-    value, 0 and false are not), anything else (a tagged config, a list) by its text."""
+    """A grid value as two values are compared: a number by its value (1, 1.0 and 1e0 are
+    one value, 0 and false are not), anything else (a tagged config, a list) by its text."""
     try:
         value = yaml.safe_load(text)
     except yaml.YAMLError:  # e.g. a tag: the safe loader constructs none
         return ("text", text)
     if isinstance(value, bool):
         return ("bool", value)
-    if isinstance(value, (int, float)):
-        return ("number", float(value))
-    return ("text", text)
+    number = number_of(value)
+    return ("text", text) if number is None else ("number", number)
 
 
 def _scenario_path(scenario: str, sweep_path: Path, fail: Fail) -> Path:

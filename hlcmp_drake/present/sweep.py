@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import yaml
 
-from hlcmp_drake.config.sweep import short_names
+from hlcmp_drake.config.sweep import number_of, short_names
 from hlcmp_drake.experiments.plots import new_figure
 from hlcmp_drake.experiments.table import Table, number
 
@@ -44,14 +44,8 @@ def parameter_number(text: str) -> float | None:
         return None
     if isinstance(value, list) and value and all(v == value[0] for v in value):
         value = value[0]
-    if isinstance(value, str):  # PyYAML reads 1.0e7 (no exponent sign) as text; Drake, a number
-        try:
-            value = float(value)
-        except ValueError:
-            return None
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        return None
-    return float(value)
+    number = number_of(value)
+    return number if number is not None and math.isfinite(number) else None
 
 
 def parameter_text(text: str) -> str:
