@@ -92,6 +92,12 @@ def test_a_grid_in_scientific_notation_holds_numbers_as_a_sweeps_does(tmp_path):
         (GOOD.replace("[0.010, 0.015]", "[0.010, abc]"), 6, "must be a finite number, got abc"),
         (GOOD.replace("[0.010, 0.015]", "[0.010, 0.010]"), 6, "lists a value twice"),
         (GOOD.replace("[0.010, 0.015]", "[1e-2, 0.010]"), 6, "lists a value twice"),
+        (
+            "scenario: insertion\ngrid:\n  reference.duration_s: [0.5, 0]\n",
+            3,
+            "grid: 'reference.duration_s': 0 means as demonstrated, not a duration the skills "
+            "can be regressed on: give the demonstration's duration in seconds",
+        ),
         (GOOD.replace("task.puncture.depth_m:", "task.puncture.nope:"), 6, "no field 'nope'"),
         (GOOD.replace("scenario: insertion", "scenario: nowhere"), 1, "not a bundled scenario"),
         (

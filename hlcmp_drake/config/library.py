@@ -16,7 +16,8 @@ A library file (``diagrams/libraries/*.yaml``)::
 
 A grid key is a task parameter of the library (a query key of `hlcmp generalize`): it
 takes at least two values, each a finite number (read as a sweep's grid reads it, 1e-2
-included), since a skill is regressed on them.
+included), since a skill is regressed on them. (So reference.duration_s takes no 0, which stands
+for the demonstration's own duration.)
 Planning loads every skill's scenario with its overrides, so a bad key or value stops the
 library before anything runs, naming the library file's line.
 """
@@ -45,6 +46,9 @@ from hlcmp_drake.io.paths import DIAGRAMS_DIR
 
 LIBRARIES_DIR = DIAGRAMS_DIR / "libraries"
 MAX_TRIALS = 100  # as `hlcmp learn --trials`
+# The DMP's tau: its 0 is no duration but "as demonstrated", which a regression over the
+# grid's numbers would take for the number 0.
+AS_DEMONSTRATED_AT_0 = "reference.duration_s"
 
 
 @dc.dataclass
@@ -226,6 +230,12 @@ def _check(config: LibraryConfig, fail) -> dict:
             )
         if len(set(numbers)) != len(numbers):
             fail(f"grid.{key}", f"grid: '{key}' lists a value twice: {texts}")
+        if key == AS_DEMONSTRATED_AT_0 and 0.0 in numbers:
+            fail(
+                f"grid.{key}",
+                f"grid: '{key}': 0 means as demonstrated, not a duration the skills can be "
+                "regressed on: give the demonstration's duration in seconds",
+            )
         values[key] = numbers
     for key in config.set:
         if not _KEY.fullmatch(key):
