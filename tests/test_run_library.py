@@ -211,6 +211,34 @@ def test_a_ray_address_with_no_cluster_is_one_line_and_writes_nothing(tmp_path):
     assert not out.exists()
 
 
+def as_finished(task, record):
+    """The files a finished skill's folder holds, written by hand (no learning): its
+    scenario.yaml, inputs.sha256, metrics.json, skill.npz (stand-ins) and `record` as its
+    library_task.json."""
+    run_dir = Path(task.run_dir)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    (run_dir / "scenario.yaml").write_text(task.scenario_yaml)
+    (run_dir / INPUTS_FILE).write_text(task.inputs_digest + "\n")
+    (run_dir / "metrics.json").write_text(json.dumps({"status": record.get("status", "ok")}))
+    (run_dir / "skill.npz").write_bytes(b"")
+    (run_dir / TASK_RECORD).write_text(json.dumps(record))
+
+
+def test_a_finished_skill_whose_file_is_lost_is_learned_again(tmp_path):
+    """A skill is finished only while library.json's files of it are there: its
+    metrics.json, and its skill.npz unless it went unstable (and saved none)."""
+    ok, unstable = library_tasks(load_library_spec(tiny(tmp_path)), tmp_path / "L")
+    record = {"trials": 1, "demo_force": False, "controller": "hlcmp"}
+    as_finished(ok, {**record, "status": "ok"})
+    as_finished(unstable, {**record, "status": "unstable"})
+    (Path(unstable.run_dir) / "skill.npz").unlink()
+    assert skill_state(ok) == "done" and skill_state(unstable) == "done"
+    (Path(ok.run_dir) / "skill.npz").unlink()
+    assert skill_state(ok) == "stale"
+    (Path(unstable.run_dir) / "metrics.json").unlink()
+    assert skill_state(unstable) == "stale"
+
+
 def test_a_skill_whose_demonstration_changed_is_learned_again(tmp_path):
     """A skill's scenario.yaml names its demonstration by path: it is finished only while
     the demonstration holds what it was learned from (inputs.sha256)."""
@@ -231,12 +259,7 @@ def test_a_skill_whose_demonstration_changed_is_learned_again(tmp_path):
         return library_tasks(load_library_spec(spec), tmp_path / "L")[0]
 
     task = first_task()
-    run_dir = Path(task.run_dir)
-    run_dir.mkdir(parents=True)
-    (run_dir / "scenario.yaml").write_text(task.scenario_yaml)
-    (run_dir / INPUTS_FILE).write_text(task.inputs_digest + "\n")
-    record = {"trials": 1, "demo_force": False, "controller": "hlcmp"}
-    (run_dir / TASK_RECORD).write_text(json.dumps(record))
+    as_finished(task, {"trials": 1, "demo_force": False, "controller": "hlcmp"})
     assert skill_state(task) == "done"
     demo.write_bytes(INSERTION_DEMO.read_bytes() + b"\n")
     assert skill_state(first_task()) == "stale"
@@ -280,12 +303,8 @@ def test_a_skill_learned_before_the_learner_was_recorded_is_kept_only_if_it_is_t
     peg = library_tasks(*_peg_tasks(tmp_path)[:1], tmp_path / "L")[0]
     insertion = library_tasks(load_library_spec(tiny(tmp_path)), tmp_path / "I")[0]
     for task in (peg, insertion):
-        run_dir = Path(task.run_dir)
-        run_dir.mkdir(parents=True)
-        (run_dir / "scenario.yaml").write_text(task.scenario_yaml)
-        (run_dir / INPUTS_FILE).write_text(task.inputs_digest + "\n")
         record = {"id": task.id, "trials": task.trials, "demo_force": False, "status": "ok"}
-        (run_dir / TASK_RECORD).write_text(json.dumps(record))
+        as_finished(task, record)
     assert skill_state(peg) == "stale" and skill_state(insertion) == "done"
     (Path(peg.run_dir) / TASK_RECORD).write_text(json.dumps({**record, "controller": "hlcmp_6d"}))
     assert skill_state(peg) == "done"

@@ -7,8 +7,9 @@ DIR/skills/ID/ holds what `hlcmp learn` writes (skill.npz, metrics.json, timeser
 figures/, recording.html), after the skill's scenario.yaml (first) and before its
 library_task.json (last). A skill is finished when its folder holds library_task.json for
 the same number of trials and the same learner beside a scenario.yaml equal to the one
-planned (and the same contents of the files it names: inputs.sha256, as a sweep's task);
-anything else is learned (again). library.json is rewritten after every finished skill, so an
+planned (and the same contents of the files it names: inputs.sha256, as a sweep's task),
+and its metrics.json and (unless it went unstable) skill.npz still there; anything else is
+learned (again). library.json is rewritten after every finished skill, so an
 interrupted library loses none, and the same command again learns only what is missing.
 
 library.json::
@@ -115,8 +116,8 @@ def run_library_task_returning_files(task: LibraryTask) -> tuple[dict, dict]:
 
 
 def skill_state(task: LibraryTask) -> str:
-    """ "done" (learned with the same scenario, trials and learner), "stale" (with others:
-    learned again) or "pending".
+    """ "done" (learned with the same scenario, trials and learner, and its files there),
+    "stale" (with others, or a file of it lost: learned again) or "pending".
 
     Parameters
     ----------
@@ -127,8 +128,11 @@ def skill_state(task: LibraryTask) -> str:
         record = json.loads((run_dir / TASK_RECORD).read_text())
     except (OSError, ValueError):
         return "pending"
+    # What library.json takes from a finished skill; only a stable one saved a skill.
+    needed = ["metrics.json"] + (["skill.npz"] if record.get("status") == "ok" else [])
     if (
-        not ran_with(run_dir, task.scenario_yaml, task.inputs_digest)
+        any(not (run_dir / name).is_file() for name in needed)
+        or not ran_with(run_dir, task.scenario_yaml, task.inputs_digest)
         or record.get("trials") != task.trials
         or record.get("demo_force", False) != task.demo_force
     ):
