@@ -684,19 +684,38 @@ def cmd_library(args):
         error_mm = 1000 * sum(entry["metrics"]["mean_abs_position_error_m"].values())
         print(f"  {entry['id']}: last trial mean |e| {error_mm:.2f} mm -> {entry['skill']}")
     for entry in record["not_learned"]:
-        print(f"  {entry['id']}: {entry['status'].upper()} {entry.get('error', '')}".rstrip())
+        print(f"  {entry['id']}: {_not_learned_because(entry)}")
     learned = len(record["skills"])
-    if not result.ran:
-        print(f"all {learned} skills were already learned; nothing relearned")
+    ran, unstable = set(result.ran), set(result.unstable)
+    if not ran:
+        kept = f"run, {len(unstable)} of them unstable (no skill saved)" if unstable else "learned"
+        print(f"all {result.already_done} skills were already {kept}; nothing relearned")
     else:
-        print(
-            f"{len(result.ran)} skill(s) learned, {result.already_done} already learned; "
-            f"{result.wall_s:.1f} s"
-        )
+        # Of this call's skills only the stable ones saved a skill: the others counted apart.
+        counts = [f"{sum(entry['id'] in ran for entry in record['skills'])} skill(s) learned"]
+        if ran & unstable:
+            counts.append(f"{len(ran & unstable)} unstable (no skill saved)")
+        if result.failed:
+            counts.append(f"{len(result.failed)} failed")
+        print(f"{', '.join(counts)}, {result.already_done} already learned; {result.wall_s:.1f} s")
     print(f"library: {result.out_dir}/library.json ({learned} skills)")
     if result.failed:
         return 1
     return EXIT_UNSTABLE if result.unstable else 0
+
+
+def _not_learned_because(entry: dict) -> str:
+    """Why a skill of a library is not in it, in one line: ERROR and the error, UNSTABLE
+    and each unstable trial's reason and time (its metrics.json's), or PENDING."""
+    status = entry["status"].upper()
+    if entry.get("error"):
+        return f"{status} {entry['error']}"
+    reasons = [
+        f"{trial.replace('_', ' ')}: {problem['reason']}"
+        + (f" at t = {problem['time_s']:.3f} s" if problem.get("time_s") is not None else "")
+        for trial, problem in entry.get("instability", {}).items()
+    ]
+    return f"{status}, no skill saved: {'; '.join(reasons)}" if reasons else status
 
 
 def _query(items):

@@ -211,17 +211,53 @@ def test_a_ray_address_with_no_cluster_is_one_line_and_writes_nothing(tmp_path):
     assert not out.exists()
 
 
-def as_finished(task, record):
+def as_finished(task, record, metrics=None):
     """The files a finished skill's folder holds, written by hand (no learning): its
-    scenario.yaml, inputs.sha256, metrics.json, skill.npz (stand-ins) and `record` as its
-    library_task.json."""
+    scenario.yaml, inputs.sha256, `metrics` as metrics.json (default: its status alone),
+    a stand-in skill.npz unless it went unstable, and `record` as library_task.json."""
     run_dir = Path(task.run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
+    status = record.get("status", "ok")
     (run_dir / "scenario.yaml").write_text(task.scenario_yaml)
     (run_dir / INPUTS_FILE).write_text(task.inputs_digest + "\n")
-    (run_dir / "metrics.json").write_text(json.dumps({"status": record.get("status", "ok")}))
-    (run_dir / "skill.npz").write_bytes(b"")
+    (run_dir / "metrics.json").write_text(json.dumps(metrics or {"status": status}))
+    if status == "ok":
+        (run_dir / "skill.npz").write_bytes(b"")
     (run_dir / TASK_RECORD).write_text(json.dumps(record))
+
+
+def test_skills_that_ended_unstable_are_counted_apart_with_their_reasons(tmp_path, monkeypatch):
+    """An unstable skill saved none: `hlcmp library` does not count it as learned, and
+    prints its reason (its metrics.json's) on its line; so does a rerun."""
+    import hlcmp_drake.run.library as library
+    from hlcmp_drake.cli import EXIT_UNSTABLE
+
+    why = "joint torques saturated for more than max_saturation_s = 0.2 s"
+
+    def learned_by_hand(function, tasks, workers, on_done):  # no simulation: 0.01 unstable
+        for task in tasks:
+            status = "unstable" if task.query[DEPTH] == 0.01 else "ok"
+            metrics = {
+                "status": status,
+                "trials": [{"trial": 1, "mean_abs_position_error_m": {"x": 0.001}}],
+                "instability": {"trial_1": {"reason": why, "time_s": 0.21}},
+            }
+            record = {"trials": 1, "demo_force": False, "controller": "hlcmp", "status": status}
+            as_finished(task, record, metrics)
+            on_done(task, {"status": status, "wall_s": 0.1}, None)
+
+    monkeypatch.setattr(library, "run_in_processes", learned_by_hand)
+    spec = tiny(tmp_path)
+    for summary in [
+        "1 skill(s) learned, 1 unstable (no skill saved), 0 already learned; ",
+        "all 2 skills were already run, 1 of them unstable (no skill saved); nothing relearned",
+    ]:
+        result = run_cli("library", spec, "--out", tmp_path / "L", "--quiet")
+        assert result.returncode == EXIT_UNSTABLE, result.stderr
+        lines = result.stdout.splitlines()
+        assert f"  depth_m=0.01: UNSTABLE, no skill saved: trial 1: {why} at t = 0.210 s" in lines
+        assert lines[-2].startswith(summary), result.stdout
+        assert lines[-1].endswith("library.json (1 skills)")
 
 
 def test_a_finished_skill_whose_file_is_lost_is_learned_again(tmp_path):
@@ -231,7 +267,6 @@ def test_a_finished_skill_whose_file_is_lost_is_learned_again(tmp_path):
     record = {"trials": 1, "demo_force": False, "controller": "hlcmp"}
     as_finished(ok, {**record, "status": "ok"})
     as_finished(unstable, {**record, "status": "unstable"})
-    (Path(unstable.run_dir) / "skill.npz").unlink()
     assert skill_state(ok) == "done" and skill_state(unstable) == "done"
     (Path(ok.run_dir) / "skill.npz").unlink()
     assert skill_state(ok) == "stale"
