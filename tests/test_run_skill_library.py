@@ -316,6 +316,84 @@ def test_a_folder_that_is_no_library_exits_2_with_one_line(tmp_path):
     assert "generalising needs at least two" in one_line_error(result)
 
 
+def edited_library(folder, edit):
+    """library.json of `folder` after `edit(record)` (a hand edit)."""
+    record = json.loads((folder / "library.json").read_text())
+    edit(record)
+    (folder / "library.json").write_text(json.dumps(record))
+    return folder
+
+
+def test_two_skills_at_one_query_are_refused_in_one_line(tmp_path):
+    folder = write_library(tmp_path, [0.010, 0.015], [90.0])
+
+    def same_query(record):
+        record["skills"][1]["query"] = dict(record["skills"][0]["query"])
+
+    edited_library(folder, same_query)
+    result = run_cli(
+        "generalize", folder, "--query", f"{DEPTH}=0.01", "--query", f"{FRICTION}=90",
+        "--out", tmp_path / "s.npz",
+    )  # fmt: skip
+    assert one_line_error(result) == (
+        f"hlcmp: error: {folder / 'library.json'}: skills[1]: 'd=0.015,f=90.0' has the query "
+        "of 'd=0.01,f=90.0'; a library holds one skill per query"
+    )
+    assert not (tmp_path / "s.npz").exists()
+
+
+def _set_query(value):
+    def edit(record):
+        record["skills"][1]["query"][DEPTH] = value
+
+    return edit
+
+
+@pytest.mark.parametrize(
+    "edit, expected",
+    [
+        (_set_query("abc"), f"skills[1] ('d=0.015,f=60.0'): query {DEPTH}: must be a number"),
+        (_set_query(True), f"query {DEPTH}: must be a number, got true"),
+        (_set_query(None), f"query {DEPTH}: must be a number, got null"),
+        (_set_query(float("nan")), f"query {DEPTH}: must be finite"),
+        (lambda record: record["skills"][1]["query"].pop(DEPTH), f"query {DEPTH}: missing"),
+        (lambda record: record["skills"][0].pop("skill"), "skills[0]: missing key 'skill'"),
+        (
+            lambda record: record["skills"][0].update(skill=3),
+            "skills[0]: 'skill' must be a string, got a number",
+        ),
+        (
+            lambda record: record["skills"].__setitem__(0, "x"),
+            "skills[0]: must be an object, got a string",
+        ),
+        (lambda record: record.update(skills={}), "'skills' must be an array, got an object"),
+        (lambda record: record.update(parameters=[1]), "'parameters' must list the task"),
+        (lambda record: record.update(set=[]), "'set' must be an object, got an array"),
+        (lambda record: record.pop("scenario_path"), "missing key 'scenario_path'"),
+        (lambda record: record.update(controller=1), "'controller' must be a string"),
+    ],
+)
+def test_a_hand_edited_library_json_is_refused_in_one_line(tmp_path, edit, expected):
+    folder = edited_library(write_library(tmp_path, [0.010, 0.015], [60.0]), edit)
+    result = run_cli(
+        "generalize", folder, "--query", f"{DEPTH}=0.012", "--query", f"{FRICTION}=60",
+        "--out", tmp_path / "s.npz",
+    )  # fmt: skip
+    line = one_line_error(result)
+    assert line.startswith(f"hlcmp: error: {folder / 'library.json'}: ") and expected in line
+    assert not (tmp_path / "s.npz").exists()
+
+
+def test_a_library_json_that_is_no_object_is_refused_in_one_line(tmp_path):
+    folder = tmp_path / "L"
+    folder.mkdir()
+    (folder / "library.json").write_text("[1, 2]")
+    result = run_cli("generalize", folder, "--query", "a=1", "--out", tmp_path / "s.npz")
+    assert one_line_error(result).endswith(
+        "library.json: not a library.json (a JSON object written by hlcmp library)"
+    )
+
+
 def test_skills_with_another_basis_are_refused(tmp_path):
     folder = write_library(tmp_path, [0.010, 0.015], [60.0])
     path = folder / "skills" / "d=0.015,f=60.0" / "skill.npz"

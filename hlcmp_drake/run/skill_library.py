@@ -141,9 +141,10 @@ class SkillLibrary:
         Raises
         ------
         InputError
-            One line naming the file: no library.json, not JSON, a missing key, a skill
-            file that cannot be read, fewer than two skills, skills whose DMPs cannot be
-            regressed together (another basis, duration or axes).
+            One line naming the file: no library.json, not JSON, a missing key or one of
+            another type (`_check_record`), a skill file that cannot be read, fewer than
+            two skills, two skills at one query, skills whose DMPs cannot be regressed
+            together (another basis, duration or axes).
         """
         folder = Path(folder)
         path = folder / LIBRARY_FILE
@@ -155,22 +156,7 @@ class SkillLibrary:
             raise InputError(f"{path}: no such file (a folder written by hlcmp library)") from None
         except (OSError, UnicodeDecodeError, ValueError) as error:
             raise InputError(f"{path}: not a library.json ({type(error).__name__})") from None
-        missing = [
-            key
-            for key in ("scenario", "scenario_path", "set", "parameters", "skills")
-            if key not in record
-        ]
-        if not isinstance(record, dict) or missing:
-            raise InputError(f"{path}: missing key(s): {', '.join(missing) or 'all'}")
-        if len(record["skills"]) < 2:
-            raise InputError(
-                f"{path}: {len(record['skills'])} skill(s) learned; generalising needs at "
-                "least two (run hlcmp library again to learn the rest)"
-            )
-        for entry in record["skills"]:
-            absent = [key for key in record["parameters"] if key not in entry.get("query", {})]
-            if absent or "skill" not in entry:
-                raise InputError(f"{path}: skill '{entry.get('id')}' lacks its query or file")
+        _check_record(record, path)
         skills = [load_skill(folder / entry["skill"]) for entry in record["skills"]]
         if any(skill.orientation is not None for skill in skills):
             raise InputError(
@@ -507,6 +493,82 @@ def save_generalized(
     for field, std in (prediction.std or {}).items():
         extra[f"std_{field}"] = std
     return save_skill(path, skill, extra)
+
+
+# library.json's keys that generalising reads, and their JSON types.
+RECORD_KEYS = {"scenario": str, "scenario_path": str, "set": dict, "parameters": list}
+ENTRY_KEYS = {"id": str, "skill": str, "query": dict}
+# Python's types of JSON's kinds, as a message names them (bool before int: it is one).
+_JSON_KINDS = ((bool, "a boolean"), (dict, "an object"), (list, "an array"), (str, "a string"))
+
+
+def _json_kind(value: Any) -> str:
+    """What kind of JSON value `value` is: "an object", "a number", "null" ..."""
+    kind = next((name for kind, name in _JSON_KINDS if isinstance(value, kind)), None)
+    return kind or ("null" if value is None else "a number")
+
+
+def _check_record(record: Any, path: Path) -> None:
+    """What generalising reads of library.json, as `hlcmp library` writes it; a hand-edited
+    one is refused in one line naming the key, or the skill's entry and its key.
+
+    Parameters
+    ----------
+    record : object
+        library.json's content.
+    path : Path
+        library.json (for the message).
+
+    Raises
+    ------
+    InputError
+    """
+
+    def check_types(mapping: dict, kinds: dict, where: str) -> None:
+        for key, kind in kinds.items():
+            if key not in mapping:
+                raise InputError(f"{where}: missing key '{key}'")
+            if not isinstance(mapping[key], kind):
+                wanted, got = dict(_JSON_KINDS)[kind], _json_kind(mapping[key])
+                raise InputError(f"{where}: '{key}' must be {wanted}, got {got}")
+
+    if not isinstance(record, dict):
+        raise InputError(f"{path}: not a library.json (a JSON object written by hlcmp library)")
+    check_types(record, {**RECORD_KEYS, "skills": list}, str(path))
+    if not isinstance(record.get("controller") or "", str):  # the learner's label, optional
+        raise InputError(f"{path}: 'controller' must be a string")
+    parameters = record["parameters"]
+    if not parameters or not all(isinstance(key, str) for key in parameters):
+        raise InputError(f"{path}: 'parameters' must list the task parameters' keys")
+    if len(record["skills"]) < 2:
+        raise InputError(
+            f"{path}: {len(record['skills'])} skill(s) learned; generalising needs at "
+            "least two (run hlcmp library again to learn the rest)"
+        )
+    seen: dict = {}
+    for n, entry in enumerate(record["skills"]):
+        where = f"{path}: skills[{n}]"
+        if not isinstance(entry, dict):
+            raise InputError(f"{where}: must be an object, got {_json_kind(entry)}")
+        check_types(entry, ENTRY_KEYS, where)
+        for key in parameters:
+            value = entry["query"].get(key)
+            if key not in entry["query"]:
+                problem = "missing"
+            elif _json_kind(value) != "a number":
+                problem = f"must be a number, got {json.dumps(value)}"
+            elif not math.isfinite(value):
+                problem = "must be finite"
+            else:
+                continue
+            raise InputError(f"{where} ('{entry['id']}'): query {key}: {problem}")
+        query = tuple(float(entry["query"][key]) for key in parameters)
+        if query in seen:
+            raise InputError(
+                f"{where}: '{entry['id']}' has the query of '{seen[query]}'; a library holds "
+                "one skill per query"
+            )
+        seen[query] = entry["id"]
 
 
 def _require_sklearn() -> None:
