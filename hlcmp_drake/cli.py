@@ -758,7 +758,7 @@ def cmd_generalize(args):
         mean = prediction.mean[field]
         reach = ", ".join(
             f"{key.rsplit('.', 1)[-1]} {scale:.3g}"
-            for key, scale in zip(library.parameters, scales[field])
+            for key, scale in zip(library.regressed, scales[field])
         )
         print(
             f"  {field}: |weights| max {np.max(np.abs(mean)):.3g}, predictive std mean "

@@ -6,6 +6,7 @@ records the world of the query, so `learn --skill` with those --set values accep
 
 import dataclasses
 import json
+import re
 import shlex
 from pathlib import Path
 
@@ -322,6 +323,34 @@ def edited_library(folder, edit):
     edit(record)
     (folder / "library.json").write_text(json.dumps(record))
     return folder
+
+
+def test_a_parameter_every_skill_shares_is_left_out_of_the_regression(tmp_path):
+    """The skills at a parameter's other values went unstable (none saved): every skill
+    has one value of it, which tells the regression nothing. It is left out of the inputs
+    (no zero span to normalise by); a query must give that value, or --extrapolate."""
+    folder = write_library(tmp_path, [0.010, 0.0125, 0.015], [90.0])
+    args = ["generalize", folder, "--query", f"{DEPTH}=0.01125", "--out", tmp_path / "s.npz"]
+    made = run_cli(*args, "--query", f"{FRICTION}=90")
+    assert made.returncode == 0, made.stderr
+    assert np.isfinite(load_skill(tmp_path / "s.npz").theta_v).all()
+    scales = [line for line in made.stdout.splitlines() if line.startswith("  theta_v:")]
+    assert len(scales) == 1 and re.search(r"; length scales depth_m [0-9.e+-]+$", scales[0])
+    elsewhere = run_cli(*args, "--query", f"{FRICTION}=100")
+    assert one_line_error(elsewhere) == (
+        f"hlcmp: error: --query {FRICTION}=100: every skill of the library was learned at 90: "
+        "nothing is known of other values (the regression leaves it out); pass --extrapolate "
+        "to predict there all the same"
+    )
+    extrapolated = run_cli(*args, "--query", f"{FRICTION}=100", "--extrapolate")
+    assert extrapolated.returncode == 0 and "extrapolated" in extrapolated.stderr
+    library = SkillLibrary.load(folder)
+    assert library.regressed == [DEPTH]
+    skill, prediction, notes = library.generalize({DEPTH: 0.01125, FRICTION: 90.0})
+    assert np.isfinite(prediction.std["theta_v"]).all()
+    assert all(FRICTION not in note for note in notes)
+    nearest = library.predict({DEPTH: 0.0126, FRICTION: 90.0}, "nearest").nearest
+    assert nearest == "d=0.0125,f=90.0"
 
 
 def test_two_skills_at_one_query_are_refused_in_one_line(tmp_path):

@@ -5,7 +5,9 @@ parameters move it -- on the task parameters (queries) of a skill library.
 Regression: Gaussian-process regression (scikit-learn's `GaussianProcessRegressor`), one
 per array of the skill (theta_k, theta_d, theta_v, and each DMP array that differs across
 the library), each array's weights the outputs of one GP with shared hyperparameters.
-Inputs: each task parameter normalised to [0, 1] over the library's range. Outputs:
+Inputs: each task parameter normalised to [0, 1] over the library's range; one that all
+the skills share (its other values' skills went unstable, say) tells nothing and is left
+out. Outputs:
 normalised per weight to zero mean and unit variance over the library (`normalize_y`).
 Kernel (`KERNEL_DESCRIPTION`)::
 
@@ -21,8 +23,9 @@ library holds at the same value.
 Nearest: the library skill whose query is nearest in the normalised parameters.
 
 A query must give every task parameter of the library and no other key; a value outside
-the library's range by more than `EXTRAPOLATION_MARGIN` of that range is refused unless
-extrapolation is asked for (then a warning).
+the library's range by more than `EXTRAPOLATION_MARGIN` of that range (for a parameter all
+the skills share, any other value) is refused unless extrapolation is asked for (then a
+warning).
 """
 
 from __future__ import annotations
@@ -108,6 +111,8 @@ class SkillLibrary:
         Each skill's task parameters.
     lower, upper : (P,) arrays
         The library's range of each parameter.
+    regressed : list of str
+        The parameters the skills differ in (`lower` < `upper`): the regression's inputs.
     ids : list of str
         Each skill's id.
     """
@@ -120,6 +125,8 @@ class SkillLibrary:
             [[float(entry["query"][key]) for key in self.parameters] for entry in record["skills"]]
         )
         self.lower, self.upper = self.queries.min(axis=0), self.queries.max(axis=0)
+        self._varied = self.upper > self.lower
+        self.regressed = [key for key, varied in zip(self.parameters, self._varied) if varied]
         self.fields = list(PROFILE_FIELDS) + [
             field for field in DMP_FIELDS if _varies([_array(s, field) for s in skills])
         ]
@@ -168,7 +175,8 @@ class SkillLibrary:
         return cls(folder, record, skills)
 
     def normalized(self, queries: np.ndarray) -> np.ndarray:
-        """Task parameters mapped to [0, 1] over the library's range.
+        """The regressed task parameters (`regressed`) mapped to [0, 1] over the library's
+        range.
 
         Parameters
         ----------
@@ -176,9 +184,11 @@ class SkillLibrary:
 
         Returns
         -------
-        (Q, P) array
+        (Q, R) array
         """
-        return (np.atleast_2d(queries) - self.lower) / (self.upper - self.lower)
+        varied = self._varied
+        span = self.upper[varied] - self.lower[varied]
+        return (np.atleast_2d(queries)[:, varied] - self.lower[varied]) / span
 
     def fit(self) -> SkillLibrary:
         """Fit one Gaussian process per regressed field (see the module's docstring).
@@ -198,7 +208,7 @@ class SkillLibrary:
         for field in self.fields:
             outputs = np.array([_array(skill, field).ravel() for skill in self.skills])
             model = GaussianProcessRegressor(
-                kernel=gp_kernel(len(self.parameters)),
+                kernel=gp_kernel(len(self.regressed)),
                 normalize_y=True,
                 n_restarts_optimizer=RESTARTS,
                 random_state=0,
@@ -221,16 +231,17 @@ class SkillLibrary:
         return {field: str(model.kernel_) for field, model in (self._models or {}).items()}
 
     def length_scales(self) -> dict:
-        """The fitted RBF length scale of each regressed field, per task parameter, on the
-        [0, 1]-normalised range (after `fit`): how far a skill's influence reaches (at
-        the bounds 0.1 or 100: none beyond the skill itself, or the same everywhere).
+        """The fitted RBF length scale of each regressed field, per regressed task parameter
+        (`regressed`), on the [0, 1]-normalised range (after `fit`): how far a skill's
+        influence reaches (at the bounds 0.1 or 100: none beyond the skill itself, or the
+        same everywhere).
 
         Returns
         -------
-        dict of str to (P,) array
+        dict of str to (R,) array
         """
         return {
-            field: np.broadcast_to(model.kernel_.k1.k2.length_scale, (len(self.parameters),))
+            field: np.broadcast_to(model.kernel_.k1.k2.length_scale, (len(self.regressed),))
             for field, model in (self._models or {}).items()
         }
 
@@ -248,11 +259,11 @@ class SkillLibrary:
         """
         notes = []
         scales = self.length_scales()
-        for j, key in enumerate(self.parameters):
+        for j, key in enumerate(self.regressed):
             fields = [f for f in self.fields if scales[f][j] <= LENGTH_SCALE_BOUNDS[0] * 1.001]
             if not fields:
                 continue
-            values = len(np.unique(self.queries[:, j]))
+            values = len(np.unique(self.queries[:, self.parameters.index(key)]))
             advice = (
                 f"the library has only {values} values of it: give it three or more"
                 if values < 3
@@ -285,7 +296,8 @@ class SkillLibrary:
         ------
         InputError
             One line: a key the library does not vary, a missing key, a value that is not
-            a finite number, or one beyond the margin without `extrapolate`.
+            a finite number, or one beyond the margin without `extrapolate` (for a
+            parameter all the skills share: another value).
         """
         varied = ", ".join(self.parameters)
         for key in query:
@@ -307,8 +319,11 @@ class SkillLibrary:
             margin = EXTRAPOLATION_MARGIN * (high - low)
             if not low - margin <= value <= high + margin:
                 where = (
-                    f"--query {key}={value:g}: outside the library's range [{low:g}, {high:g}] "
-                    f"by more than {EXTRAPOLATION_MARGIN:.0%} of it ({margin:g})"
+                    f"--query {key}={value:g}: every skill of the library was learned at "
+                    f"{low:g}: nothing is known of other values (the regression leaves it out)"
+                    if low == high
+                    else f"--query {key}={value:g}: outside the library's range [{low:g}, "
+                    f"{high:g}] by more than {EXTRAPOLATION_MARGIN:.0%} of it ({margin:g})"
                 )
                 if not extrapolate:
                     raise InputError(where + "; pass --extrapolate to predict there all the same")
