@@ -1331,11 +1331,21 @@ _POSITIONAL = {"fit": ("demo",), "rollout": ("skill",)}
 
 def _check_output_file_kind(args, out):
     """Refuse (exit 2) an output file the command would wrongly write over: one of its
-    input files, a path whose suffix is not the kind of file it writes (a skill over a
-    demonstration, a CSV over a skill), or, for fit, which learns nothing, a learned skill
-    (an earlier fit's may be replaced)."""
+    input files, a file of the library it generalises over (`owned_by_library`), a path
+    whose suffix is not the kind of file it writes (a skill over a demonstration, a CSV
+    over a skill), or, for fit, which learns nothing, a learned skill (an earlier fit's may
+    be replaced)."""
     from hlcmp_drake.io.skill import load_skill
 
+    if args.command == "generalize":
+        from hlcmp_drake.run.skill_library import owned_by_library
+
+        if owned_by_library(args.library, out):
+            raise InputError(
+                f"--out {out}: is a file of the library {args.library} (its library.json, "
+                "in its skills/ or a skill it lists); it would be overwritten: give a file "
+                "outside them"
+            )
     exists = os.path.isfile(out)
     for name, value in vars(args).items():
         if exists and name != "out" and isinstance(value, str) and os.path.isfile(value):

@@ -423,6 +423,39 @@ def test_a_library_json_that_is_no_object_is_refused_in_one_line(tmp_path):
     )
 
 
+@pytest.mark.parametrize(
+    "out",
+    [
+        "library.json",
+        "skills/d=0.01,f=60.0/skill.npz",  # a learned skill: the library would list the guess
+        "skills/d=0.01,f=60.0/guess.npz",
+        "../elsewhere/skill.npz",  # a skill file library.json lists outside the folder
+    ],
+)
+def test_generalize_never_writes_over_its_librarys_files(tmp_path, out):
+    folder = write_library(tmp_path, [0.010, 0.015], [60.0])
+    elsewhere = tmp_path / "elsewhere" / "skill.npz"
+    elsewhere.parent.mkdir()
+    (folder / "skills" / "d=0.015,f=60.0" / "skill.npz").rename(elsewhere)
+    edited_library(folder, lambda record: record["skills"][1].update(skill=str(elsewhere)))
+    before = {path: path.read_bytes() for path in tmp_path.rglob("*") if path.is_file()}
+    result = run_cli(
+        "generalize", folder, "--query", f"{DEPTH}=0.012", "--query", f"{FRICTION}=60",
+        "--out", folder / out,
+    )  # fmt: skip
+    assert one_line_error(result) == (
+        f"hlcmp: error: --out {folder / out}: is a file of the library {folder} (its "
+        "library.json, in its skills/ or a skill it lists); it would be overwritten: give a "
+        "file outside them"
+    )
+    assert {path: path.read_bytes() for path in tmp_path.rglob("*") if path.is_file()} == before
+    beside = run_cli(
+        "generalize", folder, "--query", f"{DEPTH}=0.012", "--query", f"{FRICTION}=60",
+        "--out", folder / "guess.npz",
+    )  # fmt: skip
+    assert beside.returncode == 0, beside.stderr  # the folder is the user's too
+
+
 def test_skills_with_another_basis_are_refused(tmp_path):
     folder = write_library(tmp_path, [0.010, 0.015], [60.0])
     path = folder / "skills" / "d=0.015,f=60.0" / "skill.npz"

@@ -46,6 +46,7 @@ from hlcmp_drake.io.paths import DIAGRAMS_DIR
 
 LIBRARIES_DIR = DIAGRAMS_DIR / "libraries"
 MAX_TRIALS = 100  # as `hlcmp learn --trials`
+SKILLS_DIR = "skills"  # in the library's folder: one folder per skill
 # The DMP's tau: its 0 is no duration but "as demonstrated", which a regression over the
 # grid's numbers would take for the number 0.
 AS_DEMONSTRATED_AT_0 = "reference.duration_s"
@@ -305,7 +306,7 @@ def plan_library_tasks(spec: LibrarySpec, out_dir: str | Path) -> list[LibraryTa
                 str(spec.scenario_path),
                 config.trials,
                 config.demo_force,
-                str(Path(out_dir) / "skills" / identifier),
+                str(Path(out_dir) / SKILLS_DIR / identifier),
                 inputs_digest(scenario),
             )
         )

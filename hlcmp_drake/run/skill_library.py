@@ -39,6 +39,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from hlcmp_drake.config.library import SKILLS_DIR
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.world import world_of_scenario
 from hlcmp_drake.io.errors import InputError
@@ -155,15 +156,7 @@ class SkillLibrary:
         """
         folder = Path(folder)
         path = folder / LIBRARY_FILE
-        if folder.exists() and not folder.is_dir():
-            raise InputError(f"{folder}: is a file, not a folder written by hlcmp library")
-        try:
-            record = json.loads(path.read_text())
-        except FileNotFoundError:
-            raise InputError(f"{path}: no such file (a folder written by hlcmp library)") from None
-        except (OSError, UnicodeDecodeError, ValueError) as error:
-            raise InputError(f"{path}: not a library.json ({type(error).__name__})") from None
-        _check_record(record, path)
+        record = _read_record(folder)
         skills = [load_skill(folder / entry["skill"]) for entry in record["skills"]]
         if any(skill.orientation is not None for skill in skills):
             raise InputError(
@@ -457,6 +450,31 @@ class SkillLibrary:
         return str(path)
 
 
+def owned_by_library(folder: str | Path, path: str | Path) -> bool:
+    """Whether a file is the library's own, which writing would change: its library.json,
+    anything in its skills/ folder, or a skill file its library.json lists.
+
+    Parameters
+    ----------
+    folder : str or Path
+        The library's folder (not necessarily a library: then only the first two).
+    path : str or Path
+        The file, which need not exist.
+
+    Returns
+    -------
+    bool
+    """
+    folder, target = Path(folder).resolve(), Path(path).resolve()
+    if target == folder / LIBRARY_FILE or target.is_relative_to(folder / SKILLS_DIR):
+        return True
+    try:
+        listed = [folder / entry["skill"] for entry in _read_record(folder)["skills"]]
+    except InputError:  # no library to change (`SkillLibrary.load` refuses it)
+        return False
+    return any(target == skill.resolve() for skill in listed)
+
+
 def gp_kernel(n_parameters: int) -> Any:
     """The regression's kernel before fitting (`KERNEL_DESCRIPTION`): a constant times an
     RBF with one length scale per task parameter, plus white noise, with the bounds the
@@ -508,6 +526,28 @@ def save_generalized(
     for field, std in (prediction.std or {}).items():
         extra[f"std_{field}"] = std
     return save_skill(path, skill, extra)
+
+
+def _read_record(folder: Path) -> dict:
+    """A library folder's library.json, checked (`_check_record`).
+
+    Raises
+    ------
+    InputError
+        One line: the folder is a file, or its library.json is missing, unreadable or
+        not as `hlcmp library` writes it.
+    """
+    path = folder / LIBRARY_FILE
+    if folder.exists() and not folder.is_dir():
+        raise InputError(f"{folder}: is a file, not a folder written by hlcmp library")
+    try:
+        record = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such file (a folder written by hlcmp library)") from None
+    except (OSError, UnicodeDecodeError, ValueError) as error:
+        raise InputError(f"{path}: not a library.json ({type(error).__name__})") from None
+    _check_record(record, path)
+    return record
 
 
 # library.json's keys that generalising reads, and their JSON types.
