@@ -160,7 +160,10 @@ def test_the_skill_file_keeps_the_encoded_force_and_reads_files_without_it(tmp_p
         arrays = dict(data)
     for bad, message in [
         (weights[:, :-1], r"field 'demo_force' has shape \(3, 29\), expected \(3, 30\)"),
-        (np.where(weights > 0, np.nan, weights), "field 'demo_force' holds NaN"),
+        (
+            np.where(weights > 0, np.nan, weights),
+            "field 'demo_force' must hold finite numbers, not NaN",
+        ),
     ]:
         np.savez(tmp_path / "bad.npz", **{**arrays, "demo_force": bad})
         with pytest.raises(InputError, match=message):

@@ -27,7 +27,8 @@ names used elsewhere are imported from here.
 from hlcmp_drake.run.sweep.engines import ENGINES, check_engine
 from hlcmp_drake.run.sweep.orchestrate import run_sweep
 from hlcmp_drake.run.sweep.planning import SweepPlan, default_out_dir, plan_sweep, task_state
-from hlcmp_drake.run.sweep.results import FINISHED, SweepResult, TaskResults, read_task_results
+from hlcmp_drake.run.sweep.results import SweepResult
+from hlcmp_drake.run.sweep.task_results import FINISHED, TaskResults, read_task_results
 from hlcmp_drake.run.sweep.tasks import run_task, run_task_returning_files, store_files
 
 __all__ = [

@@ -19,13 +19,8 @@ from hlcmp_drake.run.sweep.engines import (
     cluster_joined,
 )
 from hlcmp_drake.run.sweep.planning import check_metrics, foreign_task_folders, plan_sweep
-from hlcmp_drake.run.sweep.results import (
-    SweepResult,
-    _summary,
-    _wall_s,
-    _write_tables,
-    read_task_results,
-)
+from hlcmp_drake.run.sweep.results import SweepResult, _summary, _wall_s, _write_tables
+from hlcmp_drake.run.sweep.task_results import read_task_results
 
 
 def run_sweep(

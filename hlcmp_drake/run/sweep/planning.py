@@ -16,6 +16,7 @@ from hlcmp_drake.config.sweep import (
     plan_tasks,
 )
 from hlcmp_drake.io.errors import located
+from hlcmp_drake.run.sweep.task_results import path_step, read_task_results
 from hlcmp_drake.run.sweep.tasks import ran_with
 
 # The short run `check_metrics` makes of a task's scenario: this many log samples.
@@ -55,7 +56,7 @@ def default_out_dir(sweep: Sweep) -> Path:
 
 def task_state(task: SweepTask, metrics: list) -> str:
     """ "done", "stale" or "pending" (see `SweepPlan`): a task whose metrics.json or
-    timeseries.npz is missing or unreadable (`results.read_task_results`) is pending.
+    timeseries.npz is missing or unreadable (`task_results.read_task_results`) is pending.
 
     Parameters
     ----------
@@ -63,8 +64,6 @@ def task_state(task: SweepTask, metrics: list) -> str:
     metrics : list of SweepMetric
         The sweep's metrics: what must be readable in the task's outputs.
     """
-    from hlcmp_drake.run.sweep.results import read_task_results  # it imports this module
-
     run_dir = Path(task.run_dir)
     if read_task_results(run_dir, metrics) is None:
         return "pending"
@@ -180,36 +179,6 @@ def task_outputs(task: SweepTask) -> TaskOutputs:
 
 def _names(node: dict) -> str:
     return ", ".join(node) or "nothing"
-
-
-def path_step(node: object, parts: list, i: int) -> tuple[object, int] | None:
-    """One step of a dotted path into metrics.json: below `node`, the value that
-    parts[i:] begins with and the index of the part after it; None when there is none.
-
-    A dict's key may hold dots (a label such as "vic_fd_0.5"): the longest key that
-    matches is taken. A list's element is named by its index from 0 (a per-axis list, e.g.
-    "max_abs_torque_Nm.2").
-
-    Parameters
-    ----------
-    node : object
-        A dict, a list or a single value of metrics.json.
-    parts : list of str
-        The path split at its dots.
-    i : int
-        The first part still to follow.
-
-    Returns
-    -------
-    (object, int) or None
-    """
-    if isinstance(node, dict):
-        for j in range(len(parts), i, -1):
-            if ".".join(parts[i:j]) in node:
-                return node[".".join(parts[i:j])], j
-    elif isinstance(node, list) and parts[i].isdigit() and int(parts[i]) < len(node):
-        return node[int(parts[i])], i + 1
-    return None
 
 
 def _walk(node: object, dotted: str) -> str | None:
