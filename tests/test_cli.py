@@ -73,6 +73,8 @@ GOOD = "t,x\n" + "".join(f"{k * 0.1:.1f},{k * 0.01:.2f}\n" for k in range(12))
         ("t,,x\n0,1,2\n", ":1: column 2 has no name"),
         ("t,z,x\n0,1,2\n", ":1: position columns must be in the order x, y, z"),
         (GOOD.replace("0.3,0.03", "0.3,abc"), ":5: column 'x' is not a number: 'abc'"),
+        (GOOD.replace("0.3,0.03", "0.3,0.0_3"), ":5: column 'x' is not a number: '0.0_3'"),
+        (GOOD.replace("0.3,0.03", "0.3,0.0\u0663"), ":5: column 'x' is not a number: '0.0\u0663'"),
         (GOOD.replace("0.3,0.03", "0.3,nan"), ":5: column 'x' is not finite"),
         (GOOD.replace("0.3,0.03", "0.3,inf"), ":5: column 'x' is not finite"),
         (

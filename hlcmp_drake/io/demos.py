@@ -186,6 +186,8 @@ def read_demonstration(
         values = []
         for name, field in zip(header, fields):
             try:
+                if "_" in field or not field.isascii():  # float() reads 0.5_5 as 0.55, and ٣ as 3
+                    raise ValueError(field)
                 value = float(field)
             except ValueError:
                 raise located(path, number, f"column '{name}' is not a number: '{field}'") from None
