@@ -257,3 +257,16 @@ def test_a_6d_controller_needs_an_arm_on_the_fast_path(tmp_path):
     slider.write_text((DIAGRAMS_DIR / "one_dof.yaml").read_text().replace("controllers:\n", six))
     with pytest.raises(InputError, match=r"slider\.yaml:\d+: six: .* needs an !ArmTask"):
         load_scenario(slider)
+
+
+def test_a_puncture_setting_in_a_world_without_one_is_refused():
+    """Without task.puncture.object_frame the puncture's settings are not used: one given
+    another value (a --set, a sweep's or a library's grid) would run as if it were not,
+    so it is refused naming the field; its default, written out, is no setting."""
+    with pytest.raises(InputError) as error:
+        load_scenario("peg_in_hole", ["task.puncture.depth_m=0.01"])
+    assert "depth_m: this world has no puncture (task.puncture.object_frame is empty)" in str(
+        error.value
+    )
+    load_scenario("peg_in_hole", ["task.puncture.depth_m=0.015"])  # its default
+    load_scenario("insertion", ["task.puncture.depth_m=0.01"])  # the foam's tear

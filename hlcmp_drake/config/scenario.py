@@ -595,7 +595,7 @@ class PunctureConfig:
     object_frame : str
         The object's frame, scoped "model::frame" (e.g. "foam_plank::plank"): origin at the
         centre of its top face, +z out of the object. Default "": no puncture, and the
-        other fields are not used (they are still checked).
+        other fields must keep their defaults (they would not be used).
     thickness_m : float
         The object's thickness [m], > 0: it caps the length of tool inside the hole.
         Default 0.03, the foam plank's.
@@ -618,7 +618,8 @@ class PunctureConfig:
 
     def check(self, fail: Fail) -> None:
         """Positive thickness, a tear depth within it, non-negative friction, positive speed,
-        all finite (checked with or without an object: a scenario's number is never junk).
+        all finite (checked with or without an object: a scenario's number is never junk);
+        without an object, every field at its default.
 
         Parameters
         ----------
@@ -635,6 +636,15 @@ class PunctureConfig:
             self.hole_friction_N_per_m, "task.puncture.hole_friction_N_per_m", fail, ">= 0"
         )
         check_number(self.sliding_speed_m_per_s, "task.puncture.sliding_speed_m_per_s", fail, "> 0")
+        if not self.object_frame:  # a setting the world would ignore (a sweep of identical runs)
+            for field in dc.fields(self):
+                if getattr(self, field.name) != field.default:
+                    fail(
+                        f"task.puncture.{field.name}",
+                        f"this world has no puncture (task.puncture.object_frame is empty), so "
+                        f"{field.name} would not be used: name the object's frame in "
+                        "object_frame, or leave the puncture's settings out",
+                    )
 
 
 @dc.dataclass
