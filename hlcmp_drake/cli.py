@@ -1331,7 +1331,8 @@ _POSITIONAL = {"fit": ("demo",), "rollout": ("skill",)}
 
 def _check_output_file_kind(args, out):
     """Refuse (exit 2) an output file the command would wrongly write over: one of its
-    input files, a file of the library it generalises over (`owned_by_library`), a path
+    input files, a file of the library it generalises over (`owned_by_library`) or of
+    another command's output folder (its manifest lists it: a run's timeseries.npz), a path
     whose suffix is not the kind of file it writes (a skill over a demonstration, a CSV
     over a skill), or, for fit, which learns nothing, a learned skill (an earlier fit's may
     be replaced)."""
@@ -1346,7 +1347,14 @@ def _check_output_file_kind(args, out):
                 "in its skills/ or a skill it lists); it would be overwritten: give a file "
                 "outside them"
             )
+    from hlcmp_drake.io.outputs import listed_outputs
+
     exists = os.path.isfile(out)
+    if exists and os.path.basename(out) in listed_outputs(os.path.dirname(out) or "."):
+        raise InputError(
+            f"--out {out}: is a file of the output folder an earlier command wrote (its "
+            f"{os.path.basename(out)}); it would be overwritten: give a file outside it"
+        )
     for name, value in vars(args).items():
         if exists and name != "out" and isinstance(value, str) and os.path.isfile(value):
             if os.path.samefile(value, out):

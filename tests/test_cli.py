@@ -323,6 +323,16 @@ def test_fit_and_rollout_refuse_an_output_file_of_another_kind(tmp_path):
         "one that has learned nothing: choose another path"
     )
     assert learned.read_bytes() == kept and not (tmp_path / "trajectory").exists()
+    ran = tmp_path / "ran"  # a run's folder: its listed files are its own
+    assert run_cli("run", *short_one_dof(0.1), "--out", ran, "--quiet").returncode == 0
+    series = (ran / "timeseries.npz").read_bytes()
+    line = one_line_error(run_cli("fit", demo, "--out", ran / "timeseries.npz"))
+    assert line.endswith(
+        "is a file of the output folder an earlier command wrote (its timeseries.npz); it "
+        "would be overwritten: give a file outside it"
+    )
+    assert (ran / "timeseries.npz").read_bytes() == series
+    assert run_cli("fit", demo, "--out", ran / "mine.npz").returncode == 0  # not listed
 
 
 def test_a_dry_run_sweep_writes_nothing_so_needs_no_writable_folder(tmp_path):
