@@ -698,7 +698,7 @@ def cmd_library(args):
         if result.failed:
             counts.append(f"{len(result.failed)} failed")
         print(f"{', '.join(counts)}, {result.already_done} already learned; {result.wall_s:.1f} s")
-    print(f"library: {result.out_dir}/library.json ({learned} skills)")
+    print(f"library: {result.out_dir}/library.json ({learned} skill{'' if learned == 1 else 's'})")
     if result.failed:
         return 1
     return EXIT_UNSTABLE if result.unstable else 0

@@ -257,7 +257,7 @@ def test_skills_that_ended_unstable_are_counted_apart_with_their_reasons(tmp_pat
         lines = result.stdout.splitlines()
         assert f"  depth_m=0.01: UNSTABLE, no skill saved: trial 1: {why} at t = 0.210 s" in lines
         assert lines[-2].startswith(summary), result.stdout
-        assert lines[-1].endswith("library.json (1 skills)")
+        assert lines[-1].endswith("library.json (1 skill)")
 
 
 def test_a_finished_skill_whose_file_is_lost_is_learned_again(tmp_path):
