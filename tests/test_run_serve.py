@@ -468,7 +468,8 @@ def test_saturated_torques_stop_the_client_after_max_saturation_s():
         (
             ["serve", "insertion", "--lcm", "memq://", "--set", "iiwa_driver.period_s=1"]
             + ["--duration", "0.2"],
-            "period_s: a status every 1 s is longer than the whole run (0.2 s, duration_s)",
+            "iiwa_driver.period_s: a status every 1 s is longer than the whole run served "
+            "(0.2 s, --duration or duration_s)",
         ),
     ],
 )

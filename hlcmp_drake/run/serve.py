@@ -116,10 +116,17 @@ def served_scenario(
     Raises
     ------
     InputError
-        For a scenario without an arm, an unknown label, a controller that has no
-        one-tick law (a variable impedance), or a skill that does not fit.
+        For a scenario without an arm, a status period longer than the run, an unknown
+        label, a controller that has no one-tick law (a variable impedance), or a skill that
+        does not fit.
     """
     driven_world_of(scenario, "hlcmp serve drives an iiwa")
+    period = scenario.iiwa_driver.period_s
+    if period > scenario.duration_s:
+        raise InputError(
+            f"iiwa_driver.period_s: a status every {period:g} s is longer than the whole run "
+            f"served ({scenario.duration_s:g} s, --duration or duration_s): it would be one tick"
+        )
     if skill is not None:
         scenario = learning_scenario(scenario, skill=skill, freeze=freeze, controller=controller)
         controller = next(iter(scenario.controllers))
