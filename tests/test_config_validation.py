@@ -270,3 +270,24 @@ def test_a_puncture_setting_in_a_world_without_one_is_refused():
     )
     load_scenario("peg_in_hole", ["task.puncture.depth_m=0.015"])  # its default
     load_scenario("insertion", ["task.puncture.depth_m=0.01"])  # the foam's tear
+
+
+def test_an_experiment_whose_metrics_read_a_frame_the_models_lack_is_refused_at_load(tmp_path):
+    """The peg experiment reads the hole's frame of the fixture model by name: a copy with
+    the fixture renamed ran every controller and then failed in its metrics; now it stops
+    at load, naming the frame and the models there are."""
+    from hlcmp_drake.run.runner import experiment_worlds
+
+    renamed = tmp_path / "renamed.yaml"
+    text = (DIAGRAMS_DIR / "peg_in_hole.yaml").read_text()
+    text = text.replace("name: peg_fixture", "name: fx").replace("peg_fixture::", "fx::")
+    renamed.write_text(text.replace("demos/", "package://hlcmp_drake/diagrams/demos/"))
+    with pytest.raises(InputError) as error:
+        load_scenario(renamed, [], experiment_worlds())
+    assert re.match(
+        rf"{re.escape(str(renamed))}:\d+: experiment: 'peg_in_hole' reads the frame "
+        r"'peg_fixture::hole' of the scenario's models: no model 'peg_fixture' \(the "
+        r"scenario's models: iiwa, peg_tool, fx\)$",
+        str(error.value),
+    ), str(error.value)
+    load_scenario(renamed)  # without the experiments' needs: the models themselves load

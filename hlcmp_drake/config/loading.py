@@ -24,7 +24,7 @@ from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 
 from hlcmp_drake.config.scenario import ControllerConfig, DemonstrationConfig, Scenario
 from hlcmp_drake.config.shapes import composed, misshapen_value
-from hlcmp_drake.config.validation import validate_scenario
+from hlcmp_drake.config.validation import ExperimentNeeds, validate_scenario
 from hlcmp_drake.io.errors import InputError, located
 from hlcmp_drake.io.file_kinds import FILE_KINDS, top_level_keys
 from hlcmp_drake.io.paths import DIAGRAMS_DIR, VARIANTS_DIR, data_file
@@ -261,7 +261,7 @@ class _Problem(Exception):
 
 
 def _first_problem(
-    scenario: Scenario, folder: Path, experiments: Mapping[str, type] | None
+    scenario: Scenario, folder: Path, experiments: Mapping[str, ExperimentNeeds] | None
 ) -> tuple[str, str] | None:
     """(dotted key, problem) of the first problem `validate_scenario` finds, or None."""
 
@@ -493,7 +493,7 @@ class TypedOverride(str):
 def load_scenario(
     name_or_path: str | Path,
     overrides: Sequence[str | dict] = (),
-    experiments: Mapping[str, type] | None = None,
+    experiments: Mapping[str, ExperimentNeeds] | None = None,
     variant: str | Path | None = None,
 ) -> tuple[Scenario, Path]:
     """Load, override and validate a scenario.
@@ -505,10 +505,10 @@ def load_scenario(
     overrides : sequence of str or dict
         Each ``dotted.key=YAML value`` (or a dict of them), layered in order over the
         file, e.g. ``["duration_s=4", "controllers.hlcmp.q_k=[300,300,300]"]``.
-    experiments : mapping of str to type, optional
-        The experiments the scenario may name, each to the task class its world needs
-        (what a run evaluates with: `hlcmp_drake.experiments`); given, `experiment` is
-        checked against them.
+    experiments : mapping of str to ExperimentNeeds, optional
+        The experiments the scenario may name, each to the task class its world needs and
+        the frames its metrics read (what a run evaluates with: `hlcmp_drake.experiments`);
+        given, `experiment` is checked against them.
     variant : str or Path, optional
         A bundled variant's name (e.g. "real_arm": diagrams/variants/real_arm.yaml) or a
         YAML file, layered over the scenario's file before the overrides; the scenario's
@@ -607,7 +607,7 @@ def load_scenario_text(
     text: str,
     path: str | Path,
     overrides: Sequence[str | dict] = (),
-    experiments: Mapping[str, type] | None = None,
+    experiments: Mapping[str, ExperimentNeeds] | None = None,
 ) -> Scenario:
     """Load, override and validate a scenario given as YAML text (e.g. one that
     `dump_scenario` wrote, as a sweep ships it to its workers).
@@ -655,7 +655,7 @@ def _load_text(
     text: str,
     path: Path,
     overrides: Sequence[str | dict],
-    experiments: Mapping[str, type] | None = None,
+    experiments: Mapping[str, ExperimentNeeds] | None = None,
     variant: tuple[Path, str] | None = None,
 ) -> Scenario:
     """`load_scenario` after the files are read: parse, layer the variant, override,
@@ -784,7 +784,7 @@ _VALID_FILES: dict[tuple, bool] = {}
 
 
 def _files_valid(
-    base: Scenario, source: _Source, folder: Path, experiments: Mapping[str, type] | None
+    base: Scenario, source: _Source, folder: Path, experiments: Mapping[str, ExperimentNeeds] | None
 ) -> bool:
     """Whether `base` (the scenario the files make, `source`'s texts) has no problem."""
     key = (
@@ -806,7 +806,7 @@ def _culprit(
     found: tuple[str, str],
     source: _Source,
     folder: Path,
-    experiments: Mapping[str, type] | None,
+    experiments: Mapping[str, ExperimentNeeds] | None,
 ) -> InputError | None:
     """The override that alone brings about the problem `found` (dotted key, problem) of
     the overridden scenario, where the files alone (`base`) are valid: one that sets the

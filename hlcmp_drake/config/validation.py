@@ -4,6 +4,7 @@ models, parsed once."""
 
 from __future__ import annotations
 
+import dataclasses as dc
 import math
 from pathlib import Path
 from typing import Any, Callable, Mapping
@@ -15,6 +16,7 @@ from pydrake.systems.framework import DiagramBuilder
 
 from hlcmp_drake.config.models import (
     DIRECTIVE_KINDS,
+    frame_problem,
     loading_problem,
     missing_model,
     process_directives,
@@ -65,11 +67,21 @@ def model_file_exists(file: str) -> bool:
     return Path(file.removeprefix("file://")).is_file()
 
 
+@dc.dataclass(frozen=True)
+class ExperimentNeeds:
+    """What an experiment needs of a scenario: the task class its world is built from, and
+    the frames of the scenario's models its metrics read ("model::frame", e.g. the peg
+    world's hole), looked up at load so that a missing one stops before any simulation."""
+
+    task: type
+    frames: tuple[str, ...] = ()
+
+
 def validate_scenario(
     scenario: Scenario,
     folder: Path,
     fail: Fail,
-    experiments: Mapping[str, type] | None = None,
+    experiments: Mapping[str, ExperimentNeeds] | None = None,
 ) -> None:
     """Raise InputError (through `fail(key, problem)`) for the first problem found.
 
@@ -87,9 +99,9 @@ def validate_scenario(
         Raises the InputError that names where `key` (a dotted path such as
         "controllers.hlcmp.q_k", or "directives.3.add_weld" for a list's item) was set:
         file:line, or the override that set it.
-    experiments : mapping of str to type, optional
-        The experiments a run may name, each to the task class its world needs; given,
-        `experiment` must be one of them and fit the task.
+    experiments : mapping of str to ExperimentNeeds, optional
+        The experiments a run may name, each to what it needs; given, `experiment` must
+        be one of them, fit the task, and find its frames in the models.
 
     Raises
     ------
@@ -143,20 +155,28 @@ def validate_scenario(
     scenario.robot_imperfection.check_scenario(scenario, fail)
     if scenario.probe.given and not isinstance(scenario.task, ArmTask):
         fail("probe.start_m", "a probe carries an arm's tool: it needs an !ArmTask task")
+    needs = None if experiments is None else experiments.get(scenario.experiment)
     if experiments is not None:
-        world = experiments.get(scenario.experiment)
-        if world is None:
+        if needs is None:
             fail(
                 "experiment",
                 f"must be one of {', '.join(experiments)}, got '{scenario.experiment}'",
             )
-        if not isinstance(scenario.task, world):
+        if not isinstance(scenario.task, needs.task):
             fail(
                 "experiment",
-                f"'{scenario.experiment}' needs a !{world.__name__} task, the scenario has "
+                f"'{scenario.experiment}' needs a !{needs.task.__name__} task, the scenario has "
                 f"!{type(scenario.task).__name__}",
             )
     plant = scenario_plant(scenario, fail)
+    for frame in needs.frames if needs else ():
+        problem = frame_problem(plant, frame)
+        if problem:
+            fail(
+                "experiment",
+                f"'{scenario.experiment}' reads the frame '{frame}' of the scenario's "
+                f"models: {problem}",
+            )
     scenario.task.check_models(plant, fail)
     scenario.robot_imperfection.check_models(plant, fail)
     if scenario.probe.given:

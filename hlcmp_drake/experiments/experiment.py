@@ -45,6 +45,9 @@ class Experiment:
         Whether it is one of the paper's experiments (its claims the paper's, in the
         README's claims summary); an experiment beyond the paper shows its own claims in
         its section.
+    model_frames : tuple of str
+        The frames of the scenario's models that its metrics read ("model::frame"),
+        checked when a run's scenario is loaded.
     """
 
     name: str
@@ -58,6 +61,7 @@ class Experiment:
     figures: Callable[[dict[str, RunResult], Scenario], dict[str, Figure]]
     task_done: Callable[[RunResult, Scenario], dict[str, Any]]
     from_paper: bool = True
+    model_frames: tuple[str, ...] = ()
 
     def metrics_of(
         self, run: RunResult, config: ControllerConfig, scenario: Scenario

@@ -444,4 +444,5 @@ EXPERIMENT = Experiment(
     figures=figures,
     task_done=inserted,
     from_paper=False,
+    model_frames=(HOLE_FRAME,),
 )

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Callable, Sequence
 
 from hlcmp_drake.config.loading import dump_scenario, load_scenario
 from hlcmp_drake.config.scenario import DemonstrationConfig, Scenario
+from hlcmp_drake.config.validation import ExperimentNeeds
 from hlcmp_drake.config.variants import use_drake_models_iiwa
 from hlcmp_drake.experiments import EXPERIMENTS, Experiment, experiment_of
 from hlcmp_drake.experiments.table import Table
@@ -30,15 +31,19 @@ from hlcmp_drake.worlds.controllers import learners as learning_controllers
 NO_LEARNER = "without a learner"  # the claims' key when a scenario has no Hl-CMP
 
 
-def experiment_worlds() -> dict[str, type]:
+def experiment_worlds() -> dict[str, ExperimentNeeds]:
     """What `load_scenario` checks a scenario's `experiment` against before a run.
 
     Returns
     -------
-    dict of str to type
-        Each registered experiment's name to the task class its world needs.
+    dict of str to ExperimentNeeds
+        Each registered experiment's name to the task class its world needs and the frames
+        of the models its metrics read.
     """
-    return {name: experiment.world for name, experiment in EXPERIMENTS.items()}
+    return {
+        name: ExperimentNeeds(experiment.world, experiment.model_frames)
+        for name, experiment in EXPERIMENTS.items()
+    }
 
 
 def run_one(
