@@ -62,6 +62,12 @@ def _line_of(text, needle):
             "log_period_s: 0.00001",
             "log_period_s: must be at least 2e-05 s for a 20 s run, got 1e-05: at most 1e+06",
         ),
+        (
+            "log_period_s: 0.01",
+            "log_period_s: 7.0",
+            "log_period_s: must be at most 0.1 s, got 7: the metrics (peaks, reach times, "
+            "smoothness) are read from the logged samples",
+        ),
         ("q_k: [2000.0]", "q_k: 2000.0", "q_k: must be a list, got 2000.0"),
         ("axis: 0", "axis: x", "axis: must be an integer, got 'x'"),
         (

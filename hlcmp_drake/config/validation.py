@@ -126,6 +126,12 @@ def validate_scenario(
             f"must be at least {shortest:.3g} s for a {scenario.duration_s:g} s run, got "
             f"{scenario.log_period_s:g}: at most {MAX_LOG_SAMPLES:.0e} samples are logged",
         )
+    if scenario.log_period_s > MAX_LOG_PERIOD_S:
+        fail(
+            "log_period_s",
+            f"must be at most {MAX_LOG_PERIOD_S:g} s, got {scenario.log_period_s:g}: the "
+            "metrics (peaks, reach times, smoothness) are read from the logged samples",
+        )
     check_plant_config(scenario.plant_config, fail)
     check_simulator_config(scenario.simulator_config, fail)
     try:
@@ -193,6 +199,10 @@ def validate_scenario(
 # The most samples a run logs: each is a row of every logged series (about 50 doubles),
 # and the simulator steps at least as often as it logs.
 MAX_LOG_SAMPLES = 1_000_000
+# The longest log period [s]: every metric (a peak, a reach time, the force's smoothness) and
+# the run's own length are read from the logged samples, so a coarser log misstates them
+# (a 20 s run logged every 7 s "ran 14 s").
+MAX_LOG_PERIOD_S = 0.1
 
 
 def _check_reference(scenario: Scenario, folder: Path, fail: Fail) -> None:
