@@ -31,6 +31,7 @@ This module is argparse and printing only: every command calls one library funct
 """
 
 import argparse
+import contextlib
 import functools
 import gc
 import logging
@@ -1244,12 +1245,19 @@ def _check_kernel():
 
 
 def _check_output(args):
-    """Refuse an output path that cannot be written before any work is done (exit 2)."""
+    """Refuse an output path that cannot be written before any work is done (exit 2).
+
+    Returns
+    -------
+    str or Path or None
+        The output folder the command writes, to be locked while it runs (None for a
+        command that writes a file or nothing).
+    """
 
     from hlcmp_drake.io.outputs import check_output_file, check_output_folder
 
     if getattr(args, "dry_run", False):  # writes nothing: a read-only sweep may be looked at
-        return
+        return None
     out = getattr(args, "out", None)
     if out is None:
         default = _default_out(args)
@@ -1257,11 +1265,11 @@ def _check_output(args):
             check_output_folder(default, "output folder")
             _check_skill_not_lost(args, default)
             _check_inputs_kept(args, default)
-        return
+        return default
     if args.command in WRITES_A_FILE:
         check_output_file(out)
         _check_output_file_kind(args, out)
-        return
+        return None
     check_output_folder(out)
     _check_skill_not_lost(args, out)
     _check_inputs_kept(args, out)
@@ -1270,6 +1278,7 @@ def _check_output(args):
 
         for folder in report_folders(out, args.scenarios).values():
             check_output_folder(folder, "--out")
+    return out
 
 
 def _check_skill_not_lost(args, folder):
@@ -1379,7 +1388,7 @@ def _check_output_file_kind(args, out):
 
 
 def main(argv=None):
-    from hlcmp_drake.io.outputs import WRITTEN
+    from hlcmp_drake.io.outputs import WRITTEN, folder_locked
 
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -1389,8 +1398,9 @@ def main(argv=None):
         _notes_on_a_terminal()
     try:
         _check_kernel()
-        _check_output(args)
-        return args.func(args)
+        folder = _check_output(args)
+        with folder_locked(folder) if folder is not None else contextlib.nullcontext():
+            return args.func(args)
     except InputError as error:
         if args.debug:
             raise

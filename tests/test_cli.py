@@ -650,6 +650,27 @@ def test_a_command_that_would_remove_a_learned_skill_is_refused(tmp_path):
     assert (tmp_path / "mine" / "skill.npz").read_text() == "my own"
 
 
+def test_a_folder_another_command_is_writing_into_is_refused_until_it_ends(tmp_path):
+    """Two commands into one --out at once left one's files mixed with the other's: while
+    one holds the folder, the next stops before any simulation, naming the process; once
+    it ends, the folder is free. The lock leaves nothing in the folder."""
+    import os
+
+    from hlcmp_drake.io.outputs import folder_locked
+
+    out = tmp_path / "o"
+    with folder_locked(out):
+        line = one_line_error(run_cli("run", *short_one_dof(0.1), "--out", out))
+        assert line.endswith(
+            f"--out {out}: another hlcmp command (process {os.getpid()}) is writing there "
+            "now: wait for it to end, or give another --out"
+        )
+        assert not out.exists()
+        assert run_cli("run", *short_one_dof(0.1), "--out", tmp_path / "p").returncode == 0
+    assert run_cli("run", *short_one_dof(0.1), "--out", out, "--quiet").returncode == 0
+    assert not [p for p in out.iterdir() if "lock" in p.name]
+
+
 def test_an_input_under_a_name_the_command_writes_in_its_folder_is_refused(tmp_path):
     """Your own scenario.yaml run with --out its folder, or a demonstration called
     recording.html learned into its folder, would be written over: refused before any

@@ -15,6 +15,8 @@ touched, whatever their names.
 from __future__ import annotations
 
 import contextlib
+import fcntl
+import hashlib
 import json
 import os
 import tempfile
@@ -375,6 +377,51 @@ def _remove_listed(out_dir: Path, name: str) -> bool:
 
 def _write_manifest(out_dir: Path, files: Iterable[str]) -> None:
     write_json(out_dir / MANIFEST, {"tool": "hlcmp", "files": sorted(set(files) - {MANIFEST})})
+
+
+@contextlib.contextmanager
+def folder_locked(out_dir: str | Path) -> Iterator[None]:
+    """Around a whole command that writes into `out_dir`: no other command of this tool
+    writes there meanwhile (two runs into one folder at once left one's files mixed with
+    the other's). The lock is an flock on a file of its own outside the folder (in the
+    system's temporary folder, named by the folder's resolved path), so the folder itself
+    holds nothing of it; the system releases it when the process ends.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        The output folder (it need not exist yet).
+
+    Yields
+    ------
+    None
+
+    Raises
+    ------
+    InputError
+        When another process holds the folder, with its process id.
+    """
+    key = hashlib.sha256(str(Path(out_dir).resolve()).encode()).hexdigest()[:24]
+    locks = Path(tempfile.gettempdir()) / "hlcmp-locks"
+    locks.mkdir(exist_ok=True)
+    with open(locks / f"{key}.lock", "a+") as handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            handle.seek(0)
+            holder = handle.read().strip() or "?"
+            raise InputError(
+                f"--out {out_dir}: another hlcmp command (process {holder}) is writing there "
+                "now: wait for it to end, or give another --out"
+            ) from None
+        handle.seek(0)
+        handle.truncate()
+        handle.write(str(os.getpid()))
+        handle.flush()
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
 
 
 @contextlib.contextmanager
