@@ -75,6 +75,10 @@ def test_a_probe_that_touches_nothing_says_so(tmp_path, capsys):
 def test_a_scenario_without_a_probe_is_one_clear_line(capsys):
     assert main(["probe", "one_dof"]) == 2
     assert "has no probe" in capsys.readouterr().err
+    # An arm world without a probe section: its missing probe, not its speed, is named.
+    unprobed = ["--set", "probe.start_m=[]", "--set", "probe.push_m=[]"]
+    assert main(["probe", "insertion", *unprobed]) == 2
+    assert "scenario 'insertion' has no probe: it needs" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(

@@ -203,7 +203,7 @@ def run_probe(
     """
     scenario, _ = load_scenario(name_or_path, overrides)
     build_probe = world_of(scenario).build_probe
-    if build_probe is None:
+    if build_probe is None or not scenario.probe.given:
         raise InputError(
             f"scenario '{scenario.name}' has no probe: it needs an arm task and probe.start_m, "
             "probe.push_m"
