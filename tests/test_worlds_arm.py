@@ -115,3 +115,5 @@ def test_a_start_out_of_reach_names_the_orientation_it_was_asked_for(orientation
         assert (
             "turned as the demonstration's first orientation (rpy [0.0, 0.0, 0.0] rad)" in message
         )
+    # Reach is one reason; an orientation the solver does not find from its seed is another.
+    assert message.endswith("a seed nearer such a posture may find one")

@@ -103,7 +103,9 @@ def solve_start_posture(
             )
         raise InputError(
             f"inverse kinematics found no posture with the tool at {np.round(tip_position, 3)} "
-            f"(the demonstration's start) {pointing}: is it within the arm's reach?"
+            f"(the demonstration's start) {pointing}: is it within the arm's reach, and can "
+            "the tool turn so there? The solver starts from task.ik_seed_rad, and a seed "
+            "nearer such a posture may find one"
         )
     context = plant.CreateDefaultContext()
     plant.SetPositions(context, q0)
