@@ -728,3 +728,19 @@ def test_a_skill_given_from_the_output_folder_is_never_written_over(
     else:
         with pytest.raises(InputError, match=refused):
             _check_skill_not_lost(args, tmp_path / "L")
+
+
+def test_fit_says_how_far_its_path_strays_and_warns_when_far(tmp_path):
+    """The bundled insertion demonstration fits within a few mm; smoothed over 5 s of its
+    8.5 s, the fit loses its shape (more than 10 cm), which fit says on stderr."""
+    demo, out = REPO_ROOT / "diagrams" / "demos" / "insertion_demo.csv", tmp_path / "s.npz"
+    fitted = run_cli("fit", demo, "--out", out)
+    stray = float(re.search(r"keeps within ([\d.]+) mm of the demonstration", fitted.stdout)[1])
+    assert 0 < stray < 10 and fitted.stderr == "", fitted.stderr
+    smoothed = run_cli("fit", demo, "--smoothing", "5", "--out", out)
+    far = float(re.search(r"keeps within ([\d.]+) mm", smoothed.stdout)[1])
+    assert far > 100 and smoothed.returncode == 0
+    assert smoothed.stderr.strip() == (
+        f"hlcmp: warning: the fitted path strays {far:.1f} mm from the demonstration: a "
+        "shorter --smoothing (now 5 s) or more --basis keeps its shape"
+    )
