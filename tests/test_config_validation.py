@@ -291,3 +291,19 @@ def test_an_experiment_whose_metrics_read_a_frame_the_models_lack_is_refused_at_
         str(error.value),
     ), str(error.value)
     load_scenario(renamed)  # without the experiments' needs: the models themselves load
+
+
+@pytest.mark.parametrize("name", ["..", ".", "../escaped", "sub/dir"])
+def test_a_scenario_name_that_is_no_plain_folder_name_is_refused_before_any_run(tmp_path, name):
+    """The name becomes the run's folder (out/NAME, a report's OUT/NAME, a sweep's task's):
+    one that leads out of it is refused at load, the user's files where it leads kept."""
+    text = (DIAGRAMS_DIR / "one_dof.yaml").read_text().replace("name: one_dof", f"name: '{name}'")
+    text = text.replace("duration_s: 20.0", "duration_s: 0.3")  # short, were it to run
+    (tmp_path / "own.yaml").write_text(text)
+    (tmp_path / "metrics.json").write_text("the user's own")
+    line = one_line_error(run_cli("run", "own.yaml", cwd=tmp_path))
+    assert f"own.yaml:{line_of(text, 'name')}: name: must be a plain folder name" in line, line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["metrics.json", "own.yaml"]
+    assert (tmp_path / "metrics.json").read_text() == "the user's own"
+    line = one_line_error(run_cli("run", "one_dof", "--set", f"name={name}", cwd=tmp_path))
+    assert line.startswith(f"hlcmp: error: override 'name={name}': name: "), line

@@ -110,6 +110,9 @@ def validate_scenario(
     """
     if not scenario.name:
         fail("name", "must be given")
+    if Path(scenario.name).name != scenario.name or scenario.name in (".", ".."):
+        # run, report, sweep and learn write into a folder of this name, inside theirs
+        fail("name", f"must be a plain folder name (no '/', not . or ..), got '{scenario.name}'")
     check_directives(scenario, fail)
     for key in ("duration_s", "log_period_s", "max_abs_position_m"):
         check_number(getattr(scenario, key), key, fail, "> 0")

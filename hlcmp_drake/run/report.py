@@ -57,8 +57,9 @@ def report_folders(out_dir: str | Path, scenarios: list[str] | None = None) -> d
     Raises
     ------
     InputError
-        A scenario that does not load (its file and line), one given twice, two with the
-        same name (they would share a folder), or a name that is not a plain folder name.
+        A scenario that does not load (its file and line; a name that is no plain folder
+        name among its problems), one given twice, or two with the same name (they would
+        share a folder).
     """
     if scenarios is None:
         scenarios = sorted(
@@ -70,10 +71,6 @@ def report_folders(out_dir: str | Path, scenarios: list[str] | None = None) -> d
         scenario, path = load_scenario(entry)
         experiment_of(scenario, path)  # an experiment that does not fit stops here too
         name = scenario.name
-        if Path(name).name != name or name in (".", ".."):
-            raise InputError(
-                f"--scenarios {entry}: its name '{name}' cannot name a folder of the report"
-            )
         if name in given:
             twice = "is given twice" if given[name] == entry else f"has the name of {given[name]}"
             raise InputError(
