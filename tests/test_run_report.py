@@ -93,18 +93,62 @@ def _reports_agree(tmp_path, other: dict):
     assert pages["serial"] == pages["other"]
 
 
+def _short_insertion(folder, name="short_insertion"):
+    """The bundled insertion saved as one's own YAML, renamed and cut to 0.3 s."""
+    from hlcmp_drake.io.paths import DIAGRAMS_DIR
+
+    text = (DIAGRAMS_DIR / "insertion.yaml").read_text()
+    text = text.replace("name: insertion", f"name: {name}", 1)
+    text = text.replace("file: demos/", f"file: {DIAGRAMS_DIR}/demos/", 1)
+    path = folder / f"{name}.yaml"
+    path.write_text(text.replace("duration_s: 9.5", "duration_s: 0.3", 1))
+    return path
+
+
+def test_a_report_whose_runs_would_share_a_folder_is_refused_before_any_run(tmp_path):
+    from conftest import one_line_error, run_cli
+
+    from hlcmp_drake.io.paths import DIAGRAMS_DIR
+
+    own = _short_insertion(tmp_path)
+    named_like_its_variant = _short_insertion(tmp_path, "short_insertion_real_arm")
+    out = tmp_path / "out"
+    for scenarios, variants, expected in (
+        ([own], ["real_arm", "real_arm"], "--variants real_arm: is given twice"),
+        (
+            [own],
+            ["real_arm", DIAGRAMS_DIR / "variants" / "real_arm.yaml"],
+            f"the runs of {own} under real_arm and of {own} under "
+            f"{DIAGRAMS_DIR / 'variants' / 'real_arm.yaml'} would both go in "
+            f"{out / 'short_insertion_real_arm'}",
+        ),
+        (
+            [own, named_like_its_variant],
+            ["real_arm"],
+            f"the runs of {own} under real_arm and of {named_like_its_variant} would both go",
+        ),
+    ):
+        result = run_cli(
+            "report",
+            "--out",
+            out,
+            "--jobs",
+            "1",
+            "--scenarios",
+            *scenarios,
+            "--variants",
+            *variants,
+        )
+        assert expected in one_line_error(result) and not out.exists()
+
+
 @pytest.mark.slow  # an insertion of 0.3 s, on the perfect robot and on the real arm
 def test_a_report_shows_an_arm_on_the_real_arm_beside_the_perfect_one(tmp_path):
     import json
 
-    from hlcmp_drake.io.paths import DIAGRAMS_DIR
     from hlcmp_drake.run.report import _report_work, run_report
 
-    own = tmp_path / "short_insertion.yaml"
-    text = (DIAGRAMS_DIR / "insertion.yaml").read_text()
-    text = text.replace("name: insertion", "name: short_insertion", 1)
-    text = text.replace("file: demos/", f"file: {DIAGRAMS_DIR}/demos/", 1)
-    own.write_text(text.replace("duration_s: 9.5", "duration_s: 0.3", 1))
+    own = _short_insertion(tmp_path)
     out = tmp_path / "report"
     result = run_report(out, [str(own)], jobs=1, variants=["real_arm"])
     assert result.all_ok and len(result.statuses) == 2

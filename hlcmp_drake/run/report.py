@@ -122,6 +122,31 @@ def _report_work(entry: str, folder: Path, variants: Sequence[str]) -> list[_Rep
     return work
 
 
+def _refuse_shared_folders(work: list[_ReportTask]) -> None:
+    """Refuse two scenarios' runs (or a scenario's and a variant's) that would go in one
+    folder, each over the other's files: e.g. a scenario named insertion_real_arm beside
+    insertion under --variants real_arm, or a variant given as a name and as its file.
+
+    Raises
+    ------
+    InputError
+        "--variants ...: the runs of A and of B would both go in FOLDER".
+    """
+    owners: dict[str, _ReportTask] = {}
+    for task in work:
+        other = owners.setdefault(task.run_dir, task)
+        if (other.entry, other.variant) != (task.entry, task.variant):
+            raise InputError(
+                f"--variants {task.variant or other.variant}: the runs of {_runs_of(other)} "
+                f"and of {_runs_of(task)} would both go in {task.run_dir}"
+            )
+
+
+def _runs_of(task: _ReportTask) -> str:
+    """The scenario (and variant) of a task, in a message."""
+    return task.entry + (f" under {task.variant}" if task.variant else "")
+
+
 def _do(task: _ReportTask, reporter: Progress = SILENT) -> dict:
     """Do one piece of a report in this process: a probe writes its folder; a run writes
     nothing and returns its RunResult (`run`), which the report's own process evaluates
@@ -191,9 +216,12 @@ def run_report(
     folders = report_folders(out_dir, scenarios)
     for variant in variants:
         resolve_variant_path(variant)  # a name or file that is no variant, before any run
+        if list(variants).count(variant) > 1:
+            raise InputError(f"--variants {variant}: is given twice")
     work = [
         task for entry, folder in folders.items() for task in _report_work(entry, folder, variants)
     ]
+    _refuse_shared_folders(work)
     if variants and not any(task.variant for task in work):  # only arm scenarios take them
         raise InputError(
             f"--variants {' '.join(variants)}: only arm scenarios run under a variant, and "
