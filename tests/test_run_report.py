@@ -46,6 +46,7 @@ def test_report_scenarios_are_all_checked_before_the_first_runs(tmp_path):
     from conftest import one_line_error, run_cli
 
     from hlcmp_drake.io.errors import InputError
+    from hlcmp_drake.io.outputs import MANIFEST
     from hlcmp_drake.run.report import report_folders
 
     own = _own_scenario(tmp_path)
@@ -57,6 +58,9 @@ def test_report_scenarios_are_all_checked_before_the_first_runs(tmp_path):
         report_folders(tmp_path / "r", ["one_dof", str(_own_scenario(tmp_path, "one_dof"))])
     with pytest.raises(InputError, match="one_dof: is given twice"):
         report_folders(tmp_path / "r", ["one_dof", "one_dof"])
+    for file in ("index.html", MANIFEST):  # the page and the manifest beside the folders
+        with pytest.raises(InputError, match=f"its name '{file}' is a file the report writes"):
+            report_folders(tmp_path / "r", [str(_own_scenario(tmp_path, file))])
     out = tmp_path / "out"
     result = run_cli("report", "--out", out, "--scenarios", "one_dof", tmp_path / "nowhere.yaml")
     one_line_error(result)

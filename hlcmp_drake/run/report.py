@@ -12,7 +12,7 @@ from hlcmp_drake.config.loading import load_scenario, resolve_variant_path
 from hlcmp_drake.config.scenario import ArmTask
 from hlcmp_drake.experiments import experiment_of
 from hlcmp_drake.io.errors import InputError
-from hlcmp_drake.io.outputs import WRITTEN, replacing_outputs, write_text
+from hlcmp_drake.io.outputs import MANIFEST, WRITTEN, replacing_outputs, write_text
 from hlcmp_drake.io.paths import bundled_scenarios
 from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.present.report import ReportSection, report_page
@@ -21,6 +21,9 @@ from hlcmp_drake.run.runner import run_one, write_scenario
 from hlcmp_drake.run.sweep.engines import ENGINES, run_in_processes, run_on_ray
 from hlcmp_drake.run.sweep.tasks import quiet_drake, run_in_temporary_folder, store_files
 from hlcmp_drake.worlds.build import diagram_factory
+
+# The report's page, in its folder beside the scenarios' folders.
+PAGE = "index.html"
 
 
 @dc.dataclass
@@ -59,7 +62,8 @@ def report_folders(out_dir: str | Path, scenarios: list[str] | None = None) -> d
     InputError
         A scenario that does not load (its file and line; a name that is no plain folder
         name among its problems), one given twice, or two with the same name (they would
-        share a folder).
+        share a folder), or one named as a file the report writes in out_dir (its page
+        index.html, the folder's manifest).
     """
     if scenarios is None:
         scenarios = sorted(
@@ -71,6 +75,11 @@ def report_folders(out_dir: str | Path, scenarios: list[str] | None = None) -> d
         scenario, path = load_scenario(entry)
         experiment_of(scenario, path)  # an experiment that does not fit stops here too
         name = scenario.name
+        if name in (PAGE, MANIFEST):
+            raise InputError(
+                f"--scenarios {entry}: its name '{name}' is a file the report writes in "
+                f"{out_dir}, where the scenario's folder would go"
+            )
         if name in given:
             twice = "is given twice" if given[name] == entry else f"has the name of {given[name]}"
             raise InputError(
@@ -252,7 +261,7 @@ def run_report(
             )
             run_dirs = dict.fromkeys(task.run_dir for task in pieces if not task.probe)
             statuses += [written.status[run_dir] for run_dir in run_dirs]
-        page = write_text(out_dir / "index.html", report_page(out_dir, sections))
+        page = write_text(out_dir / PAGE, report_page(out_dir, sections))
     return ReportResult(page, sections, statuses, time.perf_counter() - start)
 
 
