@@ -38,6 +38,7 @@ import logging
 import os
 import shlex
 import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -161,15 +162,19 @@ def _evidence(verdict: dict, undone: dict) -> str:
     return ", ".join(named) if named else evidence
 
 
-def _print_instabilities(metrics: dict, controller: str | None = None) -> None:
+def _print_instabilities(
+    metrics: dict, controller: str | None = None, run_dir: Path | None = None
+) -> None:
     """One line per unstable run of a metrics.json's `instability`: which run, why and
-    when (a learning's runs are its trials, of `controller`)."""
+    when (a learning's runs are its trials, of `controller`; a report's folders are many,
+    so its lines name each run's `run_dir`)."""
+    logs = "timeseries.npz" if run_dir is None else run_dir / "timeseries.npz"
     for label, problem in metrics.get("instability", {}).items():
         run = f"{label.replace('_', ' ')} ({controller})" if controller else label
         when = "" if problem["time_s"] is None else f" at t = {problem['time_s']:.3f} s"
         print(
             f"UNSTABLE {run}: {problem['reason']}{when} "
-            "(stopped there; its logs up to then are in timeseries.npz)"
+            f"(stopped there; its logs up to then are in {logs})"
         )
 
 
@@ -238,6 +243,8 @@ def cmd_report(args):
         variants=args.variants,
         engine=args.engine,
     )
+    for run_dir, metrics in result.runs.items():
+        _print_instabilities(metrics, run_dir=run_dir)
     print(
         f"report: {result.page} ({result.wall_s:.0f} s for "
         f"{', '.join(s.name for s in result.sections)})"

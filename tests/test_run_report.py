@@ -73,6 +73,35 @@ def test_report_scenarios_are_all_checked_before_the_first_runs(tmp_path):
         assert expected in one_line_error(result) and not out.exists()
 
 
+def test_a_reports_unstable_runs_say_why_on_the_terminal_and_on_the_page(tmp_path):
+    """As `hlcmp run` does: each unstable run's reason and time, one line each, and the
+    page beside the status; it says why the experiment then has no claims nor figures."""
+    import html
+    import json
+
+    from conftest import run_cli
+
+    from hlcmp_drake.present.report import UNSTABLE_NOTE
+
+    own = _own_scenario(tmp_path, "runaway")
+    own.write_text(own.read_text() + "max_abs_position_m: 0.005  # the body goes 0.15 m\n")
+    out = tmp_path / "report"
+    result = run_cli("report", "--out", out, "--scenarios", own, "--jobs", "1", "--quiet")
+    assert result.returncode == 3, result.stderr
+    instability = json.loads((out / "runaway" / "metrics.json").read_text())["instability"]
+    assert instability
+    logs = out / "runaway" / "timeseries.npz"
+    page = (out / "index.html").read_text()
+    for label, problem in instability.items():
+        why = f"{problem['reason']} at t = {problem['time_s']:.3f} s"
+        assert (
+            f"UNSTABLE {label}: {why} (stopped there; its logs up to then are in {logs})"
+            in result.stdout.splitlines()
+        ), result.stdout
+        assert f"<code>{label}</code>: {html.escape(why)}" in page
+    assert UNSTABLE_NOTE in page
+
+
 def _reports_agree(tmp_path, other: dict):
     """Two scenarios of one's own, one after the other in this process and as `other`
     says (run_report's keywords): the same files (the folder's manifest lists them all),

@@ -152,6 +152,14 @@ code { background: #f4f4f4; padding: 0 0.2em; }
 """
 
 
+# Where a run was unstable: its claims and figures compare every controller's whole run
+# (`runner.evaluate` judges none, `write_scenario` draws none), so the page shows neither.
+UNSTABLE_NOTE = (
+    "<p>Not judged, and no figures: a run stopped unstable (see the status above), and the "
+    "claims and figures compare every controller's whole run.</p>"
+)
+
+
 @dc.dataclass
 class ReportSection:
     """One scenario's part of the report: its name, run folder, wall time [s], the
@@ -220,6 +228,16 @@ def robot_comparison(
     return metrics_table, claims_table
 
 
+def _status_html(metrics: dict) -> str:
+    """A run folder's status and, for each of its unstable runs, why and when it stopped."""
+    stops = [
+        f"<code>{html.escape(label)}</code>: {html.escape(problem['reason'])}"
+        + ("" if problem["time_s"] is None else f" at t = {problem['time_s']:.3f} s")
+        for label, problem in metrics.get("instability", {}).items()
+    ]
+    return f"Status: <b>{metrics['status']}</b>" + (f" ({'; '.join(stops)})" if stops else "")
+
+
 def _variant_html(out_dir: Path, perfect: dict, variant: str, run_dir: Path, experiment) -> str:
     """A variant's runs beside the perfect robot's (`robot_comparison`)."""
     other = json.loads((Path(run_dir) / "metrics.json").read_text())
@@ -228,7 +246,7 @@ def _variant_html(out_dir: Path, perfect: dict, variant: str, run_dir: Path, exp
     return (
         f"<h3>The same controllers on another robot: {html.escape(variant)}</h3>"
         f"<p>No gain changed (docs/worlds.md, &ldquo;A robot that is not its model&rdquo;). "
-        f"Status: <b>{other['status']}</b>. <a href='{rel}/metrics.json'>metrics.json</a> · "
+        f"{_status_html(other)}. <a href='{rel}/metrics.json'>metrics.json</a> · "
         f"<a href='{rel}/recording.html'>3-D recording</a></p>"
         + to_html(metrics_table)
         + to_html(claims_table, code_first_column=False, verdict_columns=("perfect", variant))
@@ -289,7 +307,7 @@ def report_page(out_dir: Path, sections: list) -> str:
             f"{experiment.paper_figures})</h2>"
         )
         parts.append(
-            f"<p>Status: <b>{metrics['status']}</b>; ran in {section.wall_s:.0f} s. "
+            f"<p>{_status_html(metrics)}; ran in {section.wall_s:.0f} s. "
             f"<a href='{rel}/recording.html'>3-D recording (offline)</a> · "
             f"<a href='{rel}/metrics.json'>metrics.json</a> · "
             f"<a href='{rel}/timeseries.npz'>timeseries.npz</a></p>"
@@ -308,6 +326,8 @@ def report_page(out_dir: Path, sections: list) -> str:
                     verdict_columns=("reproduced",),
                 )
                 if any(claims.values())
+                else UNSTABLE_NOTE
+                if "instability" in metrics
                 else "<p>This experiment has no claims.</p>"
             )
         )

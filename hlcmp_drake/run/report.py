@@ -28,12 +28,18 @@ PAGE = "index.html"
 
 @dc.dataclass
 class ReportResult:
-    """The page written, each scenario's section and status, and the total wall time [s]."""
+    """The page written, each scenario's section, each run folder's metrics.json content
+    ({folder: metrics}, in page order) and the total wall time [s]."""
 
     page: Path
     sections: list
-    statuses: list
+    runs: dict
     wall_s: float
+
+    @property
+    def statuses(self) -> list:
+        """Each run folder's status, "ok" or "unstable", in page order."""
+        return [metrics["status"] for metrics in self.runs.values()]
 
     @property
     def all_ok(self) -> bool:
@@ -245,7 +251,7 @@ def run_report(
     with replacing_outputs(out_dir):  # a scenario left out this time leaves no old folder
         written = _ScenarioWriter(work, reporter)
         _run_work(work, jobs, reporter, engine, written.take)
-        sections, statuses = [], []
+        sections, runs = [], {}
         for entry, folder in folders.items():
             pieces = [task for task in work if task.entry == entry]
             probe = next((Path(task.run_dir) for task in pieces if task.probe), None)
@@ -259,10 +265,10 @@ def run_report(
                     {task.variant: Path(task.run_dir) for task in pieces if task.variant},
                 )
             )
-            run_dirs = dict.fromkeys(task.run_dir for task in pieces if not task.probe)
-            statuses += [written.status[run_dir] for run_dir in run_dirs]
+            for run_dir in dict.fromkeys(task.run_dir for task in pieces if not task.probe):
+                runs[Path(run_dir)] = written.metrics[run_dir]
         page = write_text(out_dir / PAGE, report_page(out_dir, sections))
-    return ReportResult(page, sections, statuses, time.perf_counter() - start)
+    return ReportResult(page, sections, runs, time.perf_counter() - start)
 
 
 class _ScenarioWriter:
@@ -284,7 +290,7 @@ class _ScenarioWriter:
         self._runs: dict[_ReportTask, object] = {}
         self._reporter = reporter
         self.wall_s: dict[_ReportTask, float] = {}
-        self.status: dict[str, str] = {}  # by run folder
+        self.metrics: dict[str, dict] = {}  # by run folder
 
     def take(self, task: _ReportTask, result: dict) -> None:
         """One finished piece: keep its run; write its folder when it was the last."""
@@ -303,7 +309,7 @@ class _ScenarioWriter:
             out_dir=task.run_dir,
             record_scenario=True,  # as `hlcmp run` writes it: DIR/scenario.yaml reruns one
         )
-        self.status[task.run_dir] = written.metrics["status"]
+        self.metrics[task.run_dir] = written.metrics
         self._reporter.say(
             f"{Path(task.run_dir).name}: evaluated and written in "
             f"{time.perf_counter() - start:.0f} s"
