@@ -296,7 +296,12 @@ class TorqueClient:
         self.stopped_because: str | None = None
         self.status = FINISHED
         lcm.Subscribe(self.config.status_channel, self._on_status)
-        lcm.Subscribe(self.config.command_channel, self._on_command)
+        # Another client's commands are looked for at the 100 Hz checks, on a listener of
+        # their own, so that this client's commands coming back do not wake its wait for
+        # the next status every tick (memq:// reaches only this process: its one bus).
+        url = lcm.get_lcm_url()
+        self._command_listener = lcm if url.startswith("memq://") else DrakeLcm(url)
+        self._command_listener.Subscribe(self.config.command_channel, self._on_command)
         if self.config.force_source == "wrist_sensor":
             lcm.Subscribe(self.config.wrist_channel, self._on_wrench)
 
@@ -336,6 +341,12 @@ class TorqueClient:
             self._own_commands[lost] -= 1
             if not self._own_commands[lost]:
                 del self._own_commands[lost]
+
+    def _hear_other_clients(self) -> None:
+        """Read the commands come on the command channel since the last look (on memq:// the
+        client's own bus has handed them over already)."""
+        if self._command_listener is not self._lcm:
+            self._command_listener.HandleSubscriptions(0)
 
     def _on_command(self, data: bytes) -> None:
         """A command on the command channel: one of this client's, back, or another
@@ -577,8 +588,10 @@ class TorqueClient:
         self._rate = result.law.rates
         # The simulated run's monitor and loggers read the wrist force at 100 Hz; so does this,
         # after the command is out: a problem found stops the next command.
-        if k % self._log_every == 0 and self._check(t, status, state, command, result):
-            self._log(t, k, state, result)
+        if k % self._log_every == 0:
+            self._hear_other_clients()
+            if self._check(t, status, state, command, result):
+                self._log(t, k, state, result)
         if k >= len(self._reference[0]) - 1 and not self.done:
             self.stop(FINISHED, f"served {self.duration:g} s")
 
@@ -596,7 +609,8 @@ class TorqueClient:
                 f"{np.round(self.q0, 3).tolist()}",
             )
             return False
-        if received - self.first_status_wall < self.config.start_guard_s:
+        self._hear_other_clients()  # one already commanding: this one never starts
+        if self.done or received - self.first_status_wall < self.config.start_guard_s:
             return False
         if self.config.force_source == "wrist_sensor" and self._wrist is None:
             self.stop(
