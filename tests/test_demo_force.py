@@ -131,14 +131,25 @@ def test_incomplete_or_misplaced_force_columns_are_refused_with_the_header_line(
     assert str(error.value).startswith(f"{path}:1: ")
 
 
-@pytest.mark.parametrize("value", ["nan", "inf", "-inf", "abc", ""])
-def test_a_non_finite_force_is_refused_with_its_line_by_fit(tmp_path, value):
+@pytest.mark.parametrize(
+    "value, says",
+    [
+        ("nan", "is not"),
+        ("inf", "is not"),
+        ("-inf", "is not"),
+        ("abc", "is not"),
+        ("", "is not"),
+        ("1e200", "is 1e200: forces are in newtons, within 10000 N"),
+        ("-2e4", "is -2e4: forces are in newtons"),
+    ],
+)
+def test_a_non_finite_or_absurd_force_is_refused_with_its_line_by_fit(tmp_path, value, says):
     path = tmp_path / "demo.csv"
     lines = ("t,x,y,z,fx,fy,fz\n" + rows(T, X, 0 * T, Z, 0 * T, 0 * T, FZ)).splitlines()
     lines[7] = lines[7].rsplit(",", 1)[0] + "," + value  # the sample on line 8, its fz
     path.write_text("\n".join(lines) + "\n")
     line = one_line_error(run_cli("fit", path, "--out", tmp_path / "skill.npz"))
-    assert f"{path}:8: column 'fz' is not" in line
+    assert f"{path}:8: column 'fz' {says}" in line
     assert not (tmp_path / "skill.npz").exists()
 
 

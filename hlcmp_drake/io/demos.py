@@ -67,6 +67,9 @@ SPEED_WINDOW_S = 0.01
 # iiwa14 reaches 0.82 m from its base) is never near; a larger number is another unit (mm)
 # or no position at all, and its speed would overflow.
 MAX_ABS_POSITION_M = 100.0
+# The largest force a demonstration's force column may hold [N]: far beyond what a wrist
+# force sensor on an arm reads; a larger number is another unit (mN) or no force at all.
+MAX_ABS_FORCE_N = 1e4
 
 QUATERNION_COLUMNS = ("qw", "qx", "qy", "qz")
 ANGULAR_VELOCITY_COLUMNS = ("wx", "wy", "wz")
@@ -199,6 +202,13 @@ def read_demonstration(
                     number,
                     f"column '{name}' is {field}: positions are in metres, within "
                     f"{MAX_ABS_POSITION_M:g} m of the world origin",
+                )
+            if name in FORCE_COLUMNS and abs(value) > MAX_ABS_FORCE_N:
+                raise located(
+                    path,
+                    number,
+                    f"column '{name}' is {field}: forces are in newtons, within "
+                    f"{MAX_ABS_FORCE_N:g} N",
                 )
             values.append(value)
         if rows and values[0] <= rows[-1][1][0]:
