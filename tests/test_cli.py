@@ -744,3 +744,17 @@ def test_fit_says_how_far_its_path_strays_and_warns_when_far(tmp_path):
         f"hlcmp: warning: the fitted path strays {far:.1f} mm from the demonstration: a "
         "shorter --smoothing (now 5 s) or more --basis keeps its shape"
     )
+
+
+def test_a_skill_that_does_not_fit_the_scenario_is_named(tmp_path):
+    """learn --skill with a skill of other axes than the scenario's: the one line names
+    the skill's file, not only "the skill"."""
+    demo, skill = tmp_path / "z.csv", tmp_path / "z.npz"
+    demo.write_text("t,z\n" + "".join(f"{0.1 * k:.1f},{0.2 - 0.01 * k:.2f}\n" for k in range(20)))
+    assert run_cli("fit", demo, "--out", skill).returncode == 0
+    learn = ["learn", INSERTION_DEMO, "--scenario", "insertion", "--skill", skill]
+    line = one_line_error(run_cli(*learn, "--out", tmp_path / "L"))
+    assert line == (
+        f"hlcmp: error: {skill}: the skill's axes (z) do not match the scenario 'insertion', "
+        "which controls x,y,z"
+    )

@@ -549,7 +549,8 @@ def test_a_skill_whose_weights_do_not_fit_the_learner_is_refused_in_one_line(
         args = [*command, "--scenario", "peg_in_hole", *controller, "--out", str(tmp_path / "o")]
         assert main(args) == 2
         error = capsys.readouterr().err.strip().splitlines()
-        assert len(error) == 1 and error[0].startswith(f"hlcmp: error: {expected}"), error
+        named = f"{peg_skills[skill]}: " if expected.startswith("the skill") else ""
+        assert len(error) == 1 and error[0].startswith(f"hlcmp: error: {named}{expected}"), error
     assert trials_seen == [] and not (tmp_path / "o").exists()
 
 

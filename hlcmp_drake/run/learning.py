@@ -157,6 +157,7 @@ def learning_scenario(
     skill: Skill | None = None,
     freeze: bool = False,
     controller: str | None = None,
+    skill_path: str | Path | None = None,
 ) -> Scenario:
     """The scenario reduced to learning: only its Hl-CMP (learning rates 0 with `freeze`),
     reading `demo_path` as its demonstration, with a skill's DMP settings.
@@ -173,6 +174,8 @@ def learning_scenario(
         Learning rates Q = 0: the profiles stay as they start.
     controller : str, optional
         The label of the learner to keep (default: the scenario's first).
+    skill_path : str or Path, optional
+        The skill's file, named when it does not fit.
 
     Raises
     ------
@@ -208,7 +211,10 @@ def learning_scenario(
         reference = dc.replace(reference, file=str(demo_path))
     settings = scenario.dmp
     if skill is not None:
-        check_skill_fits(skill, scenario, name)
+        try:
+            check_skill_fits(skill, scenario, name)
+        except InputError as error:
+            raise InputError(f"{skill_path}: {error}" if skill_path else str(error)) from None
         # The skill's basis and transformation system; the scenario's smoothing for a new demo.
         settings = dc.replace(skill.dmp.settings, smoothing_s=scenario.dmp.smoothing_s)
     return dc.replace(scenario, controllers={name: config}, reference=reference, dmp=settings)
@@ -684,7 +690,7 @@ def _learn_or_reproduce(
         warning = check_skill_world(skill, base, any_scenario)
         if warning is not None:
             warnings.append(warning)
-    scenario = learning_scenario(base, demo, skill, freeze, controller)
+    scenario = learning_scenario(base, demo, skill, freeze, controller, skill_path)
     six_d = controller_kind(scenario, learner(scenario)).pose
     # The skill keeps the force of the demonstration its DMP comes from.
     if demo is not None or skill is None:
