@@ -655,6 +655,8 @@ def test_a_folder_another_command_is_writing_into_is_refused_until_it_ends(tmp_p
     one holds the folder, the next stops before any simulation, naming the process; once
     it ends, the folder is free. The lock leaves nothing in the folder."""
     import os
+    import tempfile
+    from pathlib import Path
 
     from hlcmp_drake.io.outputs import folder_locked
 
@@ -669,6 +671,22 @@ def test_a_folder_another_command_is_writing_into_is_refused_until_it_ends(tmp_p
         assert run_cli("run", *short_one_dof(0.1), "--out", tmp_path / "p").returncode == 0
     assert run_cli("run", *short_one_dof(0.1), "--out", out, "--quiet").returncode == 0
     assert not [p for p in out.iterdir() if "lock" in p.name]
+    # Nor outside it once the command has ended: the lock's own file, which names the
+    # process holding it, goes with it.
+    locks = Path(tempfile.gettempdir()) / "hlcmp-locks"
+
+    def held_here():
+        found = []
+        for lock in locks.iterdir():
+            with contextlib.suppress(FileNotFoundError):  # another worker's, just gone
+                if lock.read_text() == str(os.getpid()):
+                    found.append(lock)
+        return found
+
+    with folder_locked(out):
+        mine = held_here()
+        assert len(mine) == 1
+    assert not mine[0].exists() and not held_here()
 
 
 def test_an_input_under_a_name_the_command_writes_in_its_folder_is_refused(tmp_path):

@@ -385,7 +385,8 @@ def folder_locked(out_dir: str | Path) -> Iterator[None]:
     writes there meanwhile (two runs into one folder at once left one's files mixed with
     the other's). The lock is an flock on a file of its own outside the folder (in the
     system's temporary folder, named by the folder's resolved path), so the folder itself
-    holds nothing of it; the system releases it when the process ends.
+    holds nothing of it; the file goes when the command ends, and the system releases the
+    lock if the process dies.
 
     Parameters
     ----------
@@ -404,24 +405,35 @@ def folder_locked(out_dir: str | Path) -> Iterator[None]:
     key = hashlib.sha256(str(Path(out_dir).resolve()).encode()).hexdigest()[:24]
     locks = Path(tempfile.gettempdir()) / "hlcmp-locks"
     locks.mkdir(exist_ok=True)
-    with open(locks / f"{key}.lock", "a+") as handle:
+    path = locks / f"{key}.lock"
+    while True:
+        handle = open(path, "a+")  # held for the whole command, closed below
         try:
             fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
             handle.seek(0)
             holder = handle.read().strip() or "?"
+            handle.close()
             raise InputError(
                 f"--out {out_dir}: another hlcmp command (process {holder}) is writing there "
                 "now: wait for it to end, or give another --out"
             ) from None
+        try:  # the file locked must still be the one named: its last holder removes it
+            if os.stat(path).st_ino == os.fstat(handle.fileno()).st_ino:
+                break
+        except FileNotFoundError:
+            pass
+        handle.close()
+    try:
         handle.seek(0)
         handle.truncate()
         handle.write(str(os.getpid()))
         handle.flush()
-        try:
-            yield
-        finally:
-            fcntl.flock(handle, fcntl.LOCK_UN)
+        yield
+    finally:
+        path.unlink(missing_ok=True)  # before the lock goes: a waiting opener then retries
+        fcntl.flock(handle, fcntl.LOCK_UN)
+        handle.close()
 
 
 @contextlib.contextmanager
