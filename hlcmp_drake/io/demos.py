@@ -75,6 +75,20 @@ QUATERNION_COLUMNS = ("qw", "qx", "qy", "qz")
 ANGULAR_VELOCITY_COLUMNS = ("wx", "wy", "wz")
 # The force on the tool, by position axis (x, y, z).
 FORCE_COLUMNS = ("fx", "fy", "fz")
+# A column's largest magnitude and what a value beyond it says, for the columns that have one.
+_COLUMN_BOUNDS = {
+    **{
+        axis: (
+            MAX_ABS_POSITION_M,
+            f"positions are in metres, within {MAX_ABS_POSITION_M:g} m of the world origin",
+        )
+        for axis in AXES
+    },
+    **{
+        force: (MAX_ABS_FORCE_N, f"forces are in newtons, within {MAX_ABS_FORCE_N:g} N")
+        for force in FORCE_COLUMNS
+    },
+}
 # The fastest a demonstration may turn [rad/s], measured as MAX_SPEED_M_PER_S is. The
 # iiwa's seven joints at their speed limits (models/iiwa14.sdf) add up to 13 rad/s at the
 # tool, a bound no direction reaches; a hand turning a tool in a demonstration stays far
@@ -196,20 +210,9 @@ def read_demonstration(
                 raise located(path, number, f"column '{name}' is not a number: '{field}'") from None
             if not math.isfinite(value):
                 raise located(path, number, f"column '{name}' is not finite: '{field}'")
-            if name in AXES and abs(value) > MAX_ABS_POSITION_M:
-                raise located(
-                    path,
-                    number,
-                    f"column '{name}' is {field}: positions are in metres, within "
-                    f"{MAX_ABS_POSITION_M:g} m of the world origin",
-                )
-            if name in FORCE_COLUMNS and abs(value) > MAX_ABS_FORCE_N:
-                raise located(
-                    path,
-                    number,
-                    f"column '{name}' is {field}: forces are in newtons, within "
-                    f"{MAX_ABS_FORCE_N:g} N",
-                )
+            bound, unit = _COLUMN_BOUNDS.get(name, (math.inf, ""))
+            if abs(value) > bound:
+                raise located(path, number, f"column '{name}' is {field}: {unit}")
             values.append(value)
         if rows and values[0] <= rows[-1][1][0]:
             raise located(
