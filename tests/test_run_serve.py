@@ -675,6 +675,21 @@ def test_a_skill_from_another_world_is_not_served(tmp_path, capsys, monkeypatch)
     assert "used here all the same" in capsys.readouterr().err
 
 
+def test_a_skill_that_does_not_fit_the_scenario_is_named_by_its_file(tmp_path):
+    """serve --skill with a skill of other axes than the scenario's: the one line names the
+    skill's file, as learn and reproduce do, before the LCM is opened."""
+    demo, skill = tmp_path / "z.csv", tmp_path / "z.npz"
+    demo.write_text("t,z\n" + "".join(f"{0.1 * k:.1f},{0.2 - 0.01 * k:.2f}\n" for k in range(20)))
+    assert run_cli("fit", demo, "--out", skill).returncode == 0
+    serve = ["serve", "insertion", "--lcm", "memq://", "--skill", skill]
+    line = one_line_error(run_cli(*serve, "--out", tmp_path / "o"))
+    assert line == (
+        f"hlcmp: error: {skill}: the skill's axes (z) do not match the scenario 'insertion', "
+        "which controls x,y,z"
+    )
+    assert not (tmp_path / "o").exists()
+
+
 def test_a_status_period_other_than_the_configured_one_stops_before_any_command():
     """A driver publishing every 5 ms to a client configured for 1 ms: said from the stamps
     during the start guard, with the fix, before a command goes out."""

@@ -89,6 +89,7 @@ def served_scenario(
     controller: str | None = None,
     skill: Skill | None = None,
     freeze: bool = False,
+    skill_path: str | Path | None = None,
 ) -> tuple[Scenario, str, tuple | None]:
     """The scenario and the controller to serve, and a skill's weights to start from.
 
@@ -103,6 +104,8 @@ def served_scenario(
         Serve the scenario's Hl-CMP with this skill's DMP settings and learned weights.
     freeze : bool
         With a skill: no adaptation (learning rates 0).
+    skill_path : str or Path, optional
+        The skill's file, named when it does not fit (`run.learning.learning_scenario`).
 
     Returns
     -------
@@ -128,7 +131,9 @@ def served_scenario(
             f"served ({scenario.duration_s:g} s, --duration or duration_s): it would be one tick"
         )
     if skill is not None:
-        scenario = learning_scenario(scenario, skill=skill, freeze=freeze, controller=controller)
+        scenario = learning_scenario(
+            scenario, skill=skill, freeze=freeze, controller=controller, skill_path=skill_path
+        )
         controller = next(iter(scenario.controllers))
         return scenario, controller, skill.theta
     if freeze:
@@ -1057,7 +1062,8 @@ def serve_scenario(
     controller, skill, freeze
         What to serve (see `served_scenario`).
     skill_path : str or Path, optional
-        Where `skill` was read from (recorded in serve.json).
+        Where `skill` was read from (recorded in serve.json, and named when it does not
+        fit).
     any_scenario : bool
         Serve a skill learned in another world all the same (refused otherwise, before
         the LCM is opened: `run.learning.check_skill_world`).
@@ -1075,7 +1081,7 @@ def serve_scenario(
 
     scenario, _ = load_scenario(name_or_path, overrides, experiment_worlds())
     warning = check_skill_world(skill, scenario, any_scenario) if skill is not None else None
-    scenario, controller, theta0 = served_scenario(scenario, controller, skill, freeze)
+    scenario, controller, theta0 = served_scenario(scenario, controller, skill, freeze, skill_path)
     check_served_priority(scenario.iiwa_driver, lcm_url)
     if warning is not None and warn is not None:
         warn(warning)
