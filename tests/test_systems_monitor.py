@@ -10,7 +10,12 @@ from pydrake.systems.primitives import ConstantVectorSource, Integrator
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.run.simulate import simulate
-from hlcmp_drake.systems.monitor import CHECK_PERIOD_S, SafetyMonitor, plant_state_check
+from hlcmp_drake.systems.monitor import (
+    CHECK_PERIOD_S,
+    SafetyMonitor,
+    plant_state_check,
+    saturation_check,
+)
 from hlcmp_drake.worlds import arm
 
 
@@ -112,3 +117,13 @@ def test_the_plant_state_check_finite_and_positions_bounded():
     assert check(np.array([0.5, -1.1, 0.0, 0.0])) == "a joint position beyond 1.0 m/rad"
     assert check(np.array([0.5, 0.0, np.nan, 0.0])) == "plant state is not finite"
     assert check(np.array([np.inf, 0.0, 0.0, 0.0])) == "plant state is not finite"
+
+
+def test_the_saturation_check_counts_from_when_saturation_began():
+    """A stop only once some joint has been saturated at every check for longer than the
+    limit; a check without saturation starts the count again."""
+    check = saturation_check(0.25, "joint forces")
+    assert [check(t, 1) for t in (0.0, 0.1, 0.2)] == [None, None, None]
+    assert check(0.3, 0) is None  # released: the next saturation counts from its start
+    assert [check(t, 2) for t in (0.4, 0.5, 0.6)] == [None, None, None]
+    assert check(0.7, 1) == "joint forces saturated for more than max_saturation_s = 0.25 s"

@@ -103,3 +103,38 @@ def plant_state_check(
         return None
 
     return check
+
+
+def saturation_check(
+    max_saturation_s: float, efforts: str = "joint torques"
+) -> Callable[[float, float], str | None]:
+    """The saturation watchdog every world shares: some joint's effort at its limit at
+    every check for longer than `max_saturation_s`.
+
+    Parameters
+    ----------
+    max_saturation_s : float
+        How long [s] the saturation may last (a task's `max_saturation_s`).
+    efforts : str
+        What saturates, for the message: "joint torques" (an arm's revolute joints) or
+        "joint forces" (the slider's prismatic one).
+
+    Returns
+    -------
+    callable(t, saturated) -> str or None
+        Given the time [s] and the number of joints at their effort limit, a problem's
+        description or None. It keeps the time saturation began, so use one per
+        simulation, called in time order.
+    """
+    saturated_since: list[float | None] = [None]
+
+    def check(t, saturated):
+        if saturated > 0:
+            saturated_since[0] = t if saturated_since[0] is None else saturated_since[0]
+            if t - saturated_since[0] > max_saturation_s:
+                return f"{efforts} saturated for more than max_saturation_s = {max_saturation_s} s"
+        else:
+            saturated_since[0] = None
+        return None
+
+    return check

@@ -22,6 +22,7 @@ from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.systems.arm import BelowTaskImpedance, NullSpaceImpedance, ToolContactForce
 from hlcmp_drake.systems.arm_tick import arm_control_tick
 from hlcmp_drake.systems.control_loop import ControlTick
+from hlcmp_drake.systems.monitor import saturation_check
 from hlcmp_drake.systems.pose_control import PoseControlTick
 from hlcmp_drake.systems.robot import (
     JointFriction,
@@ -697,7 +698,7 @@ def arm_check(plant: MultibodyPlant, task: ArmTask) -> Callable[[float, dict], s
         plant.get_joint(plant.get_joint_actuator(i).joint().index()).name()
         for i in plant.GetJointActuatorIndices()
     ]
-    saturated_since = [None]
+    saturation = saturation_check(task.max_saturation_s)
 
     def check(t, values):
         force = np.linalg.norm(values["contact_force"])
@@ -711,15 +712,6 @@ def arm_check(plant: MultibodyPlant, task: ArmTask) -> Callable[[float, dict], s
         if beyond.size:
             k = beyond[0]
             return f"joint {names[k]} at {q[k]:.3f} rad, beyond its limit ±{upper[k]:.3f} rad"
-        if values["saturated"][0] > 0:
-            saturated_since[0] = t if saturated_since[0] is None else saturated_since[0]
-            if t - saturated_since[0] > task.max_saturation_s:
-                return (
-                    "joint torques saturated for more than max_saturation_s = "
-                    f"{task.max_saturation_s} s"
-                )
-        else:
-            saturated_since[0] = None
-        return None
+        return saturation(t, values["saturated"][0])
 
     return check
