@@ -12,6 +12,7 @@ from conftest import REPO_ROOT
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.experiments import experiment_of
 from hlcmp_drake.io.errors import InputError
+from hlcmp_drake.io.paths import DIAGRAMS_DIR, MODELS_DIR
 from hlcmp_drake.run.benchmark import count_python_calls
 from hlcmp_drake.run.simulate import simulate
 from hlcmp_drake.systems.control_loop import ControlLoop
@@ -118,6 +119,30 @@ def test_the_prismatic_model_gives_the_general_models_terms():
                 getattr(b, field), getattr(a, field), rtol=1e-12, atol=1e-12, err_msg=field
             )
         assert not b.null_space.any() and b.joint_gravity.shape == (1,)
+
+
+@pytest.mark.parametrize("path", ["fast", "modular"])
+def test_a_slider_held_at_its_effort_limit_stops_after_max_saturation_s(path, tmp_path):
+    """The slider's actuator limited to 0.5 N, far below the 7.5 N the Hl-CMP commands at
+    the start: its force is saturated from t = 0 on, and the run stops with the reason at
+    the first 100 Hz check past task.max_saturation_s, on either control path."""
+    model = (MODELS_DIR / "one_dof_slider.sdf").read_text()
+    assert "<effort>1000</effort>" in model
+    weak = tmp_path / "weak_slider.sdf"
+    weak.write_text(model.replace("<effort>1000</effort>", "<effort>0.5</effort>"))
+    yaml = (DIAGRAMS_DIR / "one_dof.yaml").read_text()
+    package_url = "package://hlcmp_drake/models/one_dof_slider.sdf"
+    assert package_url in yaml
+    scenario_file = tmp_path / "weak_one_dof.yaml"
+    scenario_file.write_text(yaml.replace(package_url, weak.as_uri()))
+    sets = ["duration_s=1.0", "task.max_saturation_s=0.1", f"task.control_path={path}"]
+    scenario, _ = load_scenario(scenario_file, sets)
+    run = simulate(diagram_factory(scenario)("hlcmp"), scenario, "hlcmp")
+    assert run.status == "unstable"
+    assert run.reason == "joint forces saturated for more than max_saturation_s = 0.1 s"
+    assert run.stop_time == pytest.approx(0.11, abs=1e-9)
+    saturated = run.series["saturated_joints"][:, 0]
+    assert (saturated[run.t < run.stop_time] == 1).all()
 
 
 def test_a_label_the_scenario_does_not_have_is_named_with_the_labels_it_has():

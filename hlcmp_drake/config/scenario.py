@@ -479,6 +479,10 @@ class SliderTask:
         Where the object's surface is, in the joint's position q [m] (for the bundled
         slider, the body's x); the object fills q < surface and pushes the body out with
         k (surface - q) there (`UnilateralSpring`). Default 0.
+    max_saturation_s : float
+        How long [s], > 0, the joint force may stay at its actuator's effort limit (seen
+        at every safety check: 100 Hz) before the run stops with status "unstable", as
+        for an arm (`ArmTask.max_saturation_s`). Default 0.25.
     control_path : str
         How the controller is put in the diagram (CONTROL_PATHS): "fast" (default) -- one
         Python evaluation per plant step (`systems.control_loop.ControlLoop` with
@@ -493,6 +497,7 @@ class SliderTask:
     axis: int = 0
     environment_stiffness_N_per_m: float = 10.0
     surface_position_m: float = 0.0
+    max_saturation_s: float = 0.25
     control_path: str = "fast"
 
     def axis_count(self, reference: object) -> int:
@@ -510,7 +515,8 @@ class SliderTask:
         return len(reference.positions_m[0])
 
     def check_scenario(self, scenario: "Scenario", fail: Fail) -> None:
-        """The slider follows set-points; its axis is one of the joint's three.
+        """The slider follows set-points; its axis is one of the joint's three; its numbers
+        are finite, the stiffness >= 0 and the saturation time > 0.
 
         Parameters
         ----------
@@ -526,6 +532,7 @@ class SliderTask:
             self.environment_stiffness_N_per_m, "task.environment_stiffness_N_per_m", fail, ">= 0"
         )
         check_number(self.surface_position_m, "task.surface_position_m", fail, "any")
+        check_number(self.max_saturation_s, "task.max_saturation_s", fail, "> 0")
         if self.control_path not in CONTROL_PATHS:
             fail(
                 "task.control_path",

@@ -19,8 +19,8 @@ class SafetyMonitor(LeafSystem):
 
     Input ports: one vector port per entry of `inputs`, named and sized as given, in the
     units of the port it is connected to. The worlds declare ``plant_state`` (nq + nv,
-    the plant's state) and, for an arm, ``contact_force`` (3, `ToolContactForce`'s
-    ``force``, world [N]) and ``saturated`` (1, the number of joints at their effort limit).
+    the plant's state), ``saturated`` (1, the number of joints at their effort limit) and,
+    for an arm, ``contact_force`` (3, `ToolContactForce`'s ``force``, world [N]).
 
     Output ports: none (a periodic publish event).
 

@@ -3,7 +3,7 @@ body presses into an elastic object, a unilateral spring at the surface."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 from pydrake.multibody.plant import MultibodyPlant
@@ -12,6 +12,7 @@ from pydrake.systems.framework import DiagramBuilder
 from hlcmp_drake.config.scenario import Scenario, SliderTask
 from hlcmp_drake.systems.control_loop import ControlTick
 from hlcmp_drake.systems.environment import UnilateralSpring
+from hlcmp_drake.systems.monitor import saturation_check
 from hlcmp_drake.systems.slider_tick import slider_control_tick
 from hlcmp_drake.systems.task_space import PrismaticTaskModel, TaskSpaceDynamics
 from hlcmp_drake.worlds.common import (
@@ -75,7 +76,8 @@ def build(
     Returns
     -------
     BuiltDiagram
-        The diagram, with the plant's default positions and the plant-state safety checks.
+        The diagram, with the plant's default positions, the plant-state safety checks and
+        the saturation watchdog (`slider_check`).
     """
     task: SliderTask = scenario.task
     builder = DiagramBuilder()
@@ -92,7 +94,7 @@ def build(
     reaction = spring.GetOutputPort("reaction_force")
     start = np.zeros(scenario.n_axes)
     if task.control_path == "fast":
-        controller, log_ports, _ = add_control_loop(
+        controller, log_ports, saturated = add_control_loop(
             builder,
             scenario,
             controller_name,
@@ -104,10 +106,16 @@ def build(
             initial_position=start,
         )
     else:
-        controller, log_ports = _add_modular_controller(
+        controller, log_ports, saturated = _add_modular_controller(
             builder, scenario, controller_name, plant, frame, reaction, start, theta0
         )
-    add_safety_monitor(builder, scenario, plant)
+    add_safety_monitor(
+        builder,
+        scenario,
+        plant,
+        extra_inputs={"saturated": saturated},
+        extra_check=slider_check(task),
+    )
     loggers = add_loggers(builder, scenario, log_ports)
     diagram = builder.Build()
     diagram.set_name(f"{scenario.name}_{controller_name}")
@@ -142,8 +150,33 @@ def slider_tick(scenario: Scenario, controller_name: str, *, plant: MultibodyPla
     return slider_control_tick(PrismaticTaskModel(plant, frame, axes=[task.axis]), law, effort)
 
 
+def slider_check(task: SliderTask) -> Callable[[float, dict], str | None]:
+    """The slider's own safety check for the run's SafetyMonitor (after the plant-state
+    checks every world has): the joint force at its effort limit at every check for longer
+    than task.max_saturation_s.
+
+    Parameters
+    ----------
+    task : SliderTask
+        Its max_saturation_s.
+
+    Returns
+    -------
+    callable(t, values) -> str or None
+        Reads values "saturated" (the number of joints at their effort limit). It keeps the
+        time saturation began, so use one per simulation, called in time order.
+    """
+    saturation = saturation_check(task.max_saturation_s, "joint forces")
+
+    def check(t, values):
+        return saturation(t, values["saturated"][0])
+
+    return check
+
+
 def _add_modular_controller(builder, scenario, name, plant, frame, reaction, start, theta0):
-    """TaskSpaceDynamics -> the controller's modular system -> the J^T torque map."""
+    """TaskSpaceDynamics -> the controller's modular system -> the J^T torque map; returns
+    the controller, its log ports and the map's number of saturated joints."""
     task_space = builder.AddSystem(TaskSpaceDynamics(plant, frame, axes=[scenario.task.axis]))
     task_space.set_name("task_space")
     builder.Connect(plant.get_state_output_port(), task_space.plant_state)
@@ -153,7 +186,7 @@ def _add_modular_controller(builder, scenario, name, plant, frame, reaction, sta
     torque_map = add_torque_map(
         builder, scenario, plant=plant, controller=controller.system, task_space=task_space
     )
-    return controller, modular_log_ports(
+    log_ports = modular_log_ports(
         plant=plant,
         task_space=task_space,
         reference=reference,
@@ -161,3 +194,4 @@ def _add_modular_controller(builder, scenario, name, plant, frame, reaction, sta
         force_port=reaction,
         torque_map=torque_map,
     )
+    return controller, log_ports, torque_map.GetOutputPort("saturated")
