@@ -162,10 +162,9 @@ def read_demonstration(
     kind = what_it_is(text[:4096].encode())
     if kind is not None and not kind.startswith("a demonstration"):
         raise InputError(f"{path}: {kind}, not a demonstration CSV 't,x,y,z'")
-    lines = [(n, line) for n, line in enumerate(text.splitlines(), start=1) if line.strip()]
-    if not lines:
+    header_line, header_text, body = _header_and_body(text)
+    if header_text is None:
         raise InputError(f"{path}: the file is empty (expected a header line 't,x,y,z')")
-    header_line, header_text = lines[0]
     header = [name.strip() for name in next(csv.reader([header_text.lstrip().removeprefix("#")]))]
     if header_text.lstrip().startswith("#") and header[:1] != ["t"]:
         raise _comment_refused(path, header_line, header_text)
@@ -189,8 +188,113 @@ def read_demonstration(
             f"columns {','.join(QUATERNION_COLUMNS)}: an orientation is not used here; "
             "give positions only (t,x,y,z)",
         )
+    data = _rows_at_once(path, body, header_line, header)
+    if data is not None:
+        numbers: Sequence[int] = range(header_line + 1, header_line + 1 + len(data))
+    else:
+        numbered = _numbered_lines(body, header_line + 1)
+        data, numbers = _rows_one_by_one(path, numbered, header)
+    if len(data) < MIN_SAMPLES:
+        raise InputError(
+            f"{path}: {len(data)} samples; a demonstration needs at least {MIN_SAMPLES}"
+        )
+    period = float(np.median(np.diff(data[:, 0])))
+    if period >= MAX_SAMPLE_PERIOD_S:
+        raise InputError(
+            f"{path}: its samples are {period:g} s apart (the median; t from {data[0, 0]:g} to "
+            f"{data[-1, 0]:g} s): t is in seconds, and a demonstration is sampled more often "
+            f"than every {MAX_SAMPLE_PERIOD_S:g} s (a time in milliseconds?)"
+        )
+    check_speed(path, data[:, 0], data[:, 1 : 1 + len(axes)], numbers)
+    result: tuple = (data[:, 0], data[:, 1 : 1 + len(axes)], axes)
+    if with_orientation:
+        first = 1 + len(axes)
+        result += (
+            read_orientation(path, data[:, 0], data[:, first : first + 4], numbers)
+            if has_orientation
+            else None,
+        )
+    if with_force:
+        force = data[:, [header.index(name) for name in force_columns]]
+        result += (force if force_columns else None,)
+    return result + (list(numbers),) if with_lines else result
+
+
+# What str.splitlines ends a line at, besides "\n" (and "\r\n").
+_OTHER_LINE_BREAKS = ("\r", "\x0b", "\x0c", "\x1c", "\x1d", "\x1e", "\x85", "\u2028", "\u2029")
+
+
+def _header_and_body(text: str) -> tuple[int, str | None, str]:
+    """(the first non-blank line's number, that line, the text after it with its lines
+    ended by "\n" alone), the lines as `str.splitlines` finds them; (_, None, "") for a
+    file without one."""
+    if "\r\n" in text:
+        text = text.replace("\r\n", "\n")
+    if any(mark in text for mark in _OTHER_LINE_BREAKS):
+        text = "\n".join(text.splitlines())
+    number, start = 1, 0
+    while start < len(text):
+        end = text.find("\n", start)
+        end = len(text) if end < 0 else end
+        if text[start:end].strip():
+            return number, text[start:end], text[end + 1 :]
+        number, start = number + 1, end + 1
+    return number, None, ""
+
+
+def _numbered_lines(body: str, first: int) -> list[tuple[int, str]]:
+    """(number, text) of each non-blank line of `body`, its first line numbered `first`."""
+    return [(n, line) for n, line in enumerate(body.split("\n"), start=first) if line.strip()]
+
+
+def _rows_at_once(path: Path, body: str, header_line: int, header: list[str]) -> np.ndarray | None:
+    """The samples after the header (`body`, from `_header_and_body`) read from the file in
+    one pass of numpy's, where that reads what `_rows_one_by_one` would and every sample
+    passes its checks; None otherwise (then `_rows_one_by_one` reads them, and names the
+    line of a problem). An hour at 1 kHz reads in about a second, where line by line took
+    tens of seconds and gigabytes of Python rows.
+
+    Left to the line-by-line reading: what numpy does not read as a number (a quoted field,
+    a comment, 0.5_5, which float reads as 0.55, an Arabic-Indic digit, which float reads
+    too), a line str.splitlines splits where numpy does not, and blank lines before or
+    between samples (numpy skips them, so the line numbers would shift); all of which
+    tests/test_io_demos.py checks against the line-by-line reading."""
+    last = len(body.rstrip())
+    if not last:
+        return None
+    try:
+        data = np.loadtxt(
+            path,
+            delimiter=",",
+            comments=None,
+            skiprows=header_line,
+            ndmin=2,
+            encoding="utf-8-sig",
+        )
+    except ValueError:
+        return None
+    t = data[:, 0]
+    if (
+        data.shape[1] != len(header)
+        or len(data) != body.count("\n", 0, last) + 1
+        or not np.isfinite(data).all()
+        or np.any(np.diff(t) <= 0)
+        or t[-1] - t[0] > MAX_DURATION_S
+    ):
+        return None
+    for column, name in enumerate(header):
+        bound, _ = _COLUMN_BOUNDS.get(name, (math.inf, ""))
+        if np.any(np.abs(data[:, column]) > bound):
+            return None
+    return data
+
+
+def _rows_one_by_one(path, lines, header) -> tuple[np.ndarray, list[int]]:
+    """The samples of `lines` ((number, text) of the non-blank lines after the header),
+    each field checked and any problem raised naming its line: (the (T, columns) array,
+    each sample's line number)."""
     rows: list[tuple[int, list[float]]] = []
-    for number, line in lines[1:]:
+    for number, line in lines:
         if line.lstrip().startswith("#"):
             raise _comment_refused(path, number, line)
         fields = [f.strip() for f in next(csv.reader([line]))]
@@ -229,32 +333,9 @@ def read_demonstration(
                 "t is in seconds (a time in milliseconds?), and a run lasts at most that long",
             )
         rows.append((number, values))
-    if len(rows) < MIN_SAMPLES:
-        raise InputError(
-            f"{path}: {len(rows)} samples; a demonstration needs at least {MIN_SAMPLES}"
-        )
-    data = np.array([values for _, values in rows])
-    period = float(np.median(np.diff(data[:, 0])))
-    if period >= MAX_SAMPLE_PERIOD_S:
-        raise InputError(
-            f"{path}: its samples are {period:g} s apart (the median; t from {data[0, 0]:g} to "
-            f"{data[-1, 0]:g} s): t is in seconds, and a demonstration is sampled more often "
-            f"than every {MAX_SAMPLE_PERIOD_S:g} s (a time in milliseconds?)"
-        )
-    numbers = [number for number, _ in rows]
-    check_speed(path, data[:, 0], data[:, 1 : 1 + len(axes)], numbers)
-    result: tuple = (data[:, 0], data[:, 1 : 1 + len(axes)], axes)
-    if with_orientation:
-        first = 1 + len(axes)
-        result += (
-            read_orientation(path, data[:, 0], data[:, first : first + 4], numbers)
-            if has_orientation
-            else None,
-        )
-    if with_force:
-        force = data[:, [header.index(name) for name in force_columns]]
-        result += (force if force_columns else None,)
-    return result + (numbers,) if with_lines else result
+    return np.array([values for _, values in rows]).reshape(-1, len(header)), [
+        number for number, _ in rows
+    ]
 
 
 def read_orientation(
