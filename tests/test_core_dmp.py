@@ -4,6 +4,8 @@ substitute amplitude of a flat axis, noisy and tremor demonstrations)."""
 import numpy as np
 import pytest
 
+from hlcmp_drake.core import dmp as dmp_module
+from hlcmp_drake.core.demo_force import fit_feedforward_weights
 from hlcmp_drake.core.dmp import (
     Dmp,
     DmpSettings,
@@ -175,3 +177,31 @@ def test_a_tremor_demonstration_stays_at_its_goal_after_tau(smooth_demo):
     t_r, p, *_ = dmp.rollout(duration=2 * dmp.tau, dt=0.002)
     after = t_r >= dmp.tau
     assert np.abs(p[after] - dmp.goal).max() < 1e-3
+
+
+@pytest.mark.parametrize("chunk_values", [90, 90 * 7, 90 * 1000])
+def test_the_fit_in_chunks_is_the_fit_of_all_samples_at_once(monkeypatch, chunk_values):
+    """The normal equations summed chunk by chunk (an hour at 1 kHz does not fit in memory
+    at once) give the weights one regression over every sample gives."""
+    t = np.linspace(0.0, 2.0, 1501)
+    positions = np.column_stack([np.sin(t), 0.2 * t**2, np.cos(3 * t)])
+    settings = DmpSettings(n_basis=30)
+    whole = Dmp.fit(t, positions, ("x", "y", "z"), settings).theta_p
+    rng = np.random.default_rng(3)
+    force = rng.normal(size=positions.shape)
+    whole_v = fit_feedforward_weights(t, force, settings)
+    monkeypatch.setattr(dmp_module, "FEATURE_CHUNK_VALUES", chunk_values)  # 1, 7, 1000 samples
+    chunked = Dmp.fit(t, positions, ("x", "y", "z"), settings).theta_p
+    np.testing.assert_allclose(chunked, whole, rtol=1e-9, atol=1e-9 * np.abs(whole).max())
+    chunked_v = fit_feedforward_weights(t, force, settings)
+    np.testing.assert_allclose(chunked_v, whole_v, rtol=1e-9, atol=1e-9 * np.abs(whole_v).max())
+
+
+def test_a_rollouts_forcing_in_chunks_is_the_forcing_at_once(monkeypatch):
+    t = np.linspace(0.0, 2.0, 501)
+    dmp = Dmp.fit(t, np.column_stack([np.sin(t), t**2]), ("x", "z"), DmpSettings(n_basis=20))
+    whole = dmp.rollout(duration=2.5)
+    monkeypatch.setattr(dmp_module, "FEATURE_CHUNK_VALUES", 40 * 7)  # 7 samples a chunk
+    for got, expected in zip(dmp.rollout(duration=2.5), whole):
+        np.testing.assert_array_equal(got, expected)
+    assert dmp.forcing(0.5).shape == (2,)

@@ -26,7 +26,7 @@ from hlcmp_drake.core.dmp import (
     TAIL_FRACTION,
     DmpSettings,
     basis_centers_and_widths,
-    fit_forcing_weights,
+    fit_weights_in_chunks,
     normalized_basis,
     phase_at,
     resample_and_differentiate,
@@ -44,7 +44,7 @@ def fit_feedforward_weights(t: np.ndarray, force: np.ndarray, settings: DmpSetti
     it is held at its last value for a further TAIL_FRACTION * tau, where the demonstration
     rests (the positions' fit sees the forcing term vanish there), so the last basis
     functions, which carry the profile after tau, hold the force the demonstration ends
-    with. Solved per axis by the regularized least squares of `fit_forcing_weights`.
+    with. Solved per axis by the regularized least squares of `fit_weights_in_chunks`.
 
     Parameters
     ----------
@@ -68,9 +68,15 @@ def fit_feedforward_weights(t: np.ndarray, force: np.ndarray, settings: DmpSetti
     dt = t_u[1] - t_u[0]
     t_tail = tau + dt * np.arange(1, int(TAIL_FRACTION * tau / dt) + 1)
     s = phase_at(np.concatenate([t_u, t_tail]), tau, settings.alpha_s)
-    g = normalized_basis(s, *basis_centers_and_widths(settings.n_basis, settings.alpha_s))
+    centers, widths = basis_centers_and_widths(settings.n_basis, settings.alpha_s)
     targets = np.vstack([smoothed, np.repeat(smoothed[-1:], len(t_tail), axis=0)])
-    return np.array([fit_forcing_weights(g, targets[:, m]) for m in range(targets.shape[1])])
+    axes = targets.shape[1]
+
+    def features_at(phases):  # g(s), the same for every axis
+        g = normalized_basis(phases, centers, widths)
+        return np.broadcast_to(g[:, None, :], (len(g), axes, g.shape[1]))
+
+    return fit_weights_in_chunks(s, features_at, targets)
 
 
 def feedforward_along(theta_v: np.ndarray, s: np.ndarray, settings: DmpSettings) -> np.ndarray:

@@ -14,7 +14,7 @@ Defaults (the paper leaves them open):
 
 import dataclasses
 import functools
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,6 +31,10 @@ TAIL_FRACTION = 0.5
 # The most basis functions a DMP may have: the fit solves an N x N system per axis (8 MB at
 # 1000; 100 000 would need 80 GB). The bundled scenarios use 10 to 30.
 MAX_BASIS_FUNCTIONS = 1000
+# How many feature values (samples x axes x N) are held at once (32 MB): the fit and a
+# rollout's forcing take the features of a long demonstration or rollout this many at a
+# time (an hour at 1 kHz, 3 axes and 30 basis functions: 2.6 GB at once).
+FEATURE_CHUNK_VALUES = 2**22
 
 
 @dataclass
@@ -334,21 +338,20 @@ def forcing_target(
     return tau**2 * pddot + alpha * tau * pdot - alpha * beta * (goal - p)
 
 
-def fit_forcing_weights(
-    features: np.ndarray, targets: np.ndarray, ridge: float = 1e-9
-) -> np.ndarray:
-    """Eq. 21: theta_p = argmin ||f_target - theta_p . g_p||^2, one axis.
+def solve_forcing_weights(gram: np.ndarray, moment: np.ndarray, ridge: float = 1e-9) -> np.ndarray:
+    """Eq. 21: theta_p = argmin ||f_target - theta_p . g_p||^2, one axis, from its normal
+    equations (G^T G) theta_p = G^T f_target, G the (T, N) features.
 
     Solved as regularized least squares over all samples at once (not per-kernel LWR):
     the ridge term is relative to the feature energy and only guards against kernels that
-    see almost no samples. features: (T, N); targets: (T,). Returns (N,).
+    see almost no samples.
 
     Parameters
     ----------
-    features : (T, N) array
-        g_p(s) [m] of one axis at every sample.
-    targets : (T,) array
-        f_target [m] at every sample.
+    gram : (N, N) array
+        G^T G [m^2].
+    moment : (N,) array
+        G^T f_target [m^2].
     ridge : float
         Regularization relative to the mean diagonal of the Gram matrix [-].
 
@@ -357,9 +360,64 @@ def fit_forcing_weights(
     (N,) array
         theta_p of the axis [-].
     """
-    gram = features.T @ features
     reg = ridge * np.trace(gram) / gram.shape[0]
-    return np.linalg.solve(gram + reg * np.eye(gram.shape[0]), features.T @ targets)
+    return np.linalg.solve(gram + reg * np.eye(gram.shape[0]), moment)
+
+
+def fit_forcing_weights(
+    features: np.ndarray, targets: np.ndarray, ridge: float = 1e-9
+) -> np.ndarray:
+    """Eq. 21 (`solve_forcing_weights`) for one axis's features and targets.
+
+    Parameters
+    ----------
+    features : (T, N) array
+        g_p(s) [m] of one axis at every sample.
+    targets : (T,) array
+        f_target [m] at every sample.
+    ridge : float
+        As for `solve_forcing_weights`.
+
+    Returns
+    -------
+    (N,) array
+        theta_p of the axis [-].
+    """
+    return solve_forcing_weights(features.T @ features, features.T @ targets, ridge)
+
+
+def fit_weights_in_chunks(
+    s: np.ndarray, features_at: Callable[[np.ndarray], np.ndarray], targets: np.ndarray
+) -> np.ndarray:
+    """Eq. 21 (`solve_forcing_weights`) for every axis, its normal equations summed over
+    chunks of samples of at most FEATURE_CHUNK_VALUES features: those of an hour at 1 kHz would
+    take gigabytes at once. A demonstration of one chunk (46 s at 1 kHz for 3 axes and 30
+    basis functions) is fitted with the arithmetic of `fit_forcing_weights` on all of it.
+
+    Parameters
+    ----------
+    s : (T,) array
+        The phase at every sample [-].
+    features_at : callable((c,) array) -> (c, M, N) array
+        The features of each axis at those phases.
+    targets : (T, M) array
+        What each axis's features are fitted to.
+
+    Returns
+    -------
+    (M, N) array
+        The weights of each axis.
+    """
+    axes, n = targets.shape[1], len(features_at(s[:1])[0, 0])
+    chunk = max(1, FEATURE_CHUNK_VALUES // (axes * n))
+    gram, moment = np.zeros((axes, n, n)), np.zeros((axes, n))
+    for start in range(0, len(s), chunk):
+        rows = slice(start, start + chunk)
+        features = features_at(s[rows])
+        for m in range(axes):
+            gram[m] += features[:, m, :].T @ features[:, m, :]
+            moment[m] += features[:, m, :].T @ targets[rows, m]
+    return np.stack([solve_forcing_weights(gram[m], moment[m]) for m in range(axes)])
 
 
 # --------------------------------------------------------------------------------------
@@ -503,17 +561,14 @@ class Dmp:
         dt = t_u[1] - t_u[0]
         t_tail = tau + dt * np.arange(1, int(TAIL_FRACTION * tau / dt) + 1)
         s = phase_at(np.concatenate([t_u, t_tail]), tau, settings.alpha_s)
-        features = forcing_basis(
-            s, centers, widths, amplitude
-        )  # (T, M, N), the basis evaluated once
-        theta_p = np.zeros((p.shape[1], settings.n_basis))
+        targets = np.zeros((len(s), p.shape[1]))
         for m in range(p.shape[1]):
-            target = forcing_target(
+            targets[: len(t_u), m] = forcing_target(
                 p[:, m], pdot[:, m], pddot[:, m], goal[m], tau, settings.alpha, settings.beta_value
             )
-            theta_p[m] = fit_forcing_weights(
-                features[:, m, :], np.concatenate([target, np.zeros(len(t_tail))])
-            )
+        theta_p = fit_weights_in_chunks(
+            s, lambda phases: forcing_basis(phases, centers, widths, amplitude), targets
+        )
         return cls(settings, tau, start, goal, theta_p, amplitude, goal_scaled, tuple(axis_names))
 
     def with_goal(self, goal: np.ndarray) -> "Dmp":
@@ -585,10 +640,17 @@ class Dmp:
         (M,) or (T, M) array
             The forcing term f [m].
         """
-        centers, widths = self.basis
-        return np.sum(
-            self.theta_p * forcing_basis(s, centers, widths, self.current_amplitude()), axis=-1
-        )
+        centers, widths, amplitude = *self.basis, self.current_amplitude()
+        s = np.asarray(s, dtype=float)
+        if s.ndim == 0:
+            return np.sum(self.theta_p * forcing_basis(s, centers, widths, amplitude), axis=-1)
+        chunk = max(1, FEATURE_CHUNK_VALUES // self.theta_p.size)
+        return np.concatenate(
+            [
+                np.sum(self.theta_p * forcing_basis(phases, centers, widths, amplitude), axis=-1)
+                for phases in np.split(s, range(chunk, len(s), chunk))
+            ]
+        ).reshape(len(s), self.n_axes)
 
     def rollout(
         self, duration: float | None = None, dt: float = 0.001, tau: float | None = None
