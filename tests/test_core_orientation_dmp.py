@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from conftest import minimum_jerk, tilted_turn
 
+from hlcmp_drake.core import orientation_dmp as orientation_module
 from hlcmp_drake.core import quaternion as quat
 from hlcmp_drake.core.orientation_dmp import OrientationDmp
 
@@ -132,3 +133,15 @@ def test_the_goal_is_the_settled_ends_mean_whatever_the_samples_signs():
     mean = settled_goal(t, noisy, 0.05)
     assert np.isclose(np.linalg.norm(mean), 1.0) and mean @ noisy[-1] > 0
     assert _degrees(mean, true_goal) < 0.6 * _degrees(last_only, true_goal)
+
+
+@pytest.mark.parametrize("samples_per_chunk", [2, 7, 1000])
+def test_the_fit_in_chunks_is_the_fit_of_all_samples_at_once(monkeypatch, samples_per_chunk):
+    """The responses stepped chunk by chunk, each from where the one before ended (an hour
+    at 1 kHz does not fit in memory at once), give the weights of one pass."""
+    t, _, q, _ = tilted_turn(3)
+    whole = OrientationDmp.fit(t, q).theta
+    n = OrientationDmp.fit(t, q).settings.n_basis
+    monkeypatch.setattr(orientation_module, "FEATURE_CHUNK_VALUES", n * samples_per_chunk)
+    chunked = OrientationDmp.fit(t, q).theta
+    np.testing.assert_allclose(chunked, whole, rtol=1e-9, atol=1e-9 * np.abs(whole).max())

@@ -76,15 +76,16 @@ import numpy as np
 from hlcmp_drake.core import quaternion as quat
 from hlcmp_drake.core.dmp import (
     DEGENERATE_GOAL_FRACTION,
+    FEATURE_CHUNK_VALUES,
     TAIL_FRACTION,
     Dmp,
     DmpSettings,
     basis_centers_and_widths,
-    fit_forcing_weights,
     forcing_basis,
     phase_at,
     resample_and_differentiate,
     rollout_times,
+    solve_forcing_weights,
     step_transformation_system,
 )
 
@@ -201,7 +202,7 @@ def fit_trajectory_weights(
     t: np.ndarray, error: np.ndarray, amplitude: float, settings: DmpSettings
 ) -> np.ndarray:
     """The forcing weights whose rollout best matches a demonstrated e(t), by least squares
-    on e itself (the regression of `core.dmp.fit_forcing_weights`, Eq. 21's solver).
+    on e itself (Eq. 21's solver, `core.dmp.solve_forcing_weights`).
 
     Eqs. 7 and 15 with g = 0 are linear, so the rollout from e(0) is the free response to
     e(0) plus sum_n theta_n Phi_n(t), Phi_n the response (from rest at 0) to the n-th
@@ -228,16 +229,32 @@ def fit_trajectory_weights(
     t_tail = tau + dt * np.arange(1, int(TAIL_FRACTION * tau / dt) + 1)
     s = phase_at(np.concatenate([t, t_tail]), tau, settings.alpha_s)
     centers, widths = basis_centers_and_widths(settings.n_basis, settings.alpha_s)
-    features = forcing_basis(s, centers, widths, np.array([amplitude]))[:, 0, :]  # (T', N)
     alpha, beta, n = settings.alpha, settings.beta_value, settings.n_basis
-    responses, _ = step_transformation_system(
-        np.zeros(n), np.zeros(n), features, tau, dt, alpha, beta
-    )
     free, _ = step_transformation_system(
         error[0], np.zeros(3), np.zeros((len(s), 3)), tau, dt, alpha, beta
     )
     target = np.concatenate([error, np.zeros((len(t_tail), 3))]) - free
-    return np.stack([fit_forcing_weights(responses, target[:, m]) for m in range(3)])
+    # The responses, stepped and summed into the normal equations chunk by chunk (those of
+    # an hour at 1 kHz would take gigabytes at once); each chunk starts from the state the
+    # one before ended in, at the sample they share, so the responses are those of one
+    # pass, and a demonstration of one chunk is fitted with the arithmetic of
+    # `fit_forcing_weights` on all of it.
+    chunk = max(2, FEATURE_CHUNK_VALUES // n)
+    gram, moment = np.zeros((n, n)), np.zeros((n, 3))
+    first, position, rate = 0, np.zeros(n), np.zeros(n)
+    while True:
+        end = min(first + chunk, len(s))
+        features = forcing_basis(s[first:end], centers, widths, np.array([amplitude]))[:, 0, :]
+        responses, rates = step_transformation_system(
+            position, np.zeros(n), features, tau, dt, alpha, beta, start_rate=rate
+        )
+        new = responses if first == 0 else responses[1:]  # the shared sample counted once
+        gram += new.T @ new
+        for m in range(3):
+            moment[:, m] += new.T @ target[end - len(new) : end, m]
+        if end == len(s):
+            return np.stack([solve_forcing_weights(gram, moment[:, m]) for m in range(3)])
+        first, position, rate = end - 1, responses[-1], rates[-1]
 
 
 def spatial_scaling(demonstrated: np.ndarray, new: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
