@@ -293,6 +293,30 @@ def test_an_experiment_whose_metrics_read_a_frame_the_models_lack_is_refused_at_
     load_scenario(renamed)  # without the experiments' needs: the models themselves load
 
 
+def test_an_insertion_without_a_puncture_is_refused_at_load(tmp_path):
+    """The insertion's task is the tear of the plank (task.puncture): a world without one
+    counted every run as done, so its claims were judged on runs that never touched the
+    plank. It is refused at load, before any simulation, naming the key."""
+    from hlcmp_drake.run.runner import experiment_worlds
+
+    text = (DIAGRAMS_DIR / "insertion.yaml").read_text()
+    text = re.sub(r"\n  puncture:.*?sliding_speed_m_per_s: [^\n]*", "", text, flags=re.S)
+    assert "puncture" not in text.split("reference:")[0].split("task:")[1]
+    unpunctured = tmp_path / "unpunctured.yaml"
+    unpunctured.write_text(text.replace("demos/", "package://hlcmp_drake/diagrams/demos/"))
+    with pytest.raises(InputError) as error:
+        load_scenario(unpunctured, [], experiment_worlds())
+    assert re.match(
+        rf"{re.escape(str(unpunctured))}:\d+: experiment: 'insertion' judges a run by the tear "
+        r"of the punctured object: it needs task.puncture \(task.puncture.object_frame is "
+        r"empty\)$",
+        str(error.value),
+    ), str(error.value)
+    with pytest.raises(InputError, match=r"^override 'experiment=insertion': .* task.puncture"):
+        load_scenario("cutting", ["experiment=insertion"], experiment_worlds())
+    load_scenario("cutting", [], experiment_worlds())  # the cut is judged by its reference
+
+
 @pytest.mark.parametrize("name", ["..", ".", "../escaped", "sub/dir"])
 def test_a_scenario_name_that_is_no_plain_folder_name_is_refused_before_any_run(tmp_path, name):
     """The name becomes the run's folder (out/NAME, a report's OUT/NAME, a sweep's task's):

@@ -280,6 +280,16 @@ def test_the_insertion_is_done_when_the_tool_point_reaches_the_tear_depth():
     assert "the tool point stayed 5.0 mm above its top, the tear needs" in task["evidence"]
 
 
+def test_an_insertion_without_a_puncture_is_not_counted_as_done():
+    """Without a tear to find there is no verdict: no run is counted as done."""
+    import dataclasses as dc
+
+    run, scenario = _straight_down(-0.005)  # never down to the plank
+    task = dc.replace(scenario.task, puncture=dc.replace(scenario.task.puncture, object_frame=""))
+    with pytest.raises(ValueError, match="needs task.puncture"):
+        insertion.went_through(run, dc.replace(scenario, task=task))
+
+
 @pytest.mark.parametrize("experiment", ["insertion", "cutting"])
 @pytest.mark.parametrize("kept", [["hlcmp_per_step"], ["hlcmp_per_step", "const_500"]])
 def test_a_claim_with_nothing_to_compare_with_is_left_out(experiment, kept):

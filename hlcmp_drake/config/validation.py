@@ -71,10 +71,13 @@ def model_file_exists(file: str) -> bool:
 class ExperimentNeeds:
     """What an experiment needs of a scenario: the task class its world is built from, and
     the frames of the scenario's models its metrics read ("model::frame", e.g. the peg
-    world's hole), looked up at load so that a missing one stops before any simulation."""
+    world's hole), looked up at load so that a missing one stops before any simulation; and
+    whether it judges its task by a puncture's tear (`task.puncture`), without which no run
+    of the scenario could be judged."""
 
     task: type
     frames: tuple[str, ...] = ()
+    puncture: bool = False
 
 
 def validate_scenario(
@@ -176,6 +179,14 @@ def validate_scenario(
                 "experiment",
                 f"'{scenario.experiment}' needs a !{needs.task.__name__} task, the scenario has "
                 f"!{type(scenario.task).__name__}",
+            )
+        if needs.puncture and not (
+            isinstance(scenario.task, ArmTask) and scenario.task.puncture.object_frame
+        ):
+            fail(
+                "experiment",
+                f"'{scenario.experiment}' judges a run by the tear of the punctured object: "
+                "it needs task.puncture (task.puncture.object_frame is empty)",
             )
     plant = scenario_plant(scenario, fail)
     for frame in needs.frames if needs else ():

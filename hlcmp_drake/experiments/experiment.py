@@ -48,6 +48,9 @@ class Experiment:
     model_frames : tuple of str
         The frames of the scenario's models that its metrics read ("model::frame"),
         checked when a run's scenario is loaded.
+    needs_puncture : bool
+        Whether its task is judged by a puncture's tear (the task's `puncture`): a
+        scenario without one is refused at load, since none of its runs could be judged.
     """
 
     name: str
@@ -62,6 +65,7 @@ class Experiment:
     task_done: Callable[[RunResult, Scenario], dict[str, Any]]
     from_paper: bool = True
     model_frames: tuple[str, ...] = ()
+    needs_puncture: bool = False
 
     def metrics_of(
         self, run: RunResult, config: ControllerConfig, scenario: Scenario

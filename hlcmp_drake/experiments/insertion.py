@@ -101,11 +101,16 @@ def went_through(run: RunResult, scenario: Scenario) -> dict:
     -------
     dict
         {"done", "evidence", "tear_s"}: the first logged time at the tear depth [s], or None.
-        Without a puncture modelled there is no tear to find and every run counts as done.
+
+    Raises
+    ------
+    ValueError
+        Without a puncture modelled: there is no tear to judge a run by (`load_scenario`
+        with the experiments' needs refuses such a scenario before any run).
     """
     top = object_top(scenario)
     if top is None:
-        return {"done": True, "evidence": "no puncture modelled: counted as done", "tear_s": None}
+        raise ValueError("the insertion's task is the tear: it needs task.puncture")
     tear_depth = scenario.task.puncture.depth_m
     depth = depth_below(run.series["x"], *top)
     torn = np.flatnonzero(depth >= tear_depth)
@@ -593,4 +598,5 @@ EXPERIMENT = Experiment(
     table=table,
     figures=figures,
     task_done=went_through,
+    needs_puncture=True,
 )

@@ -43,7 +43,7 @@ from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.io.runs import RunResult, instability_record
 from hlcmp_drake.io.skill import ROTATIONAL_FIELDS, Skill, SkillWorld, save_skill
 from hlcmp_drake.present.progress import SILENT, Progress
-from hlcmp_drake.run.runner import run_one, write_results
+from hlcmp_drake.run.runner import experiment_worlds, run_one, write_results
 from hlcmp_drake.worlds.arm import fit_demonstration, fit_orientation_demonstration
 from hlcmp_drake.worlds.build import diagram_factory
 from hlcmp_drake.worlds.controllers import controller_kind, learners
@@ -682,7 +682,7 @@ def _learn_or_reproduce(
     overrides,
     warn,
 ):
-    base, path = load_scenario(scenario_name, overrides)
+    base, path = load_scenario(scenario_name, overrides, experiment_worlds())
     experiment = experiment_of(base, path)
     warnings = []
     if skill is not None:

@@ -17,7 +17,7 @@ from hlcmp_drake.io.paths import bundled_scenarios
 from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.present.report import ReportSection, report_page
 from hlcmp_drake.run.probe import run_probe
-from hlcmp_drake.run.runner import run_one, write_scenario
+from hlcmp_drake.run.runner import experiment_worlds, run_one, write_scenario
 from hlcmp_drake.run.sweep.engines import ENGINES, run_in_processes, run_on_ray
 from hlcmp_drake.run.sweep.tasks import quiet_drake, run_in_temporary_folder, store_files
 from hlcmp_drake.worlds.build import diagram_factory
@@ -78,8 +78,9 @@ def report_folders(out_dir: str | Path, scenarios: list[str] | None = None) -> d
     folders: dict[str, Path] = {}
     given: dict[str, str] = {}
     for entry in scenarios:
-        scenario, path = load_scenario(entry)
-        experiment_of(scenario, path)  # an experiment that does not fit stops here too
+        # with what its experiment needs: one that its experiment cannot judge stops here
+        scenario, path = load_scenario(entry, experiments=experiment_worlds())
+        experiment_of(scenario, path)
         name = scenario.name
         if name in (PAGE, MANIFEST):
             raise InputError(
@@ -129,7 +130,7 @@ def _report_work(entry: str, folder: Path, variants: Sequence[str]) -> list[_Rep
         work.append(_ReportTask(entry, str(folder / "probe"), probe=True))
     if isinstance(scenario.task, ArmTask):
         for variant in variants:
-            varied = load_scenario(entry, variant=variant)[0]
+            varied = load_scenario(entry, experiments=experiment_worlds(), variant=variant)[0]
             work += [
                 _ReportTask(entry, str(folder.parent / varied.name), False, variant, label)
                 for label in varied.controllers

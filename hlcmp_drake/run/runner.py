@@ -38,10 +38,10 @@ def experiment_worlds() -> dict[str, ExperimentNeeds]:
     -------
     dict of str to ExperimentNeeds
         Each registered experiment's name to the task class its world needs and the frames
-        of the models its metrics read.
+        of the models its metrics read, and whether it judges its task by a puncture's tear.
     """
     return {
-        name: ExperimentNeeds(experiment.world, experiment.model_frames)
+        name: ExperimentNeeds(experiment.world, experiment.model_frames, experiment.needs_puncture)
         for name, experiment in EXPERIMENTS.items()
     }
 
