@@ -145,3 +145,50 @@ def test_a_variant_is_compared_row_by_row_and_claim_by_claim():
         EXPERIMENTS["insertion"],
     )
     assert metrics.rows[3][2] == "unstable" and claims.rows[0][3] == "–"
+
+
+@pytest.mark.parametrize(
+    "changes, says, never",
+    [
+        (["robot_imperfection.noise_seed"], "No gain changed", "Not the robot alone"),
+        (
+            ["controllers.const_500.stiffness_N_per_m", "task.max_contact_force_N"],
+            "the variant changes <code>controllers.const_500.stiffness_N_per_m</code>, "
+            "<code>task.max_contact_force_N</code>; controller gains among them.",
+            "No gain changed",
+        ),
+        (
+            ["robot_imperfection.noise_seed", "task.max_contact_force_N"],
+            "changes <code>task.max_contact_force_N</code> and the robot (robot_imperfection); "
+            "no controller gain changed.",
+            "No gain changed",
+        ),
+    ],
+)
+def test_a_variant_section_says_what_the_variant_changes(tmp_path, changes, says, never):
+    """The page said "No gain changed" under every variant, one that set a controller's
+    gains too; the page now says it only of a variant of the robot alone."""
+    axes = {"x": 0.0, "y": 0.0, "z": 0.0}
+    controller = {
+        key: axes
+        for key in (
+            "mean_abs_position_error_m",
+            "mean_abs_force_N",
+            "force_smoothness_N",
+            "max_abs_force_N",
+        )
+    }
+    metrics = {"status": "ok", "controllers": {"const_500": controller}, "claims": {}}
+    for folder in ("perfect", "varied"):
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / "metrics.json").write_text(json.dumps(metrics))
+    section = ReportSection(
+        "insertion",
+        tmp_path / "perfect",
+        1.0,
+        EXPERIMENTS["insertion"],
+        variants={"mine": tmp_path / "varied"},
+        variant_changes={"mine": changes},
+    )
+    page = report_page(tmp_path, [section])
+    assert says in page and never not in page

@@ -3,10 +3,12 @@
 import dataclasses as dc
 
 import numpy as np
+import yaml
 from pydrake.common.schema import Transform
 from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import AddModel, AddWeld, ModelDirective
 
+from hlcmp_drake.config.loading import dump_scenario
 from hlcmp_drake.config.scenario import Scenario
 from hlcmp_drake.io.errors import InputError
 
@@ -71,3 +73,48 @@ def use_drake_models_iiwa(scenario: Scenario) -> Scenario:
             )
         directives.append(directive)
     return dc.replace(scenario, directives=directives)
+
+
+def _flat_values(node: yaml.Node, prefix: str, out: dict[str, object]) -> None:
+    """`out[dotted key] = value` for every leaf of a composed YAML document; a tagged
+    mapping (a task's or a controller's class) also records its tag at its own key, and a
+    list of plain values is one value."""
+    if isinstance(node, yaml.MappingNode):
+        if node.tag.startswith("!"):
+            out[prefix] = node.tag
+        for key, value in node.value:
+            _flat_values(value, f"{prefix}.{key.value}" if prefix else key.value, out)
+    elif isinstance(node, yaml.SequenceNode):
+        if all(isinstance(item, yaml.ScalarNode) for item in node.value):
+            out[prefix] = tuple(item.value for item in node.value)
+        else:
+            for k, item in enumerate(node.value):
+                _flat_values(item, f"{prefix}.{k}", out)
+    else:
+        out[prefix] = node.value
+
+
+def changed_keys(scenario: Scenario, varied: Scenario) -> list[str]:
+    """The dotted keys whose values differ between a scenario and the same scenario under
+    a variant (its `name` aside, which a variant always changes), e.g.
+    ["controllers.const_500.stiffness_N_per_m", "robot_imperfection.seed"].
+
+    Parameters
+    ----------
+    scenario : Scenario
+        As loaded without the variant.
+    varied : Scenario
+        As loaded with it.
+
+    Returns
+    -------
+    list of str
+        Sorted; a key only one of them has (a controller the variant adds) is among them.
+    """
+    # Compared as written out, so that any two values a run could tell apart differ here.
+    flat: list[dict[str, object]] = [{}, {}]
+    for values, loaded in zip(flat, (scenario, varied)):
+        _flat_values(yaml.compose(dump_scenario(loaded)), "", values)
+        values.pop("name", None)
+    before, after = flat
+    return sorted(key for key in before.keys() | after.keys() if before.get(key) != after.get(key))

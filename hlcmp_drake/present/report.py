@@ -164,7 +164,10 @@ UNSTABLE_NOTE = (
 class ReportSection:
     """One scenario's part of the report: its name, run folder, wall time [s], the
     experiment that evaluated it, the folder of its world's probe (None: no probe) and
-    the folders of its runs under variants ({variant name: folder}; e.g. a real arm's)."""
+    the folders of its runs under variants ({variant name: folder}; e.g. a real arm's),
+    and what each variant changes ({variant name: the dotted keys whose values differ from
+    the scenario's without it, `config.variants.changed_keys`}; a variant missing here is
+    shown without saying what it changes)."""
 
     name: str
     run_dir: Path
@@ -172,6 +175,7 @@ class ReportSection:
     experiment: Experiment
     probe_dir: Path | None = None
     variants: dict = dc.field(default_factory=dict)
+    variant_changes: dict = dc.field(default_factory=dict)
 
 
 def _task_cell(metrics: dict, name: str) -> str:
@@ -238,14 +242,49 @@ def _status_html(metrics: dict) -> str:
     return f"Status: <b>{metrics['status']}</b>" + (f" ({'; '.join(stops)})" if stops else "")
 
 
-def _variant_html(out_dir: Path, perfect: dict, variant: str, run_dir: Path, experiment) -> str:
-    """A variant's runs beside the perfect robot's (`robot_comparison`)."""
+ROBOT_KEY = "robot_imperfection"  # what a variant of the robot alone changes (docs/worlds.md)
+
+
+def _changes_html(changes: list[str] | None) -> tuple[str, str]:
+    """(heading, sentence) of a variant that changes the dotted keys `changes`: the robot
+    alone (robot_imperfection), or what else; a variant of any values is loaded as such
+    (docs/worlds.md: "a YAML document layered over the scenario"), so the page says which."""
+    others = [key for key in changes or () if key.split(".")[0] != ROBOT_KEY]
+    if changes is not None and not others:
+        return (
+            "The same controllers on another robot",
+            "No gain changed (docs/worlds.md, &ldquo;A robot that is not its model&rdquo;). ",
+        )
+    if changes is None:
+        return "Under a variant", ""
+    robot = " and the robot (robot_imperfection)" if len(others) < len(changes) else ""
+    controllers = [key for key in others if key.split(".")[0] == "controllers"]
+    return (
+        "The scenario under a variant",
+        "Not the robot alone: against the scenario without it, the variant changes "
+        + ", ".join(f"<code>{html.escape(key)}</code>" for key in others)
+        + robot
+        + ("; controller gains among them. " if controllers else "; no controller gain changed. "),
+    )
+
+
+def _variant_html(
+    out_dir: Path,
+    perfect: dict,
+    variant: str,
+    run_dir: Path,
+    experiment,
+    changes: list[str] | None = None,
+) -> str:
+    """A variant's runs beside the perfect robot's (`robot_comparison`), with what the
+    variant changes (`changes`, its dotted keys; None: not said)."""
     other = json.loads((Path(run_dir) / "metrics.json").read_text())
     rel = Path(run_dir).resolve().relative_to(out_dir.resolve()).as_posix()
     metrics_table, claims_table = robot_comparison(perfect, other, variant, experiment)
+    heading, sentence = _changes_html(changes)
     return (
-        f"<h3>The same controllers on another robot: {html.escape(variant)}</h3>"
-        f"<p>No gain changed (docs/worlds.md, &ldquo;A robot that is not its model&rdquo;). "
+        f"<h3>{heading}: {html.escape(variant)}</h3>"
+        f"<p>{sentence}"
         f"{_status_html(other)}. <a href='{rel}/metrics.json'>metrics.json</a> · "
         f"<a href='{rel}/recording.html'>3-D recording</a></p>"
         + to_html(metrics_table)
@@ -333,7 +372,8 @@ def report_page(out_dir: Path, sections: list) -> str:
         )
         parts.append("<h3>Metrics</h3>" + to_html(experiment.table(metrics["controllers"])))
         for variant, variant_dir in section.variants.items():
-            parts.append(_variant_html(out_dir, metrics, variant, variant_dir, experiment))
+            changes = section.variant_changes.get(variant)
+            parts.append(_variant_html(out_dir, metrics, variant, variant_dir, experiment, changes))
         if section.probe_dir is not None:
             parts.append(_probe_html(out_dir, Path(section.probe_dir)))
         parts.append("<h3>Figures</h3>")

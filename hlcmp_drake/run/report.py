@@ -10,6 +10,7 @@ from typing import Callable, Sequence
 
 from hlcmp_drake.config.loading import load_scenario, resolve_variant_path
 from hlcmp_drake.config.scenario import ArmTask
+from hlcmp_drake.config.variants import changed_keys
 from hlcmp_drake.experiments import experiment_of
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.io.outputs import MANIFEST, WRITTEN, replacing_outputs, write_text
@@ -256,14 +257,20 @@ def run_report(
         for entry, folder in folders.items():
             pieces = [task for task in work if task.entry == entry]
             probe = next((Path(task.run_dir) for task in pieces if task.probe), None)
+            scenario = load_scenario(entry)[0]
+            varied = {task.variant: Path(task.run_dir) for task in pieces if task.variant}
             sections.append(
                 ReportSection(
                     folder.name,
                     folder,
                     sum(written.wall_s[task] for task in pieces),
-                    experiment_of(load_scenario(entry)[0]),
+                    experiment_of(scenario),
                     probe,
-                    {task.variant: Path(task.run_dir) for task in pieces if task.variant},
+                    varied,
+                    {
+                        variant: changed_keys(scenario, load_scenario(entry, variant=variant)[0])
+                        for variant in varied
+                    },
                 )
             )
             for run_dir in dict.fromkeys(task.run_dir for task in pieces if not task.probe):
