@@ -252,13 +252,12 @@ def test_reproduce_runs_the_skill_and_the_settle_time(tmp_path, no_simulation):
 def test_a_skill_is_refused_in_another_world_in_one_line(
     insertion_skill, tmp_path, capsys, no_simulation
 ):
-    for scenario in ("cutting", "one_dof"):
-        args = ["reproduce", str(insertion_skill), "--scenario", scenario, "--freeze"]
-        assert main([*args, "--out", str(tmp_path / scenario)]) == 2
-        error = capsys.readouterr().err.strip().splitlines()
-        assert len(error) == 1, error
-        assert error[0].startswith("hlcmp: error: the skill was learned in 'insertion' (ArmTask")
-        assert f"not in '{scenario}'" in error[0] and "--any-scenario" in error[0]
+    args = ["reproduce", str(insertion_skill), "--scenario", "cutting", "--freeze"]
+    assert main([*args, "--out", str(tmp_path / "cutting")]) == 2
+    error = capsys.readouterr().err.strip().splitlines()
+    assert len(error) == 1, error
+    assert error[0].startswith("hlcmp: error: the skill was learned in 'insertion' (ArmTask")
+    assert "not in 'cutting'" in error[0] and "--any-scenario" in error[0]
     # Moving the plank by an override makes another world, under the same name.
     moved = ["--set", "task.puncture.depth_m=0.01"]
     assert main(["reproduce", str(insertion_skill), "--scenario", "insertion", *moved,
@@ -266,6 +265,28 @@ def test_a_skill_is_refused_in_another_world_in_one_line(
     assert "not in this 'insertion'" in capsys.readouterr().err
     assert no_simulation == []  # refused before anything was simulated
     assert not (tmp_path / "cutting").exists()
+
+
+def test_a_world_that_cannot_learn_is_refused_for_that_not_for_the_skills_world(
+    insertion_skill, tmp_path, capsys, no_simulation
+):
+    """The 1-DOF world follows no demonstration: no skill can be used there, so its refusal
+    says so, not "learned in another world (pass --any-scenario ...)", which would then
+    fail all the same (serve: tests/test_run_serve.py)."""
+    demo = str(DIAGRAMS_DIR / "demos" / "insertion_demo.csv")
+    skill = ["--skill", str(insertion_skill)]
+    for args in (
+        ["reproduce", str(insertion_skill), "--scenario", "one_dof"],
+        ["reproduce", str(insertion_skill), "--scenario", "one_dof", "--any-scenario"],
+        ["learn", demo, "--scenario", "one_dof", *skill],
+    ):
+        assert main([*args, "--out", str(tmp_path / "o")]) == 2
+        error = capsys.readouterr().err.strip().splitlines()
+        assert error == [
+            "hlcmp: error: scenario 'one_dof' does not follow a demonstration; learning and "
+            "reproducing skills needs one that does, such as insertion, cutting or peg_in_hole"
+        ], args
+    assert no_simulation == [] and not (tmp_path / "o").exists()
 
 
 def test_any_scenario_replays_it_elsewhere_with_a_warning(

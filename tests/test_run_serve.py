@@ -648,7 +648,8 @@ def test_served_controller_equals_its_simulated_run(scenario_name, controller, t
 
 def test_a_skill_from_another_world_is_not_served(tmp_path, capsys, monkeypatch):
     """An insertion skill served in the cutting world: one line, exit 2, before the LCM is
-    opened; --any-scenario serves it with a warning line."""
+    opened; --any-scenario serves it with a warning line. In a world without an arm the
+    refusal is for that, where --any-scenario would not help."""
     from hlcmp_drake.cli import main
     from hlcmp_drake.config.loading import load_scenario
     from hlcmp_drake.config.world import world_of_scenario
@@ -673,6 +674,14 @@ def test_a_skill_from_another_world_is_not_served(tmp_path, capsys, monkeypatch)
     with pytest.raises(Opened):
         main([*args, "--any-scenario", "--out", str(tmp_path / "o")])
     assert "used here all the same" in capsys.readouterr().err
+    # A world no skill is served in says so first, not "pass --any-scenario".
+    for any_scenario in ([], ["--any-scenario"]):
+        one_dof = ["serve", "one_dof", "--lcm", "memq://", "--skill", str(path), *any_scenario]
+        assert main([*one_dof, "--out", str(tmp_path / "o")]) == 2
+        assert capsys.readouterr().err.strip().splitlines() == [
+            "hlcmp: error: scenario 'one_dof' has no arm: hlcmp serve drives an iiwa, use an "
+            "arm scenario such as insertion or cutting"
+        ]
 
 
 def test_a_skill_that_does_not_fit_the_scenario_is_named_by_its_file(tmp_path):

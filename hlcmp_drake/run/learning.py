@@ -158,9 +158,15 @@ def learning_scenario(
     freeze: bool = False,
     controller: str | None = None,
     skill_path: str | Path | None = None,
+    any_scenario: bool = False,
+    warn: Callable[[str], None] | None = None,
 ) -> Scenario:
     """The scenario reduced to learning: only its Hl-CMP (learning rates 0 with `freeze`),
     reading `demo_path` as its demonstration, with a skill's DMP settings.
+
+    A scenario that cannot learn at all (no demonstration, no learner) is refused first; a
+    skill from another world then (`check_skill_world`: --any-scenario would use it here),
+    and a skill that does not fit the learner last.
 
     Parameters
     ----------
@@ -176,12 +182,17 @@ def learning_scenario(
         The label of the learner to keep (default: the scenario's first).
     skill_path : str or Path, optional
         The skill's file, named when it does not fit.
+    any_scenario : bool
+        Use a skill learned in another world all the same (`check_skill_world`).
+    warn : callable(str), optional
+        Given `check_skill_world`'s warning, when there is one.
 
     Raises
     ------
     InputError
-        Without a demonstration or an Hl-CMP, when `controller` names no learner, or when
-        the skill does not fit (`check_skill_fits`).
+        Without a demonstration or an Hl-CMP, when `controller` names no learner, for a
+        skill from another world without `any_scenario`, or when the skill does not fit
+        (`check_skill_fits`).
     """
     if not isinstance(scenario.reference, DemonstrationConfig):
         raise InputError(
@@ -201,6 +212,12 @@ def learning_scenario(
                 f"controller of that label (its learners: {', '.join(learners(scenario))})"
             )
         name = controller
+    if skill is not None:
+        # After what no skill could change (--any-scenario would not help there), and
+        # before the axes: a skill from another world is refused for that.
+        warning = check_skill_world(skill, scenario, any_scenario)
+        if warning is not None and warn is not None:
+            warn(warning)
     config = scenario.controllers[name]
     if freeze:
         frozen = controller_kind(scenario, name).frozen
@@ -684,13 +701,10 @@ def _learn_or_reproduce(
 ):
     base, path = load_scenario(scenario_name, overrides, experiment_worlds())
     experiment = experiment_of(base, path)
-    warnings = []
-    if skill is not None:
-        # The world before the axes: a skill from another world is refused for that.
-        warning = check_skill_world(skill, base, any_scenario)
-        if warning is not None:
-            warnings.append(warning)
-    scenario = learning_scenario(base, demo, skill, freeze, controller, skill_path)
+    warnings: list[str] = []
+    scenario = learning_scenario(
+        base, demo, skill, freeze, controller, skill_path, any_scenario, warnings.append
+    )
     six_d = controller_kind(scenario, learner(scenario)).pose
     # The skill keeps the force of the demonstration its DMP comes from.
     if demo is not None or skill is None:

@@ -53,7 +53,7 @@ from hlcmp_drake.io.iiwa_lcm import (
 from hlcmp_drake.io.runs import RunResult
 from hlcmp_drake.io.skill import Skill
 from hlcmp_drake.present.progress import SILENT, Progress
-from hlcmp_drake.run.learning import check_skill_world, learning_scenario
+from hlcmp_drake.run.learning import learning_scenario
 from hlcmp_drake.run.runner import evaluate, experiment_worlds, without_claims, write_results
 from hlcmp_drake.run.sim_driver import DriverSummary, SimulatedIiwaDriver
 from hlcmp_drake.systems.monitor import plant_state_check
@@ -90,6 +90,8 @@ def served_scenario(
     skill: Skill | None = None,
     freeze: bool = False,
     skill_path: str | Path | None = None,
+    any_scenario: bool = False,
+    warn: Callable[[str], None] | None = None,
 ) -> tuple[Scenario, str, tuple | None]:
     """The scenario and the controller to serve, and a skill's weights to start from.
 
@@ -106,6 +108,11 @@ def served_scenario(
         With a skill: no adaptation (learning rates 0).
     skill_path : str or Path, optional
         The skill's file, named when it does not fit (`run.learning.learning_scenario`).
+    any_scenario : bool
+        Serve a skill learned in another world all the same (`run.learning.check_skill_world`,
+        after the checks that no skill could pass: an arm, a demonstration, a learner).
+    warn : callable(str), optional
+        Given the skill's world's warning, when there is one.
 
     Returns
     -------
@@ -121,7 +128,7 @@ def served_scenario(
     InputError
         For a scenario without an arm, a status period longer than the run, an unknown
         label, a controller that has no one-tick law (a variable impedance), or a skill that
-        does not fit.
+        does not fit or, without `any_scenario`, was learned in another world.
     """
     driven_world_of(scenario, "hlcmp serve drives an iiwa")
     period = scenario.iiwa_driver.period_s
@@ -132,7 +139,13 @@ def served_scenario(
         )
     if skill is not None:
         scenario = learning_scenario(
-            scenario, skill=skill, freeze=freeze, controller=controller, skill_path=skill_path
+            scenario,
+            skill=skill,
+            freeze=freeze,
+            controller=controller,
+            skill_path=skill_path,
+            any_scenario=any_scenario,
+            warn=warn,
         )
         controller = next(iter(scenario.controllers))
         return scenario, controller, skill.theta
@@ -1080,11 +1093,14 @@ def serve_scenario(
     from hlcmp_drake.config.loading import load_scenario
 
     scenario, _ = load_scenario(name_or_path, overrides, experiment_worlds())
-    warning = check_skill_world(skill, scenario, any_scenario) if skill is not None else None
-    scenario, controller, theta0 = served_scenario(scenario, controller, skill, freeze, skill_path)
+    warnings: list[str] = []
+    scenario, controller, theta0 = served_scenario(
+        scenario, controller, skill, freeze, skill_path, any_scenario, warnings.append
+    )
     check_served_priority(scenario.iiwa_driver, lcm_url)
-    if warning is not None and warn is not None:
-        warn(warning)
+    for warning in warnings:
+        if warn is not None:
+            warn(warning)
     lcm = open_lcm(lcm_url)
     setup = (
         prepare(scenario, skill.dmp, skill.orientation) if skill is not None else prepare(scenario)
