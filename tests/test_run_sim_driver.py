@@ -68,3 +68,24 @@ def test_a_driver_waiting_for_its_first_command_keeps_no_core_busy():
     busy = (after.user + after.system - before.user - before.system) / wall
     assert busy < 0.3, f"{busy:.0%} of a core while waiting"
     assert 0.25 * wall / driver.period < published <= wall / driver.period + 1
+
+
+def test_a_command_delay_is_checked_against_duration_only_when_there_is_one(monkeypatch):
+    """Without --duration the driver runs until its client stops, not for the scenario's
+    duration_s: a delay longer than duration_s was refused against a run length the driver
+    never keeps. With --duration it must be shorter than that."""
+    from hlcmp_drake.io.errors import InputError
+    from hlcmp_drake.run.sim_driver import run_sim_driver
+
+    class Opened(Exception):
+        pass
+
+    def open_lcm(url):
+        raise Opened(url)
+
+    monkeypatch.setattr("hlcmp_drake.run.sim_driver.open_lcm", open_lcm)
+    url = "udpm://239.255.76.67:7667?ttl=0"
+    with pytest.raises(Opened):  # past every check of its input: 100 s of delay
+        run_sim_driver("insertion", url, command_delay_steps=100_000)
+    with pytest.raises(InputError, match=r"^--command-delay 2000: 2 s of plant steps must be "):
+        run_sim_driver("insertion", url, duration=2.0, command_delay_steps=2000)

@@ -423,7 +423,9 @@ def run_sim_driver(
         ``dotted.key=value`` overrides of the scenario.
     command_delay_steps : int
         As for `SimulatedIiwaDriver` (1: Drake's simulated driver's timing); in time,
-        shorter than the run (`duration`, else the scenario's `duration_s`).
+        shorter than `duration` when one is given. Without it the driver runs until the
+        client stops, for no length known here (the scenario's `duration_s` is not it), so
+        there is nothing to check the delay against.
 
     Returns
     -------
@@ -443,12 +445,10 @@ def run_sim_driver(
         )
     scenario, _ = load_scenario(name_or_path, overrides)
     delay_s = command_delay_steps * scenario.plant_config.time_step
-    run_s = scenario.duration_s if duration is None else duration
-    if delay_s >= run_s:  # no command would act before the run ends
-        where = "the scenario's duration_s" if duration is None else "--duration"
+    if duration is not None and delay_s >= duration:  # no command would act before the end
         raise InputError(
             f"--command-delay {command_delay_steps}: {delay_s:g} s of plant steps must be "
-            f"shorter than the run ({run_s:g} s, {where})"
+            f"shorter than the run ({duration:g} s, --duration)"
         )
     lcm = open_lcm(lcm_url)
     driver = SimulatedIiwaDriver(scenario, lcm, command_delay_steps=command_delay_steps)
