@@ -99,6 +99,11 @@ def test_a_grid_in_scientific_notation_holds_numbers_as_a_sweeps_does(tmp_path):
             "can be regressed on: give the demonstration's duration in seconds",
         ),
         (GOOD.replace("task.puncture.depth_m:", "task.puncture.nope:"), 6, "no field 'nope'"),
+        (
+            GOOD.replace("task.puncture.depth_m:", "dmp.smoothing_s:"),
+            6,
+            "grid: 'dmp.smoothing_s': the DMP's settings are no task parameter",
+        ),
         (GOOD.replace("scenario: insertion", "scenario: nowhere"), 1, "not a bundled scenario"),
         (
             "scenario: one_dof\ngrid:\n  controllers.hlcmp.pi: [1.0, 5.0]\n",

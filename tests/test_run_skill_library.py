@@ -456,13 +456,38 @@ def test_generalize_never_writes_over_its_librarys_files(tmp_path, out):
     assert beside.returncode == 0, beside.stderr  # the folder is the user's too
 
 
-def test_skills_with_another_basis_are_refused(tmp_path):
+@pytest.mark.parametrize(
+    "settings, differs",
+    [
+        (DmpSettings(n_basis=12), "DMP's n_basis (10 and 12)"),
+        (DmpSettings(n_basis=10, smoothing_s=0.05), "DMP's smoothing_s (0.01 and 0.05)"),
+    ],
+)
+def test_skills_of_another_dmp_are_not_regressed_and_the_setting_is_named(
+    tmp_path, settings, differs
+):
+    """The regression needs one DMP's settings; the nearest skill is taken as it is, its
+    own DMP with it."""
     folder = write_library(tmp_path, [0.010, 0.015], [60.0])
     path = folder / "skills" / "d=0.015,f=60.0" / "skill.npz"
-    other = Dmp.fit(*read_demonstration(tmp_path / "demo.csv"), DmpSettings(n_basis=12))
-    save_skill(path, Skill.untrained(other))
-    with pytest.raises(InputError, match="differ in their basis"):
-        SkillLibrary.load(folder)
+    other = Dmp.fit(*read_demonstration(tmp_path / "demo.csv"), settings)
+    save_skill(path, Skill(other, *[np.ones((3, settings.n_basis))] * 3))
+    query = [f"{DEPTH}=0.014", f"{FRICTION}=60"]
+    args = [a for q in query for a in ("--query", q)]
+    result = run_cli("generalize", folder, *args, "--out", tmp_path / "s.npz")
+    assert one_line_error(result) == (
+        f"hlcmp: error: {folder}/library.json: the skills 'd=0.01,f=60.0' and "
+        f"'d=0.015,f=60.0' differ in their {differs}, which cannot be regressed: the "
+        "regression takes skills of one DMP's settings, axes and goal scaling (--method "
+        "nearest takes a skill as it is)"
+    )
+    nearest = run_cli(
+        "generalize", folder, *args, "--out", tmp_path / "s.npz", "--method", "nearest"
+    )
+    assert nearest.returncode == 0, nearest.stderr
+    skill = load_skill(tmp_path / "s.npz")
+    assert skill.dmp.settings == settings and np.array_equal(skill.dmp.theta_p, other.theta_p)
+    assert np.array_equal(skill.theta_v, np.ones((3, settings.n_basis)))
 
 
 def test_a_trend_the_regression_cannot_find_is_said(tmp_path):

@@ -17,7 +17,8 @@ A library file (``diagrams/libraries/*.yaml``)::
 A grid key is a task parameter of the library (a query key of `hlcmp generalize`): it
 takes at least two values, each a finite number (read as a sweep's grid reads it, 1e-2
 included), since a skill is regressed on them. (So reference.duration_s takes no 0, which stands
-for the demonstration's own duration.)
+for the demonstration's own duration; and no key of `dmp` is one: the skills regressed
+together share one DMP's settings, which `set` may give.)
 Planning loads every skill's scenario with its overrides, so a bad key or value stops the
 library before anything runs, naming the library file's line.
 """
@@ -50,6 +51,10 @@ SKILLS_DIR = "skills"  # in the library's folder: one folder per skill
 # The DMP's tau: its 0 is no duration but "as demonstrated", which a regression over the
 # grid's numbers would take for the number 0.
 AS_DEMONSTRATED_AT_0 = "reference.duration_s"
+# The DMP's settings (n_basis, alpha, beta, alpha_s, smoothing_s): a skill's weights are
+# read on its own basis and gains, so `hlcmp generalize` regresses only skills that share
+# them all, and a grid over one would be learned in full and then refused.
+DMP_SETTINGS = "dmp"
 
 
 @dc.dataclass
@@ -220,6 +225,13 @@ def _check(config: LibraryConfig, fail) -> dict:
             fail(f"grid.{key}", f"grid: '{key}' is also in set")
         if not _KEY.fullmatch(key):
             fail(f"grid.{key}", f"'{key}': an override key is dotted, e.g. task.puncture.depth_m")
+        if key.split(".")[0] == DMP_SETTINGS:
+            fail(
+                f"grid.{key}",
+                f"grid: '{key}': the DMP's settings are no task parameter: generalize "
+                "regresses the weights of skills that share one DMP (its basis, gains and "
+                "smoothing); give it under set, one value for every skill",
+            )
         numbers = [_number(text) for text in texts]
         bad = [text for text, number in zip(texts, numbers) if number is None]
         if bad:

@@ -151,8 +151,8 @@ class SkillLibrary:
         InputError
             One line naming the file: no library.json, not JSON, a missing key or one of
             another type (`_check_record`), a skill file that cannot be read, fewer than
-            two skills, two skills at one query, skills whose DMPs cannot be regressed
-            together (another basis, duration or axes).
+            two skills, two skills at one query, pose skills. (Skills whose DMPs cannot
+            be regressed together are refused by `fit`: the nearest skill is used as it is.)
         """
         folder = Path(folder)
         path = folder / LIBRARY_FILE
@@ -164,7 +164,6 @@ class SkillLibrary:
                 "theta_k, theta_d, theta_v and the position DMP only, and would drop their "
                 "orientation DMP and rotational profiles"
             )
-        _check_same_dmp(skills, path)
         return cls(folder, record, skills)
 
     def normalized(self, queries: np.ndarray) -> np.ndarray:
@@ -190,7 +189,14 @@ class SkillLibrary:
         -------
         SkillLibrary
             This library, fitted.
+
+        Raises
+        ------
+        InputError
+            One line naming library.json and the DMP setting, axes or goal scaling two of
+            its skills differ in, which the regression cannot take (`_check_same_dmp`).
         """
+        _check_same_dmp(self.skills, self.ids, self.folder / LIBRARY_FILE)
         _require_sklearn()
         from sklearn.exceptions import ConvergenceWarning
         from sklearn.gaussian_process import GaussianProcessRegressor
@@ -388,7 +394,9 @@ class SkillLibrary:
         prediction = self.predict(query, method)
         if method == "regression":
             notes = notes + self.trends_not_found()
-        base = self.skills[0]
+        # The nearest skill is taken as it is, its DMP's settings with it; a regression's
+        # skills share theirs (`_check_same_dmp`).
+        base = self.skills[self.ids.index(prediction.nearest) if method == "nearest" else 0]
         dmp_arrays = {f: prediction.mean[f] for f in DMP_FIELDS if f in prediction.mean}
         if "tau" in dmp_arrays:
             dmp_arrays["tau"] = float(dmp_arrays["tau"])
@@ -647,18 +655,26 @@ def _varies(arrays: list) -> bool:
     return any(not np.array_equal(arrays[0], other) for other in arrays[1:])
 
 
-def _check_same_dmp(skills: list, path: Path) -> None:
-    """The skills' DMPs must share what is not regressed: settings, axes, scaling."""
+def _check_same_dmp(skills: list, ids: list, path: Path) -> None:
+    """The skills' DMPs must share what is not regressed: settings, axes, scaling. A skill
+    that differs from the first is refused in one line naming what differs and how."""
     first = skills[0].dmp
-    for skill in skills[1:]:
+    for skill, identifier in zip(skills[1:], ids[1:]):
         dmp = skill.dmp
-        same = (
-            dmp.settings == first.settings
-            and dmp.axis_names == first.axis_names
-            and np.array_equal(dmp.goal_scaled, first.goal_scaled)
-        )
-        if not same:
-            raise InputError(
-                f"{path}: the skills' DMPs differ in their basis or axes, which cannot be "
-                "regressed (learn every skill from one demonstration's DMP settings)"
+        pairs = {
+            f"DMP's {field.name}": (
+                getattr(first.settings, field.name),
+                getattr(dmp.settings, field.name),
             )
+            for field in dc.fields(first.settings)
+        }
+        pairs["DMP's axes"] = (",".join(first.axis_names), ",".join(dmp.axis_names))
+        pairs["DMP's goal scaling"] = (first.goal_scaled.tolist(), dmp.goal_scaled.tolist())
+        for what, (theirs, its) in pairs.items():
+            if theirs != its:
+                raise InputError(
+                    f"{path}: the skills '{ids[0]}' and '{identifier}' differ in their {what} "
+                    f"({theirs} and {its}), which cannot be regressed: the regression takes "
+                    "skills of one DMP's settings, axes and goal scaling (--method nearest "
+                    "takes a skill as it is)"
+                )
