@@ -1365,12 +1365,13 @@ def _check_output_file_kind(args, out):
     input files, a file of the library it generalises over (`owned_by_library`) or of
     another command's output folder (its manifest lists it: a run's timeseries.npz), a path
     whose suffix is not the kind of file it writes (a skill over a demonstration, a CSV
-    over a skill), or, for fit, which learns nothing, a learned skill (an earlier fit's may
-    be replaced)."""
+    over a skill), or a learned skill: for fit, which learns nothing, any (an earlier fit's
+    may be replaced); for generalize, whose skill is predicted, one trained by learn or
+    reproduce (an earlier generalized skill may be replaced, as a new query's)."""
     from hlcmp_drake.io.skill import load_skill
 
     if args.command == "generalize":
-        from hlcmp_drake.run.skill_library import owned_by_library
+        from hlcmp_drake.run.skill_library import is_generalized, owned_by_library
 
         if owned_by_library(args.library, out):
             raise InputError(
@@ -1397,15 +1398,20 @@ def _check_output_file_kind(args, out):
         raise InputError(
             f"--out {out}: {args.command} writes {kind}: give a path ending in {suffix}"
         )
-    if args.command == "fit" and exists:
+    if args.command in ("fit", "generalize") and exists:
         try:
             learned = load_skill(out).learned
-        except InputError:  # no skill there to lose: fit replaces it as any file
+        except InputError:  # no skill there to lose: it is replaced as any file
             learned = False
-        if learned:
+        if learned and args.command == "fit":
             raise InputError(
                 f"--out {out}: holds a learned skill, which fit would replace with one that "
                 "has learned nothing: choose another path"
+            )
+        if learned and args.command == "generalize" and not is_generalized(out):
+            raise InputError(
+                f"--out {out}: holds a skill trained by learn or reproduce, which generalize "
+                "would replace with one predicted from the library: choose another path"
             )
 
 

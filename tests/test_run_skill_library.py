@@ -532,3 +532,27 @@ def test_a_weight_that_differs_only_by_round_off_has_no_standard_deviation(tmp_p
     library = SkillLibrary.load(write_library(tmp_path, *GRID, function=flat_first_row)).fit()
     std = library.predict({DEPTH: 0.01125, FRICTION: 90.0}).std["theta_v"]
     assert (std[0] == 0).all() and (std[1:] > 0).all()
+
+
+def test_generalize_refuses_to_replace_a_trained_skill_but_replaces_a_generalized_one(tmp_path):
+    """A skill trained by learn is refused as --out (as fit refuses it: its learning would
+    be lost); an earlier generalized skill is a prediction, which a new query replaces."""
+    from hlcmp_drake.io.skill import SkillWorld
+
+    folder = write_library(tmp_path, [0.010, 0.015], [60.0, 120.0])
+    query = ["--query", f"{DEPTH}=0.012", "--query", f"{FRICTION}=90"]
+    trained = tmp_path / "my_skill.npz"  # as learn writes it: with the world it learned in
+    skill = load_skill(folder / "skills" / "d=0.01,f=60.0" / "skill.npz")
+    save_skill(trained, dataclasses.replace(skill, world=SkillWorld("insertion", "k", "0" * 64)))
+    kept = trained.read_bytes()
+    assert one_line_error(run_cli("generalize", folder, *query, "--out", trained)) == (
+        f"hlcmp: error: --out {trained}: holds a skill trained by learn or reproduce, which "
+        "generalize would replace with one predicted from the library: choose another path"
+    )
+    assert trained.read_bytes() == kept
+    generalized = tmp_path / "generalized.npz"
+    for value in ("0.012", "0.013"):
+        query[1] = f"{DEPTH}={value}"
+        result = run_cli("generalize", folder, *query, "--out", generalized)
+        assert result.returncode == 0, result.stderr
+    assert load_skill(generalized).world is not None  # learned, and replaced all the same

@@ -61,6 +61,9 @@ KERNEL_DESCRIPTION = (
 # at the tau it learned at, e.g. a grid over reference.duration_s).
 PROFILE_FIELDS = ("theta_k", "theta_d", "theta_v")
 DMP_FIELDS = ("theta_p", "start", "goal", "amplitude", "tau")
+# The array a generalized skill's file holds beside the skill (`save_generalized`), which
+# tells it from a trained one (`is_generalized`).
+GENERALIZED_MARK = "generalized_method"
 # scikit-learn's normalize_y treats a weight whose standard deviation over the library is
 # below this as constant (sklearn.preprocessing's _handle_zeros_in_scale).
 NO_SPREAD = 10 * np.finfo(float).eps
@@ -528,12 +531,29 @@ def save_generalized(
     """
     extra = {
         "generalized_query": np.array(json.dumps(dict(query))),
-        "generalized_method": np.array(prediction.method),
+        GENERALIZED_MARK: np.array(prediction.method),
         "generalized_nearest": np.array(prediction.nearest),
     }
     for field, std in (prediction.std or {}).items():
         extra[f"std_{field}"] = std
     return save_skill(path, skill, extra)
+
+
+def is_generalized(path: str | Path) -> bool:
+    """Whether a skill file is one `save_generalized` wrote (a prediction over a library,
+    marked by its `generalized_method`), not one trained by `hlcmp learn` or `reproduce`.
+
+    Parameters
+    ----------
+    path : str or Path
+        A skill file `load_skill` reads.
+
+    Returns
+    -------
+    bool
+    """
+    with np.load(path, allow_pickle=False) as data:
+        return GENERALIZED_MARK in data.files
 
 
 def _read_record(folder: Path) -> dict:
