@@ -116,6 +116,15 @@ def _whole_number(text):
         raise argparse.ArgumentTypeError(f"expected a whole number, got '{text}'") from None
 
 
+def _path(text):
+    """A file or folder argument (every --out, and each input a command reads). An empty
+    one, most often an unset shell variable ("$OUT"), names none: the commands would read
+    it as the working directory, their default, or a folder."""
+    if not text:
+        raise argparse.ArgumentTypeError("an empty path (an unset shell variable?)")
+    return text
+
+
 def _quiet_drake(args):
     """Drake's INFO lines (the Meshcat server a recording starts, package downloads) are
     not for this command's user; warnings and errors still show. pydrake sets this
@@ -840,6 +849,7 @@ def build_parser():
     world = argparse.ArgumentParser(add_help=False)  # where learn and reproduce run
     world.add_argument(
         "--scenario",
+        type=_path,
         required=True,
         help="the world: an arm scenario (insertion, cutting, peg_in_hole) or a YAML path",
     )
@@ -866,9 +876,11 @@ def build_parser():
         "run", parents=[common, quiet, overrides], help="run a scenario (bundled name or YAML path)"
     )
     run.add_argument(
-        "scenario", help=f"a bundled scenario ({', '.join(bundled)}) or a scenario .yaml"
+        "scenario",
+        type=_path,
+        help=f"a bundled scenario ({', '.join(bundled)}) or a scenario .yaml",
     )
-    run.add_argument("--out", help="output folder (default out/SCENARIO)")
+    run.add_argument("--out", type=_path, help="output folder (default out/SCENARIO)")
     run.add_argument(
         "--meshcat",
         action="store_true",
@@ -883,6 +895,7 @@ def build_parser():
     )
     run.add_argument(
         "--variant",
+        type=_path,
         help="layer a variant over the scenario before --set: a bundled one "
         f"from diagrams/variants/ ({', '.join(bundled_variants())}; docs/worlds.md says what "
         "each changes) or a .yaml of your own; the runs go to out/SCENARIO_VARIANT",
@@ -894,9 +907,12 @@ def build_parser():
         parents=[common, quiet],
         help="run every bundled scenario and write one offline report page",
     )
-    report.add_argument("--out", default="out/report", help="output folder (default out/report)")
+    report.add_argument(
+        "--out", type=_path, default="out/report", help="output folder (default out/report)"
+    )
     report.add_argument(
         "--scenarios",
+        type=_path,
         nargs="+",
         metavar="SCENARIO",
         help=f"what to run, in this order: bundled scenarios ({', '.join(bundled)}) or "
@@ -910,6 +926,7 @@ def build_parser():
     )
     report.add_argument(
         "--variants",
+        type=_path,
         nargs="+",
         default=(),
         metavar="VARIANT",
@@ -930,7 +947,10 @@ def build_parser():
         "bench", parents=[common], help="measure where the time goes (bench.json and a table)"
     )
     bench.add_argument(
-        "--out", default="out/bench", help="output folder for bench.json (default out/bench)"
+        "--out",
+        type=_path,
+        default="out/bench",
+        help="output folder for bench.json (default out/bench)",
     )
     bench.add_argument(
         "--quick", action="store_true", help="a few iterations of everything (CI smoke mode)"
@@ -944,12 +964,14 @@ def build_parser():
     )
     learn.add_argument(
         "demo",
+        type=_path,
         help="demonstration CSV (t,x,y,z; world frame of the scenario, metres; for a 6-D "
         "learner also qw,qx,qy,qz, the tool's orientation; optionally fx,fy,fz, the force "
         "on the tool in N)",
     )
     learn.add_argument(
         "--out",
+        type=_path,
         required=True,
         help="output folder: the learned skill.npz, metrics, figures, recording",
     )
@@ -961,7 +983,7 @@ def build_parser():
         "(1-100, default 1)",
     )
     learn.add_argument(
-        "--skill", help="start from this saved skill's profiles instead of theta = 0"
+        "--skill", type=_path, help="start from this saved skill's profiles instead of theta = 0"
     )
     learn.add_argument(
         "--demo-force",
@@ -976,9 +998,10 @@ def build_parser():
         parents=[common, quiet, overrides, world],
         help="replay a learned skill in a scenario",
     )
-    reproduce.add_argument("skill", help="skill file (.npz) from hlcmp learn or fit")
+    reproduce.add_argument("skill", type=_path, help="skill file (.npz) from hlcmp learn or fit")
     reproduce.add_argument(
         "--out",
+        type=_path,
         required=True,
         help="output folder: metrics, figures, recording; and the skill.npz it goes on "
         "learning unless --freeze",
@@ -995,9 +1018,10 @@ def build_parser():
     )
     probe.add_argument(
         "scenario",
+        type=_path,
         help="an arm scenario with a probe (insertion, cutting, peg_in_hole) or a YAML path",
     )
-    probe.add_argument("--out", help="output folder (default out/probe_SCENARIO)")
+    probe.add_argument("--out", type=_path, help="output folder (default out/probe_SCENARIO)")
     probe.add_argument(
         "--speed", type=_positive, help="carriage speed in m/s (default the scenario's)"
     )
@@ -1010,11 +1034,12 @@ def build_parser():
     )
     fit.add_argument(
         "demo",
+        type=_path,
         help="demonstration CSV: t,x,y,z (time in s, then 1-3 positions in m), optionally "
         "followed by qw,qx,qy,qz (the tool's orientation in the world frame, unit quaternion), "
         "then optionally fx,fy,fz (the force on the tool in N)",
     )
-    fit.add_argument("--out", required=True, help="skill file to write (.npz)")
+    fit.add_argument("--out", type=_path, required=True, help="skill file to write (.npz)")
     fit.add_argument(
         "--basis",
         type=_whole_number,
@@ -1036,8 +1061,10 @@ def build_parser():
         help="roll a skill's DMP out into a trajectory CSV (a pose skill's: "
         "t,x,y,z,qw,qx,qy,qz,vx,vy,vz,wx,wy,wz, angular velocity in the world frame)",
     )
-    rollout.add_argument("skill", help="skill file (.npz) from hlcmp fit or hlcmp learn")
-    rollout.add_argument("--out", required=True, help="trajectory CSV to write")
+    rollout.add_argument(
+        "skill", type=_path, help="skill file (.npz) from hlcmp fit or hlcmp learn"
+    )
+    rollout.add_argument("--out", type=_path, required=True, help="trajectory CSV to write")
     rollout.add_argument(
         "--duration", type=_positive, help="new duration tau in s (temporal scaling)"
     )
@@ -1057,10 +1084,13 @@ def build_parser():
         help="run a scenario over a grid or list of overrides (resumable)",
     )
     sweep.add_argument(
-        "sweep", help="a sweep file (.yaml) or a bundled sweep's name (diagrams/sweeps/)"
+        "sweep",
+        type=_path,
+        help="a sweep file (.yaml) or a bundled sweep's name (diagrams/sweeps/)",
     )
     sweep.add_argument(
         "--out",
+        type=_path,
         help="output folder (default out/sweeps/SWEEP): sweep.csv, sweep.json, "
         "plots/, and tasks/ID/ per task; finished tasks there are skipped",
     )
@@ -1087,7 +1117,7 @@ def build_parser():
         parents=[common, quiet, overrides],
         help="serve a scenario's controller to an iiwa driver over LCM (torque-only)",
     )
-    serve.add_argument("scenario", help=arm_scenario_help)
+    serve.add_argument("scenario", type=_path, help=arm_scenario_help)
     serve.add_argument(
         "--lcm",
         required=True,
@@ -1098,7 +1128,9 @@ def build_parser():
         "--controller", help="the controller's label (default: the scenario's Hl-CMP)"
     )
     serve.add_argument(
-        "--skill", help="serve the Hl-CMP from this skill file's DMP and learned profiles"
+        "--skill",
+        type=_path,
+        help="serve the Hl-CMP from this skill file's DMP and learned profiles",
     )
     serve.add_argument("--freeze", action="store_true", help="with --skill: no adaptation")
     serve.add_argument(
@@ -1109,7 +1141,7 @@ def build_parser():
     serve.add_argument(
         "--duration", type=_positive, help="seconds to serve (default the scenario's duration_s)"
     )
-    serve.add_argument("--out", help="output folder (default out/serve_SCENARIO)")
+    serve.add_argument("--out", type=_path, help="output folder (default out/serve_SCENARIO)")
     serve.set_defaults(func=cmd_serve)
 
     sim_driver = sub.add_parser(
@@ -1118,7 +1150,7 @@ def build_parser():
         help="a scenario's simulated iiwa, driven over LCM like drake-iiwa-driver "
         "in torque-only mode (status every 1 ms)",
     )
-    sim_driver.add_argument("scenario", help=arm_scenario_help)
+    sim_driver.add_argument("scenario", type=_path, help=arm_scenario_help)
     sim_driver.add_argument(
         "--lcm",
         required=True,
@@ -1173,10 +1205,13 @@ def _add_library_parsers(sub, common, quiet):
         help="learn a skill at every combination of task parameters (resumable)",
     )
     library.add_argument(
-        "spec", help="a library file (.yaml) or a bundled library's name (diagrams/libraries/)"
+        "spec",
+        type=_path,
+        help="a library file (.yaml) or a bundled library's name (diagrams/libraries/)",
     )
     library.add_argument(
         "--out",
+        type=_path,
         required=True,
         help="the library's folder: library.json and skills/ID/; learned skills there are kept",
     )
@@ -1202,7 +1237,7 @@ def _add_library_parsers(sub, common, quiet):
         parents=[common],
         help="a skill at new task parameters, by regression over a skill library",
     )
-    generalize.add_argument("library", help="a folder written by hlcmp library")
+    generalize.add_argument("library", type=_path, help="a folder written by hlcmp library")
     generalize.add_argument(
         "--query",
         action="append",
@@ -1210,7 +1245,7 @@ def _add_library_parsers(sub, common, quiet):
         metavar="KEY=VALUE",
         help="a task parameter's value (repeatable; every parameter the library varies)",
     )
-    generalize.add_argument("--out", required=True, help="skill file to write (.npz)")
+    generalize.add_argument("--out", type=_path, required=True, help="skill file to write (.npz)")
     generalize.add_argument(
         "--method",
         choices=("regression", "nearest"),

@@ -776,3 +776,38 @@ def test_a_skill_that_does_not_fit_the_scenario_is_named(tmp_path):
         f"hlcmp: error: {skill}: the skill's axes (z) do not match the scenario 'insertion', "
         "which controls x,y,z"
     )
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["run", "one_dof", "--out"],
+        ["report", "--out"],
+        ["bench", "--out"],
+        ["learn", INSERTION_DEMO, "--scenario", "insertion", "--out"],
+        ["reproduce", "skill.npz", "--scenario", "insertion", "--out"],
+        ["probe", "insertion", "--out"],
+        ["fit", INSERTION_DEMO, "--out"],
+        ["rollout", "skill.npz", "--out"],
+        ["sweep", "sweep.yaml", "--out"],
+        ["serve", "insertion", "--lcm", "memq://", "--out"],
+        ["library", "insertion", "--out"],
+        ["generalize", "L", "--query", "a=1", "--out"],
+        ["learn", INSERTION_DEMO, "--out", "L", "--scenario"],
+        ["learn", INSERTION_DEMO, "--scenario", "insertion", "--out", "L", "--skill"],
+        ["run", "one_dof", "--variant"],
+        ["fit", "--out", "s.npz", "demo"],
+        ["run", "scenario"],
+    ],
+)
+def test_an_empty_path_is_refused_by_the_parser_before_any_work(tmp_path, args):
+    """An unset shell variable (--out "$OUT") wrote into out/SCENARIO or the working
+    directory, or was called a folder; every path argument (the last name here: an option,
+    or a positional's) now refuses it alike."""
+    *given, named = args
+    result = run_cli(*given, *([named] if named.startswith("--") else []), "", cwd=tmp_path)
+    assert one_line_error(result) == (
+        f"hlcmp {args[0]}: error: argument {named}: an empty path (an unset shell variable?) "
+        "(see --help)"
+    )
+    assert list(tmp_path.iterdir()) == []
