@@ -111,6 +111,11 @@ def test_a_grid_in_scientific_notation_holds_numbers_as_a_sweeps_does(tmp_path):
             "scenario: scenario 'one_dof' does not follow a demonstration",
         ),
         (GOOD.replace("trials: 2", "trails: 2"), 2, "trails"),
+        (
+            GOOD.replace("trials: 2", "trials: 2\ndemo_force: yes please"),
+            3,
+            "demo_force: must be true or false, got 'yes please'",
+        ),
         (GOOD.replace("  duration_s: 0.3", "  task.puncture.depth_m: 0.01"), 6, "also in set"),
         ("scenario: insertion\n", None, "grid: a library needs at least one task parameter"),
         ("scenario: [insertion\n", 2, "expected ',' or ']'"),

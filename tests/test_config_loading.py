@@ -357,3 +357,93 @@ def test_a_tag_on_a_field_of_one_kind_is_refused_by_name(override):
         f"override '{override}': {key.rsplit('.', 1)[-1]}: takes no tag ({tag}): it holds a "
         f"{kind} only; give its fields alone"
     )
+
+
+INSERTION = (DIAGRAMS_DIR / "insertion.yaml").read_text()
+
+
+def test_a_scenario_without_its_task_says_so_not_what_the_default_world_refuses(tmp_path):
+    """Without `task` a scenario is the slider world (Scenario's default), which refused
+    the arm's demonstration: the line blamed the reference."""
+    start, end = INSERTION.index("task: !ArmTask"), INSERTION.index("reference: !Demo")
+    path = tmp_path / "notask.yaml"
+    text = INSERTION[:start] + INSERTION[end:]
+    path.write_text(text.replace("file: demos/", "file: package://hlcmp_drake/diagrams/demos/"))
+    with pytest.raises(InputError) as error:
+        load_scenario(path)
+    assert str(error.value) == (
+        f"{path}: no task: a scenario says which world it is in `task` (!ArmTask for the arm, "
+        "!SliderTask for the one-DOF slider); without it, it is the slider world, where "
+        "reference: the slider world follows a !StepReferenceConfig reference"
+    )
+
+
+@pytest.mark.parametrize(
+    "old, new, at, expected",
+    [
+        (  # an untagged config is named at its first field that is not the read tag's
+            "  const_500: !ConstantImpedanceConfig",
+            "  const_500:",
+            "    stiffness_N_per_m: [500.0",
+            "const_500: untagged, so read as !HlcmpConfig, which has no fields "
+            "'stiffness_N_per_m', 'damping_Ns_per_m': they are !ConstantImpedanceConfig's: "
+            "give its tag",
+        ),
+        (
+            "task: !ArmTask",
+            "task:",
+            "  tool_frame:",
+            "task: untagged, so read as !SliderTask, which has no fields 'tool_frame', "
+            "'axes', 'tool_direction', ...: they are !ArmTask's: give its tag",
+        ),
+        (
+            "  n_basis: 30 ",
+            "  n_basis: 3e1 ",
+            "  n_basis:",
+            "n_basis: must be an integer in digits, got '3e1'",
+        ),
+        (
+            "  tool_frame: insertion_tool::tip",
+            "  tool_frame:",
+            "  tool_frame:",
+            "tool_frame: must be text, got nothing",
+        ),
+    ],
+)
+def test_an_untagged_config_or_a_value_drake_would_not_read_names_field_and_kind(
+    tmp_path, old, new, at, expected
+):
+    """Drake said "The fields [...] were unknown to the schema", "invalid literal for
+    int()" or "Expected a <class 'str'> value": the line names the field, what it wants,
+    and for an untagged config the tag whose fields it holds."""
+    assert old in INSERTION
+    path = tmp_path / "bad.yaml"
+    path.write_text(INSERTION.replace(old, new))
+    with pytest.raises(InputError) as error:
+        load_scenario(path)
+    assert str(error.value) == f"{path}:{_line_of(INSERTION, at)}: {expected}"
+
+
+@pytest.mark.parametrize(
+    "override, expected",
+    [
+        ("dmp.n_basis=1e3", "n_basis: must be an integer in digits, got '1e3'"),
+        ("task.tool_frame=", "tool_frame: must be text, got nothing"),
+        ("name=", "name: must be text, got nothing"),
+        ("controllers.hlcmp.q_units=3", "q_units: must be text, got 3"),
+    ],
+)
+def test_an_override_drake_would_not_read_names_field_and_kind(override, expected):
+    with pytest.raises(InputError) as error:
+        load_scenario("insertion", [override])
+    assert str(error.value) == f"override '{override}': {expected}"
+
+
+def test_a_demonstration_that_is_a_folder_is_called_a_folder(tmp_path):
+    (tmp_path / "adir").mkdir()
+    with pytest.raises(InputError) as error:
+        load_scenario("insertion", [f"reference.file={tmp_path / 'adir'}"])
+    assert str(error.value) == (
+        f"override 'reference.file={tmp_path / 'adir'}': file: '{tmp_path / 'adir'}' is a "
+        "folder, not a demonstration file (a CSV)"
+    )

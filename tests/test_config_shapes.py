@@ -32,6 +32,8 @@ class _Gains:
         ("n: 2.5", (1, "n", "must be an integer, got 2.5")),
         ("x: {a: 1}", (1, "x", "must be a number, got a map")),
         ("label: [a]", (1, "label", "must be text, got a list")),
+        ("n: 1e3", (1, "n", "must be an integer in digits, got '1e3'")),  # Drake: int('1e3')
+        ("label: 3", (1, "label", "must be text, got 3")),  # Drake reads no number as text
         ("q:", (1, "q", "must be a list, got nothing")),
         ("q: [1, 2", None),  # no YAML: the loader's own message says where
     ],

@@ -692,6 +692,12 @@ def _load_text(
     source = _Source(path, text, [(label, key) for label, key, _ in parsed], variant)
     found = _first_problem(scenario, path.parent, experiments)
     if found is not None:
+        if not _task_given(source) and _of_the_world(found[0]):
+            raise InputError(
+                f"{path}: no task: a scenario says which world it is in `task` (!ArmTask for "
+                "the arm, !SliderTask for the one-DOF slider); without it, it is the slider "
+                f"world, where {_leaf(found[0])}: {found[1]}"
+            )
         culprit = _culprit(base, parsed, found, source, path.parent, experiments)
         if culprit is not None:
             raise culprit
@@ -700,6 +706,21 @@ def _load_text(
         # Resolve the demonstration next to the scenario file, once, for every later user.
         scenario.reference.file = str(data_file(scenario.reference.file, path.parent).resolve())
     return scenario
+
+
+def _task_given(source: _Source) -> bool:
+    """Whether the scenario's file, its variant or an override gives `task` (else it is
+    Scenario's default, the slider world's)."""
+    texts = [source.text, *([source.variant[1]] if source.variant else [])]
+    return any("task" in top_level_keys(text) for text in texts) or bool(
+        source.overrides_of("task")
+    )
+
+
+def _of_the_world(dotted_key: str) -> bool:
+    """Whether a problem at `dotted_key` may come of the world the task makes: the task's
+    own fields, the kind of reference it follows, the experiment that needs a kind of task."""
+    return dotted_key in ("experiment", "reference") or dotted_key.startswith("task.")
 
 
 def check_scenario(scenario: Scenario) -> None:

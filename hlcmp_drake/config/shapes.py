@@ -18,6 +18,8 @@ import yaml
 
 _NUMBER_TAGS = {"tag:yaml.org,2002:int", "tag:yaml.org,2002:float"}
 _NULL_TAG = "tag:yaml.org,2002:null"
+_STR_TAG = "tag:yaml.org,2002:str"
+_BOOL_TAG = "tag:yaml.org,2002:bool"
 _MERGE_TAG = "tag:yaml.org,2002:merge"  # a `<<: *anchor` key: the anchor's fields, not one
 
 
@@ -115,8 +117,10 @@ def _check(
                 key,
                 f"{node.tag} is none of {', '.join(tags)}{hint}",
             )
-        if all(dc.is_dataclass(m) for m in members) and not isinstance(node, yaml.MappingNode):
-            return wrong("a map of fields")
+        if all(dc.is_dataclass(m) for m in members):
+            if not isinstance(node, yaml.MappingNode):
+                return wrong("a map of fields")
+            return _untagged(node, members, key, visited)
         return None
     if dc.is_dataclass(hint):
         if not isinstance(node, yaml.MappingNode):
@@ -170,21 +174,82 @@ def _check(
     if hint is float and not _reads_as(float, node):
         return wrong("a number")
     if hint is int and not _reads_as(int, node):
-        return wrong("an integer")
+        # Drake reads text as an integer by Python's int(): 1e3 is a number, but not so.
+        return wrong("an integer" + " in digits" * _whole_as_text(node))
+    # Drake takes only text for text (an empty value is none), and for true or false only
+    # YAML's booleans or the words true and false.
+    if hint is str and node.tag != _STR_TAG:
+        return wrong("text")
+    if hint is bool and not (
+        node.tag == _BOOL_TAG or (node.tag == _STR_TAG and node.value in ("true", "false"))
+    ):
+        return wrong("true or false")
     return None
+
+
+def _untagged(
+    node: yaml.MappingNode, members: list, key: str, visited: set[int]
+) -> tuple[int, str, str] | None:
+    """An untagged map for a tagged union: Drake reads it as the union's first member, so
+    its fields are checked as that member's; a field only another member has names the
+    tag the map was most likely meant to carry (Drake would say only "The fields [...]
+    were unknown to the schema")."""
+    first = members[0]
+    keys = [
+        name
+        for name, _ in node.value
+        if isinstance(name, yaml.ScalarNode) and name.tag != _MERGE_TAG
+    ]
+    names = [name.value for name in keys]
+    unknown = [name for name in names if name not in typing.get_type_hints(first)]
+    if unknown:
+        holding = [
+            member
+            for member in members[1:]
+            if all(name in typing.get_type_hints(member) for name in names)
+        ]
+        # The most general of them (a pose config holds its translational one's fields).
+        owners = [
+            f"!{m.__name__}"
+            for m in holding
+            if not any(m is not o and issubclass(m, o) for o in holding)
+        ]
+        if len(owners) == 1:
+            whose = f"they are {owners[0]}'s: give its tag"
+        else:
+            whose = "give the tag of the config whose they are" + (
+                f" ({' or '.join(owners)})" if owners else ""
+            )
+        shown = ", ".join(map(repr, unknown[:3])) + ", ..." * (len(unknown) > 3)
+        fields = "field" + "s" * (len(unknown) > 1)
+        return (
+            keys[names.index(unknown[0])].start_mark.line + 1,
+            key,
+            f"untagged, so read as !{first.__name__}, which has no {fields} {shown}: {whose}",
+        )
+    visited.discard(id(node))  # the same node again, as the member it is read as
+    return _check(node, first, key, visited)
 
 
 def _reads_as(kind: type, node: yaml.ScalarNode) -> bool:
     """Whether a scalar is a number of `kind`: YAML's own (.nan, .inf, 0x1f), or text that
     Python reads so (1e-3, which YAML 1.1 reads as text); an integer may be written as a
-    whole float (10.0), as Drake's loader reads it."""
+    whole float (10.0), as Drake's loader reads it, but not as text that Python's int()
+    does not read (1e3)."""
     if node.tag == "tag:yaml.org,2002:int" or (kind is float and node.tag in _NUMBER_TAGS):
         return True
     try:
-        value = float(yaml.safe_load(node.value)) if node.tag in _NUMBER_TAGS else float(node.value)
+        if node.tag in _NUMBER_TAGS:  # a float for an int
+            return float(yaml.safe_load(node.value)).is_integer()
+        kind(node.value)  # text, read as Drake reads it
     except (ValueError, TypeError, yaml.YAMLError):
         return False
-    return kind is float or value.is_integer()
+    return True
+
+
+def _whole_as_text(node: yaml.ScalarNode) -> bool:
+    """Whether a scalar is text that Python reads as a whole number (1e3), but int() not."""
+    return node.tag == _STR_TAG and _reads_as(float, node) and float(node.value).is_integer()
 
 
 def _join(key: str, part: str) -> str:

@@ -247,6 +247,12 @@ def _check_reference(scenario: Scenario, folder: Path, fail: Fail) -> None:
             )
     if isinstance(reference, DemonstrationConfig):
         demo = data_file(reference.file, Path(folder))
+        if reference.file and demo.is_dir():
+            where = "" if str(demo.resolve()) == reference.file else f" ({demo.resolve()})"
+            fail(
+                "reference.file",
+                f"'{reference.file}'{where} is a folder, not a demonstration file (a CSV)",
+            )
         if not reference.file or not demo.is_file():
             bundled = DATA_ROOT / "diagrams" / "demos" / Path(reference.file).name
             fail(
