@@ -214,6 +214,7 @@ BREAKS = [
     ("iiwa_driver.max_consecutive_missed", lambda v, s: [0, -3]),
     ("iiwa_driver.period_tolerance", lambda v, s: [0.0, 1.0, float("nan")]),
     ("iiwa_driver.warm_up_lead_s", lambda v, s: [-1e-4, s.iiwa_driver.period_s, NAN]),
+    ("iiwa_driver.warm_up_poll_s", lambda v, s: [-1e-4, s.iiwa_driver.period_s, NAN]),
     ("iiwa_driver.realtime_priority", lambda v, s: [-1, 100]),
     ("iiwa_driver.*", _number("> 0")),  # the periods, the timeouts and the tolerance
     # a robot that is not its model

@@ -1067,7 +1067,33 @@ def test_a_6d_skill_is_served_with_its_rotational_weights(tmp_path):
 def test_the_warm_up_is_on_by_default_only_for_a_period_that_leaves_the_client_idle(
     period, given, lead
 ):
-    from hlcmp_drake.config.scenario import IiwaDriverConfig
+    from hlcmp_drake.config.scenario import AUTO_WARM_UP_POLL_S, IiwaDriverConfig
 
     config = IiwaDriverConfig(period_s=period, warm_up_lead_s=given)
     assert config.warm_up_lead() == pytest.approx(lead, abs=1e-15)
+    # After a warm-up the client polls for the status; without one it sleeps as before.
+    assert IiwaDriverConfig(period_s=period, warm_up_lead_s=given).warm_up_poll() == (
+        AUTO_WARM_UP_POLL_S if lead else 0.0
+    )
+    assert IiwaDriverConfig(period_s=period, warm_up_poll_s=0.0).warm_up_poll() == 0.0
+
+
+def test_after_the_warm_up_the_client_polls_until_the_status_is_late():
+    """With `warm_up_poll_s`, the warm-up returns only when the status has come or that long
+    after it was expected: the client polled (LCM's 0 ms wait) in between, where it would
+    otherwise sleep in the serve loop's wait for a status."""
+    from types import SimpleNamespace
+
+    client, send, _ = _client_fed_by_hand(
+        ["iiwa_driver.warm_up_lead_s=0.0009", "iiwa_driver.warm_up_poll_s=0.0008"]
+    )
+    send(0, client.q0)
+    time.sleep(0.002)
+    send(2000, client.q0)  # stamped as it is sent: the next is expected 1 ms from now
+    waits = []
+    handle = client._lcm.HandleSubscriptions
+    client._lcm = SimpleNamespace(HandleSubscriptions=lambda ms: waits.append(ms) or handle(ms))
+    expected = client._answered_stamp / 1e6 + 0.001 + client._stamp_offset_s
+    client.warm_up()  # no status comes
+    assert time.perf_counter() >= expected + 0.0008 and not client.pending
+    assert waits.count(0) > 1  # polled, not one look after the warm-up

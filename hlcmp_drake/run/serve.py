@@ -390,9 +390,11 @@ class TorqueClient:
         status: listen until that long before the next status is expected (the answered
         one's stamp plus `period_s`, on the driver's clock as the stamps' receipts place
         it), then run one throw-away tick
-        at the answered status's inputs, so that the next tick starts from warm caches. A
-        status that comes first is left for `poll`; one that comes during the warm-up
-        counts as received when the client stopped listening (`warm_up_overlaps`)."""
+        at the answered status's inputs, so that the next tick starts from warm caches, and
+        poll for the status without sleeping until it comes, at most `warm_up_poll` after
+        it is expected. A status that comes first is left for `poll`; one that comes
+        during the warm-up counts as received when the client stopped listening
+        (`warm_up_overlaps`)."""
         lead = self.config.warm_up_lead()
         if not lead or self._warm_inputs is None or self._warmed_after == self._answered_stamp:
             return
@@ -412,6 +414,11 @@ class TorqueClient:
             self._lcm.HandleSubscriptions(0)  # what came meanwhile
         finally:
             self._deaf_since = None
+        # Polling, not sleeping, from here to the status: its tick then starts on a core
+        # that has not gone idle (`IiwaDriverConfig.warm_up_poll`).
+        until = expected + self.config.warm_up_poll()
+        while not self.pending and time.perf_counter() < until:
+            self._lcm.HandleSubscriptions(0)
 
     def _measure_period(self, utime: int | None) -> None:
         """Take the step from the previous status's stamp into the measured period."""
@@ -772,6 +779,7 @@ class TorqueClient:
             "period_s": self.config.period_s,
             "status_period_s": self.status_period_s,
             "warm_up_lead_s": self.config.warm_up_lead(),
+            "warm_up_poll_s": self.config.warm_up_poll(),
             "warm_up_overlaps": self.warm_up_overlaps,
             "realtime_priority": served_priority(self.config, lcm_url),
             "ticks": self.ticks,
