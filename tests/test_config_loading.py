@@ -447,3 +447,32 @@ def test_a_demonstration_that_is_a_folder_is_called_a_folder(tmp_path):
         f"override 'reference.file={tmp_path / 'adir'}': file: '{tmp_path / 'adir'}' is a "
         "folder, not a demonstration file (a CSV)"
     )
+
+
+@pytest.mark.parametrize(
+    "override, kind",
+    [
+        ("controllers.const_500={pi: 3}", "ConstantImpedanceConfig"),
+        ("controllers.hlcmp={pi: 3}", "HlcmpConfig"),
+        ("task={max_contact_force_N: 5}", "ArmTask"),
+    ],
+)
+def test_a_map_given_for_a_config_is_merged_into_it_whatever_its_kind(override, kind):
+    """`--set KEY={field: value}` changes that field of the config there, keeping its kind
+    and its other fields, as it does for a section: untagged, Drake would read the map as a
+    new config of the union's first kind (a constant impedance with the Hl-CMP's default,
+    empty gains; a slider's task)."""
+    import dataclasses as dc
+
+    before, _ = load_scenario("insertion", [])
+    after, _ = load_scenario("insertion", [override])
+    key = override.split("=")[0].split(".")
+    old, new = (
+        (before.controllers[key[1]], after.controllers[key[1]])
+        if key[0] == "controllers"
+        else (before.task, after.task)
+    )
+    changed = [
+        f.name for f in dc.fields(new) if repr(getattr(new, f.name)) != repr(getattr(old, f.name))
+    ]
+    assert type(new).__name__ == kind and changed == [override.split("{")[1].split(":")[0]]

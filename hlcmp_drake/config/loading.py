@@ -385,7 +385,11 @@ def override_yaml(scenario: Scenario, dotted_key: str, value_yaml: str) -> str:
                 "values, as Drake's LoadYamlFile merges (set the fields, or give a whole "
                 "!Tag config)"
             )
-        tag = f" !{type(node).__name__}" if members and type(node) in members and not last else ""
+        # A union's value keeps its kind: its tag leads Drake into it (a map given for it is
+        # then merged field by field, as for any section); untagged, Drake would read the
+        # map as a new value of the union's first kind.
+        into = not last or re.match(r"\s*\{", value_yaml)
+        tag = f" !{type(node).__name__}" if members and type(node) in members and into else ""
         lines.append("  " * depth + f"{_yaml_key(key)}:{tag}" + (f" {value_yaml}" if last else ""))
         depth += 1
     return "\n".join(lines) + "\n"
