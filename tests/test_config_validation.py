@@ -272,16 +272,22 @@ def test_a_puncture_setting_in_a_world_without_one_is_refused():
     load_scenario("insertion", ["task.puncture.depth_m=0.01"])  # the foam's tear
 
 
+def _written_elsewhere(path, text):
+    """A bundled scenario's (edited) text written to `path`, its demonstration named by its
+    package URL so that it is found outside diagrams/."""
+    path.write_text(text.replace("demos/", "package://hlcmp_drake/diagrams/demos/"))
+    return path
+
+
 def test_an_experiment_whose_metrics_read_a_frame_the_models_lack_is_refused_at_load(tmp_path):
     """The peg experiment reads the hole's frame of the fixture model by name: a copy with
     the fixture renamed ran every controller and then failed in its metrics; now it stops
     at load, naming the frame and the models there are."""
     from hlcmp_drake.run.runner import experiment_worlds
 
-    renamed = tmp_path / "renamed.yaml"
     text = (DIAGRAMS_DIR / "peg_in_hole.yaml").read_text()
     text = text.replace("name: peg_fixture", "name: fx").replace("peg_fixture::", "fx::")
-    renamed.write_text(text.replace("demos/", "package://hlcmp_drake/diagrams/demos/"))
+    renamed = _written_elsewhere(tmp_path / "renamed.yaml", text)
     with pytest.raises(InputError) as error:
         load_scenario(renamed, [], experiment_worlds())
     assert re.match(
@@ -302,8 +308,7 @@ def test_an_insertion_without_a_puncture_is_refused_at_load(tmp_path):
     text = (DIAGRAMS_DIR / "insertion.yaml").read_text()
     text = re.sub(r"\n  puncture:.*?sliding_speed_m_per_s: [^\n]*", "", text, flags=re.S)
     assert "puncture" not in text.split("reference:")[0].split("task:")[1]
-    unpunctured = tmp_path / "unpunctured.yaml"
-    unpunctured.write_text(text.replace("demos/", "package://hlcmp_drake/diagrams/demos/"))
+    unpunctured = _written_elsewhere(tmp_path / "unpunctured.yaml", text)
     with pytest.raises(InputError) as error:
         load_scenario(unpunctured, [], experiment_worlds())
     assert re.match(
