@@ -384,7 +384,11 @@ def test_a_sweep_killed_outright_leaves_no_worker_running(tmp_path):
         time.sleep(0.2)
         workers = _descendants(process.pid)
     assert len(workers) >= 4, f"the sweep did not start its workers: {workers}"
-    time.sleep(2.0)  # into their first tasks
+    started = []  # a task writes its scenario.yaml first: both workers are into a task
+    while len(started) < 2 and time.time() < deadline:
+        time.sleep(0.05)
+        started = list((tmp_path / "out" / "tasks").glob("*/scenario.yaml"))
+    assert len(started) >= 2, f"the workers started no tasks: {started}"
     process.kill()
     process.communicate(timeout=30)
     deadline = time.time() + 30

@@ -680,9 +680,8 @@ def _load_text(
     if variant is not None:
         variant_path, variant_text = variant
         try:
-            scenario = yaml_load_typed(
-                schema=Scenario, data=variant_text, defaults=copy.deepcopy(scenario)
-            )
+            # yaml_load_typed reads into a copy of `defaults`
+            scenario = yaml_load_typed(schema=Scenario, data=variant_text, defaults=scenario)
         except Exception as error:
             raise _yaml_error(variant_path, variant_text, error) from None
         # A variant sets values, so layering it again changes none; a run's own record
@@ -796,7 +795,8 @@ def _overridden(scenario: Scenario, label: str, key: str, value: str) -> Scenari
     if misshapen:
         raise InputError(f"override '{label}': {_leaf(misshapen[1])}: {misshapen[2]}")
     try:
-        return yaml_load_typed(schema=Scenario, data=data, defaults=copy.deepcopy(scenario))
+        # yaml_load_typed reads into a copy of `defaults`: `scenario` stays as it was
+        return yaml_load_typed(schema=Scenario, data=data, defaults=scenario)
     except Exception as error:
         message = " ".join(str(getattr(error, "problem", None) or error).split())
         raise InputError(f"override '{label}': {message}") from None
