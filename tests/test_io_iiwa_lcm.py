@@ -13,6 +13,7 @@ from hlcmp_drake.io.iiwa_lcm import (
     encode_status,
     encode_torque_command,
     encode_wrench,
+    read_status_state,
 )
 
 
@@ -61,10 +62,19 @@ def test_statuses_read_in_place_equal_lcms_own_decoding(joints):
         array = getattr(ours, field)
         assert array.dtype == np.float64 and array.dtype.isnative and array.flags.c_contiguous
         assert array.tolist() == list(getattr(lcms, theirs))
-    with pytest.raises(ProtocolError, match=f"a status of {len(data) - 8} bytes, where"):
-        decode_status(data[:-8], joints)
-    with pytest.raises(ProtocolError, match="does not decode as lcmt_iiwa_status"):
-        decode_status(data[:12], joints)
+    # The served tick's reading: the same numbers, as floats.
+    utime, position, velocity, external = read_status_state(data, joints)
+    assert utime == lcms.utime
+    assert position == tuple(lcms.joint_position_measured)
+    assert velocity == tuple(lcms.joint_velocity_estimated)
+    assert external == tuple(lcms.joint_torque_external)
+    for read in (decode_status, read_status_state):
+        with pytest.raises(ProtocolError, match=f"a status of {len(data) - 8} bytes, where"):
+            read(data[:-8], joints)
+        with pytest.raises(ProtocolError, match="does not decode as lcmt_iiwa_status"):
+            read(data[:12], joints)
+        with pytest.raises(ProtocolError, match=f"for {joints} joints, the arm has 4"):
+            read(data, 4)
     # Cut short on the network: one line from every decoder, never struct's own error.
     with pytest.raises(ProtocolError, match="does not decode as lcmt_force_torque"):
         decode_wrench(encode_wrench(5, [1.0, 2.0, 3.0], [0.0, 0.0, 0.0])[:-4])
@@ -80,3 +90,8 @@ def test_commands_encode_as_lcm_encodes_them(joints, torques):
     message.utime, message.num_joints, message.num_torques = 2**50 + 3, joints, torques
     message.joint_position, message.joint_torque = position.tolist(), torque.tolist()
     assert encode_torque_command(2**50 + 3, position, torque) == message.encode()
+    # as the served tick gives them: the status's positions as a tuple, the torques a list
+    assert (
+        encode_torque_command(2**50 + 3, tuple(position.tolist()), torque.tolist())
+        == message.encode()
+    )

@@ -158,8 +158,8 @@ def test_ctrl_c_while_serving_stops_it_and_writes_what_was_served(tmp_path, monk
 
     answer = TorqueClient._answer
 
-    def answer_then_interrupt(self, status, received):
-        answer(self, status, received)
+    def answer_then_interrupt(self, *status_and_receipt):
+        answer(self, *status_and_receipt)
         if self.ticks == 100:
             signal.raise_signal(signal.SIGINT)
 
@@ -268,15 +268,19 @@ def test_watchdogs_name_the_problem():
     )
     assert len(commands) == 2
 
-    client, send, commands = _client_fed_by_hand()
-    send(0, client.q0)
-    time.sleep(0.002)
-    send(0, client.q0 + np.r_[np.nan, np.zeros(6)])
-    assert (
-        client.status == UNSAFE
-        and "non-finite value in the status" in client.stopped_because
-        and not commands
-    )
+    for field in ("q", "v", "torque_external"):  # the three the tick reads, nan or inf
+        for broken in (np.r_[np.nan, np.zeros(6)], np.r_[np.zeros(6), -np.inf]):
+            client, send, commands = _client_fed_by_hand()
+            send(0, client.q0)
+            time.sleep(0.002)
+            values = {"q": client.q0, "v": None, "torque_external": None}
+            values[field] = (client.q0 if field == "q" else 0.0) + broken
+            send(0, **values)
+            assert (
+                client.status == UNSAFE
+                and "non-finite value in the status" in client.stopped_because
+                and not commands
+            ), field
 
     # The wrist force estimated from the external torques: 300 N at the tool point trips the
     # scenario's 200 N contact-force limit.

@@ -115,23 +115,74 @@ def decode_status(data: bytes, num_joints: int) -> IiwaStatus:
         When the bytes do not decode or hold another number of joints. Non-finite values
         are passed on: the client's watchdog names them.
     """
+    utime = _checked_status(data, num_joints)
+    rows = (
+        np.frombuffer(data, ">f8", len(_STATUS_ARRAYS) * num_joints, _STATUS_HEADER.size)
+        .astype(float)
+        .reshape(len(_STATUS_ARRAYS), num_joints)
+    )
+    return IiwaStatus(utime, *(rows[k] for k in _STATUS_ROWS))
+
+
+def read_status_state(data: bytes, num_joints: int) -> tuple[int, tuple, tuple, tuple]:
+    """What a served tick reads of lcmt_iiwa_status bytes, as plain floats: no array is
+    made, since each numpy call costs several microseconds on the cold caches a tick
+    starts from, 5 ms after the last one (docs/performance.md). Checked as
+    `decode_status` checks.
+
+    Parameters
+    ----------
+    data : bytes
+    num_joints : int
+        The number of joints the message must hold.
+
+    Returns
+    -------
+    utime : int
+    position, velocity, torque_external : tuple of float
+        As `IiwaStatus`'s fields of those names.
+
+    Raises
+    ------
+    ProtocolError
+        As `decode_status`.
+    """
+    utime = _checked_status(data, num_joints)
+    row = _status_row(num_joints)
+    position, velocity, external = (row.unpack_from(data, at) for at in _state_offsets(num_joints))
+    return utime, position, velocity, external
+
+
+def _checked_status(data: bytes, num_joints: int) -> int:
+    """The utime of lcmt_iiwa_status bytes of `num_joints` joints; ProtocolError else."""
     if len(data) < _STATUS_HEADER.size or data[:8] != _STATUS_FINGERPRINT:
         _decode(lcmt_iiwa_status, data, "a status")  # says what is wrong, in lcm's words
     _, utime, joints = _STATUS_HEADER.unpack_from(data)
     if joints != num_joints:
         raise ProtocolError(f"a status for {joints} joints, the arm has {num_joints}")
-    count = len(_STATUS_ARRAYS) * joints
-    if len(data) != _STATUS_HEADER.size + 8 * count:
-        raise ProtocolError(
-            f"a status of {len(data)} bytes, where {joints} joints make "
-            f"{_STATUS_HEADER.size + 8 * count}"
+    size = _STATUS_HEADER.size + 8 * len(_STATUS_ARRAYS) * joints
+    if len(data) != size:
+        raise ProtocolError(f"a status of {len(data)} bytes, where {joints} joints make {size}")
+    return utime
+
+
+@functools.lru_cache(maxsize=8)
+def _status_row(joints: int) -> struct.Struct:
+    """One of lcmt_iiwa_status's arrays on the wire: `joints` big-endian doubles."""
+    return struct.Struct(f">{joints}d")
+
+
+@functools.lru_cache(maxsize=8)
+def _state_offsets(joints: int) -> tuple[int, int, int]:
+    """Where the measured positions, estimated velocities and external torques start."""
+    return tuple(
+        _STATUS_HEADER.size + 8 * joints * _STATUS_ARRAYS.index(field)
+        for field in (
+            "joint_position_measured",
+            "joint_velocity_estimated",
+            "joint_torque_external",
         )
-    rows = (
-        np.frombuffer(data, ">f8", count, _STATUS_HEADER.size)
-        .astype(float)
-        .reshape(len(_STATUS_ARRAYS), joints)
     )
-    return IiwaStatus(utime, *(rows[k] for k in _STATUS_ROWS))
 
 
 _STATUS_FINGERPRINT = lcmt_iiwa_status._get_packed_fingerprint()
@@ -178,18 +229,16 @@ def encode_torque_command(utime: int, position: np.ndarray, torque: np.ndarray) 
     ----------
     utime : int
         The answered status's time stamp [µs].
-    position : (n,) array
+    position : (n,) array or sequence of float
         The measured positions, echoed: a torque-only driver ignores them, a position
         driver would hold them [rad].
-    torque : (n,) array
+    torque : (n,) array or sequence of float
         The joint torque to apply on top of the driver's gravity compensation [N m].
 
     Returns
     -------
     bytes
     """
-    position = np.asarray(position, dtype=float).tolist()
-    torque = np.asarray(torque, dtype=float).tolist()
     return _command_layout(len(position), len(torque)).pack(
         _COMMAND_FINGERPRINT, int(utime), len(position), *position, len(torque), *torque
     )

@@ -24,6 +24,8 @@ from __future__ import annotations
 import contextlib
 import dataclasses as dc
 import gc
+import math
+import operator
 import os
 import signal
 import threading
@@ -42,12 +44,11 @@ from hlcmp_drake.experiments import experiment_of
 from hlcmp_drake.io import outputs
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.io.iiwa_lcm import (
-    IiwaStatus,
     ProtocolError,
-    decode_status,
     decode_wrench,
     encode_torque_command,
     open_lcm,
+    read_status_state,
     status_stamp,
 )
 from hlcmp_drake.io.runs import RunResult
@@ -250,8 +251,9 @@ class TorqueClient:
         self._log_every = max(1, int(round(scenario.log_period_s / self.config.period_s)))
         self._state_check = plant_state_check(self.nq, scenario.max_abs_position_m)
         self._safety = arm_check(plant, scenario.task)
-        self._lower = plant.GetPositionLowerLimits() - 1e-3  # as arm_check tolerates
-        self._upper = plant.GetPositionUpperLimits() + 1e-3
+        # As arm_check tolerates; as floats, which the tick compares without an array.
+        self._lower = (plant.GetPositionLowerLimits() - 1e-3).tolist()
+        self._upper = (plant.GetPositionUpperLimits() + 1e-3).tolist()
         self._wrist = None
         self._wrist_wall: float | None = None  # when the last wrench came
         self._force_world, self._torque_tool = np.zeros(3), np.zeros(3)
@@ -485,13 +487,13 @@ class TorqueClient:
         received, data = self._latest
         self._latest = None
         try:
-            status = decode_status(data, self.nv)
+            status = read_status_state(data, self.nv)
         except ProtocolError as error:
             self.stop(STOPPED, f"the driver sent {error}")
             return
         if self._period_mismatch():
             return
-        self._answer(status, received)
+        self._answer(*status, received)
 
     def _stamps_stuck(self) -> bool:
         """Stop (True) when, since the first command, statuses keep coming (at least
@@ -560,21 +562,25 @@ class TorqueClient:
         """The time served from the first command to the last answered status [s]."""
         return 0.0 if self._last_utime is None else (self._last_utime - self._utime0) / 1e6
 
-    def _answer(self, status: IiwaStatus, received: float) -> None:
-        values = np.concatenate([status.position, status.velocity, status.torque_external])
-        if not np.all(np.isfinite(values)):
-            self.stop(UNSAFE, f"a non-finite value in the status at utime {status.utime}")
+    def _answer(
+        self, utime: int, position: tuple, velocity: tuple, torque_external: tuple, received: float
+    ) -> None:
+        """Command the torque for one status (its fields as `read_status_state` gives them):
+        until the command is out, plain floats rather than arrays wherever the numbers
+        allow, and one array made, the tick's state."""
+        if not all(map(math.isfinite, position + velocity + torque_external)):
+            self.stop(UNSAFE, f"a non-finite value in the status at utime {utime}")
             return
         if self._utime0 is None:
-            if not self._ready_to_start(status, received):
+            if not self._ready_to_start(position, utime, received):
                 return
-        elif status.utime == self._last_utime and self._last_command is not None:
+        elif utime == self._last_utime and self._last_command is not None:
             self._publish(self._last_command)  # its answer was lost
             return
-        elif status.utime < self._last_utime:
+        elif utime < self._last_utime:
             return  # older than one already answered
-        state = np.concatenate([status.position, status.velocity])
-        t = (status.utime - self._utime0) / 1e6
+        state = np.array(position + velocity)
+        t = (utime - self._utime0) / 1e6
         k = int(round(t / self.config.period_s))
         last = len(self._reference[0]) - 1  # the tick at the duration
         if self._last_utime is not None:
@@ -591,39 +597,40 @@ class TorqueClient:
             # θ' held for one period after the tick that computed it: the explicit-Euler step
             # of the fast path. Over statuses missed in between no rate was computed, so a
             # gap is not integrated as if it were one long step of the old rate.
-            step = min((status.utime - self._last_utime) / 1e6, self.config.period_s)
+            step = min((utime - self._last_utime) / 1e6, self.config.period_s)
             self.theta = self.theta + step * self._rate
         reference = tuple([values[k] for values in self._reference])
         result = self.tick.evaluate(state, reference, self.theta)
         command = result.torque - result.joint_gravity  # the driver adds G(q) itself
+        torques = command.tolist()
         # A non-finite command or a joint past its limit withholds this tick's command.
         if (
-            not np.all(np.isfinite(command))
-            or np.any(status.position < self._lower)
-            or np.any(status.position > self._upper)
+            not all(map(math.isfinite, torques))
+            or any(map(operator.lt, position, self._lower))
+            or any(map(operator.gt, position, self._upper))
         ):
-            self._check(t, status, state, command, result)
+            self._check(t, torque_external, state, command, result)
             return
-        self._last_command = encode_torque_command(status.utime, status.position, command)
+        self._last_command = encode_torque_command(utime, position, torques)
         self._publish(self._last_command)
         self.tick_seconds.append(time.perf_counter() - received)
         self.ticks += 1
-        self._warm_inputs, self._answered_stamp = (state, reference, self.theta), status.utime
-        self._last_utime = status.utime
+        self._warm_inputs, self._answered_stamp = (state, reference, self.theta), utime
+        self._last_utime = utime
         self._rate = result.law.rates
         # The simulated run's monitor and loggers read the wrist force at 100 Hz; so does this,
         # after the command is out: a problem found stops the next command.
         if k % self._log_every == 0:
             self._hear_other_clients()
-            if self._check(t, status, state, command, result):
+            if self._check(t, torque_external, state, command, result):
                 self._log(t, k, state, result)
         if k >= len(self._reference[0]) - 1 and not self.done:
             self.stop(FINISHED, f"served {self.duration:g} s")
 
-    def _ready_to_start(self, status: IiwaStatus, received: float) -> bool:
+    def _ready_to_start(self, position: tuple, utime: int, received: float) -> bool:
         """Before the first command: the arm must be at the start posture, and the driver's
         start guard must have passed."""
-        off = np.abs(status.position - self.q0)
+        off = np.abs(np.array(position) - self.q0)
         if off.max() > self.config.start_tolerance_rad:
             joint = int(np.argmax(off))
             self.stop(
@@ -647,11 +654,11 @@ class TorqueClient:
                 "torques instead",
             )
             return False
-        self._utime0 = status.utime
+        self._utime0 = utime
         self._advanced_wall, self._statuses_since_advance = received, 0
         return True
 
-    def _wrist_wrench(self, status: IiwaStatus) -> tuple[np.ndarray, np.ndarray]:
+    def _wrist_wrench(self, torque_external: tuple) -> tuple[np.ndarray, np.ndarray]:
         """The environment's force on the tool, world frame [N], and its torque about the
         tool point, tool frame [N m], from the configured source. The tick has just set the
         controller plant's context to the status's positions."""
@@ -663,17 +670,17 @@ class TorqueClient:
                 context, JacobianWrtVariable.kV, self._tool, np.zeros(3), world, world
             )
             # The wrench [τ; f] at the tool point, world, whose J^T is the external torque.
-            wrench = np.linalg.lstsq(jacobian.T, status.torque_external, rcond=None)[0]
+            wrench = np.linalg.lstsq(jacobian.T, np.array(torque_external), rcond=None)[0]
             return wrench[3:], rotation.inverse() @ wrench[:3]
         if self._wrist is None:  # no sensor: `_check` stops the run
             return np.zeros(3), np.zeros(3)
         _, force_tool, torque_tool = decode_wrench(self._wrist)
         return rotation @ force_tool, torque_tool
 
-    def _check(self, t, status, state, command, result) -> bool:
+    def _check(self, t, torque_external, state, command, result) -> bool:
         """The run's safety checks (`arm_check` and the plant-state check) on this tick;
         False, and the client stopped, at a problem. Keeps the wrist wrench for the log."""
-        self._force_world, self._torque_tool = self._wrist_wrench(status)
+        self._force_world, self._torque_tool = self._wrist_wrench(torque_external)
         problem = self._state_check(state)
         if problem is None and not np.all(np.isfinite(command)):
             problem = "a non-finite torque command"
