@@ -6,7 +6,7 @@ simulated driver in another (`hlcmp sim-driver --realtime` at 1 ms, or Drake's d
     python scripts/served_tick_parts.py [--pair realtime|drake-5ms] [--duration 3]
 
 Stages, from the status's receipt (the LCM callback, where `tick_us` starts) to its
-command's publication (where it ends): to the client's poll, the status decoded, the
+command's publication (where it ends): to the client's poll, the status read, the
 answer's bookkeeping before the tick, the tick (`evaluate`), the bookkeeping after it
 (the command, its checks and its encoding), and the publish call itself. Prints p50 and
 p99 of each [µs], the served tick's, and the load average.
@@ -54,10 +54,10 @@ class StampedLcm:
 
 
 def stamped_client(client: serve.TorqueClient, rows: list) -> None:
-    """Wrap the client's poll, decoding, tick and publishing so that each answered status
+    """Wrap the client's poll, status reading, tick and publishing so that each answered status
     appends its stamps (in `STAGES` order) to `rows`."""
     stamps: dict = {}
-    poll, evaluate, decode = client.poll, client.tick.evaluate, serve.decode_status
+    poll, evaluate, read = client.poll, client.tick.evaluate, serve.read_status_state
 
     def stamped_poll():
         stamps.clear()
@@ -67,8 +67,8 @@ def stamped_client(client: serve.TorqueClient, rows: list) -> None:
         if "published" in stamps and "tick_end" in stamps:
             rows.append([stamps[stage] for stage in STAGES])
 
-    def stamped_decode(*args):
-        status = decode(*args)
+    def stamped_read(*args):
+        status = read(*args)
         stamps["decoded"] = time.perf_counter()
         return status
 
@@ -79,7 +79,7 @@ def stamped_client(client: serve.TorqueClient, rows: list) -> None:
         return result
 
     client.poll, client.tick.evaluate = stamped_poll, stamped_evaluate
-    serve.decode_status = stamped_decode
+    serve.read_status_state = stamped_read
     client._lcm = StampedLcm(client._lcm, stamps)
 
 
@@ -115,7 +115,7 @@ def main() -> None:
     stamps = 1e6 * np.array(rows)
     names = [
         "to the poll",
-        "decoding",
+        "reading the status",
         "before the tick",
         "the tick (evaluate)",
         "after the tick",
