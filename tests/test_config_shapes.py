@@ -100,3 +100,41 @@ def test_an_alias_within_itself_or_aliases_of_aliases_end_quickly():
     levels = ["a0: &a0 [1, 2, 3, 4, 5, 6, 7, 8, 9, 10]"]
     levels += [f"a{k}: &a{k} [" + ", ".join([f"*a{k - 1}"] * 10) + "]" for k in range(1, 9)]
     check_unique_keys("f.yaml", "\n".join(levels) + "\nb: &b {c: *b}\n")
+
+
+@pytest.mark.parametrize(
+    "text, found",
+    [
+        ("plant_config:\n  time_step: 0.002\n  contact_model: point", None),
+        (
+            "plant_config:\n  time_step: fast",
+            (2, "plant_config.time_step", "must be a number, got 'fast'"),
+        ),
+        (
+            "plant_config:\n  contact_model:",
+            (2, "plant_config.contact_model", "must be text, got nothing"),
+        ),
+        (
+            "simulator_config: {publish_every_time_step: maybe}",
+            (1, "simulator_config.publish_every_time_step", "must be true or false, got 'maybe'"),
+        ),
+        (
+            "plant_config:\n  timestep: 0.001",
+            (
+                2,
+                "plant_config.timestep",
+                "no such field in MultibodyPlantConfig (did you mean 'time_step'?)",
+            ),
+        ),
+        (
+            "directives:\n- add_model: {file: 3, name: a}",
+            (2, "directives.0.add_model.file", "must be text, got 3"),
+        ),
+    ],
+)
+def test_drakes_own_schema_classes_are_checked_by_their_fields(text, found):
+    """MultibodyPlantConfig, SimulatorConfig and the model directives name their fields in
+    `__fields__`, which pydrake's loader reads: checked as a dataclass's are, so that their
+    mistakes read as the scenario's own (Drake's loader says "Expected a <class 'float'>
+    value for 'time_step' but instead got yaml data of type <class 'NoneType'>")."""
+    assert misshapen_value(text, Scenario) == found

@@ -53,10 +53,10 @@ def misshapen_value(
 ) -> tuple[int, str, str] | None:
     """The first value of a YAML text whose shape does not fit its field's type.
 
-    Checked: a dataclass's fields (a tagged union's member by its tag; a key that is none
-    of its fields, with the nearest one), lists, maps, numbers (an int field takes only an
-    int) and text. Fields of other types (Drake's own schema classes, e.g. model
-    directives) are left to the typed loader.
+    Checked: the fields of a dataclass or of a Drake schema class (MultibodyPlantConfig,
+    the model directives; a tagged union's member by its tag; a key that is none of its
+    fields, with the nearest one), lists, maps, numbers (an int field takes only an int)
+    and text. Fields of other types (arrays, say) are left to the typed loader.
 
     Parameters
     ----------
@@ -122,7 +122,8 @@ def _check(
                 return wrong("a map of fields")
             return _untagged(node, members, key, visited)
         return None
-    if dc.is_dataclass(hint):
+    fields = _fields_of(hint)
+    if fields is not None:
         if not isinstance(node, yaml.MappingNode):
             return wrong("a map of fields")
         schema_name = getattr(hint, "__name__", hint)
@@ -132,7 +133,6 @@ def _check(
                 key,
                 f"takes no tag ({node.tag}): it holds a {schema_name} only; give its fields alone",
             )
-        fields = typing.get_type_hints(hint)
         for name, value in node.value:
             if not isinstance(name, yaml.ScalarNode) or name.tag == _MERGE_TAG:
                 continue
@@ -184,6 +184,18 @@ def _check(
         node.tag == _BOOL_TAG or (node.tag == _STR_TAG and node.value in ("true", "false"))
     ):
         return wrong("true or false")
+    return None
+
+
+def _fields_of(hint: typing.Any) -> dict[str, typing.Any] | None:
+    """A schema's fields and their types: a dataclass's, or a Drake schema class's (the
+    `__fields__` that pydrake's YAML loader reads, e.g. MultibodyPlantConfig's); None for
+    any other type."""
+    if dc.is_dataclass(hint):
+        return typing.get_type_hints(hint)
+    fields = getattr(hint, "__fields__", None) if isinstance(hint, type) else None
+    if isinstance(fields, tuple) and all(hasattr(f, "name") and hasattr(f, "type") for f in fields):
+        return {f.name: f.type for f in fields}
     return None
 
 
