@@ -138,3 +138,32 @@ def test_drakes_own_schema_classes_are_checked_by_their_fields(text, found):
     mistakes read as the scenario's own (Drake's loader says "Expected a <class 'float'>
     value for 'time_step' but instead got yaml data of type <class 'NoneType'>")."""
     assert misshapen_value(text, Scenario) == found
+
+
+_FRAME = "directives:\n- add_frame:\n    name: f\n    X_PF:\n      base_frame: world\n"
+
+
+@pytest.mark.parametrize(
+    "value",
+    [
+        "translation: !DeterministicVector {value: [0.1, 0.2, 0.3]}",
+        "translation: !GaussianVector {mean: [0, 0, 0], stddev: [0.1, 0.1, 0.1]}",
+        "translation: !UniformVector {min: [0, 0, 0], max: [0.1, 0.1, 0.1]}",
+        "rotation: !Rpy {deg: !DeterministicVector {value: [0, 0, 90]}}",
+    ],
+)
+def test_a_drake_template_class_is_tagged_as_drakes_loader_names_it(value):
+    """Drake's loader matches a tag against a template class's name without its
+    arguments (DeterministicVector, not the class's own __name__,
+    'DeterministicVector𝓣3𝓤'): a tag Drake takes is no misshapen value."""
+    text = _FRAME + f"      {value}\n"
+    yaml_load_typed(schema=Scenario, data=text)  # Drake's loader takes it
+    assert misshapen_value(text, Scenario) is None
+
+
+def test_a_misspelled_drake_template_tag_is_named_as_drake_spells_the_tag():
+    text = _FRAME + "      translation: !DeterministicVectr {value: [0, 0, 0]}\n"
+    line, key, problem = misshapen_value(text, Scenario)
+    assert (line, key) == (6, "directives.0.add_frame.X_PF.translation")
+    assert problem.endswith("(did you mean !DeterministicVector?)")
+    assert "𝓣" not in problem

@@ -15,6 +15,7 @@ import typing
 from typing import Union
 
 import yaml
+from pydrake.common import pretty_class_name
 
 _NUMBER_TAGS = {"tag:yaml.org,2002:int", "tag:yaml.org,2002:float"}
 _NULL_TAG = "tag:yaml.org,2002:null"
@@ -106,7 +107,7 @@ def _check(
         visited.discard(id(node))  # the same node again, as the member it holds
         if len(members) == 1:
             return _check(node, members[0], key, visited)
-        tags = [f"!{getattr(m, '__name__', '')}" for m in members]
+        tags = [f"!{_tag_name(m)}" for m in members]
         if node.tag in tags:
             return _check(node, members[tags.index(node.tag)], key, visited, chosen_by_tag=True)
         if node.tag.startswith("!"):
@@ -185,6 +186,15 @@ def _check(
     ):
         return wrong("true or false")
     return None
+
+
+def _tag_name(member: typing.Any) -> str:
+    """The tag that picks `member` of a union, as Drake's loader matches it: the class's name,
+    a template's without its arguments (DeterministicVector for DeterministicVector[3],
+    whose own __name__ is 'DeterministicVector𝓣3𝓤')."""
+    if not isinstance(member, type):
+        return getattr(member, "__name__", "")
+    return pretty_class_name(member).split("[", 1)[0]
 
 
 def _fields_of(hint: typing.Any) -> dict[str, typing.Any] | None:
