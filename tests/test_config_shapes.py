@@ -167,3 +167,22 @@ def test_a_misspelled_drake_template_tag_is_named_as_drake_spells_the_tag():
     assert (line, key) == (6, "directives.0.add_frame.X_PF.translation")
     assert problem.endswith("(did you mean !DeterministicVector?)")
     assert "𝓣" not in problem
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        # a model's free-body poses (a map of Drake's Transform), some merged from an anchor
+        "directives:\n- add_model:\n    name: m\n    file: package://x/m.sdf\n"
+        "    default_free_body_pose:\n"
+        "      <<: {base: {base_frame: world, translation: [1, 0, 0]}}\n"
+        "      top: {translation: [0, 0, 1]}\n",
+        # controllers (a map of tagged configs) merged from an anchor
+        "_c: &c {soft: !ConstantImpedanceConfig {}}\ncontrollers:\n  <<: *c\n",
+    ],
+)
+def test_a_merge_key_in_a_map_is_no_entry_of_it(text):
+    """`<<: *anchor` in a map field merges the anchor's entries into the map, as YAML reads
+    it (and Drake's loader with it): the merged map is no entry of the field's type."""
+    yaml_load_typed(schema=Scenario, data=text)  # Drake's loader takes it
+    assert misshapen_value(text, Scenario, skip=("_c",)) is None

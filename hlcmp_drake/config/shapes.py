@@ -164,6 +164,8 @@ def _check(
             return wrong("a map")
         _, item = typing.get_args(hint)
         for name, value in node.value:
+            if isinstance(name, yaml.ScalarNode) and name.tag == _MERGE_TAG:
+                continue  # `<<: *anchor`: the anchor's entries, left as a schema's are
             found = _check(value, item, _join(key, str(name.value)), visited)
             if found:
                 return found
