@@ -186,3 +186,23 @@ def test_a_merge_key_in_a_map_is_no_entry_of_it(text):
     it (and Drake's loader with it): the merged map is no entry of the field's type."""
     yaml_load_typed(schema=Scenario, data=text)  # Drake's loader takes it
     assert misshapen_value(text, Scenario, skip=("_c",)) is None
+
+
+def test_a_documents_underscore_keys_hold_anchors_as_drakes_loader_reads_them(tmp_path):
+    """Drake's loader ignores a document's top-level keys that start with `_` (where
+    anchors are kept); below the top such a key is a field like any other."""
+    anchored = "_step: &step {time_step: 0.002}\nplant_config:\n  <<: *step\n"
+    assert misshapen_value(anchored, Scenario) is None
+    assert misshapen_value("plant_config:\n  _step: 0.002", Scenario) == (
+        2,
+        "plant_config._step",
+        "no such field in MultibodyPlantConfig (did you mean 'time_step'?)",
+    )
+    text = (DIAGRAMS_DIR / "one_dof.yaml").read_text()
+    path = tmp_path / "anchored.yaml"
+    path.write_text(
+        text.replace(
+            "plant_config:\n", "_kept: &kept {time_step: 1.0e-3}\nplant_config:\n  <<: *kept\n", 1
+        ).replace("  time_step: 0.001", "", 1)
+    )
+    assert load_scenario(path)[0].plant_config.time_step == 0.001  # the anchor's

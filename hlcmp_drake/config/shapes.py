@@ -137,6 +137,8 @@ def _check(
         for name, value in node.value:
             if not isinstance(name, yaml.ScalarNode) or name.tag == _MERGE_TAG:
                 continue
+            if not key and str(name.value).startswith("_"):
+                continue  # Drake's loader ignores a document's `_` keys: a place for anchors
             if name.value not in fields:
                 # Drake's loader would say only "The fields [...] were unknown to the schema".
                 near = difflib.get_close_matches(name.value, list(fields), n=1)
