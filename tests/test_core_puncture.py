@@ -23,3 +23,31 @@ def test_the_tear_and_the_hole_friction_by_hand():
     assert hole_friction(0.045, 0.03, 0.03, 150.0, 0.002) == pytest.approx(-4.5, rel=1e-6)
     assert hole_friction(0.045, 0.03, -0.03, 150.0, 0.002) == pytest.approx(4.5, rel=1e-6)
     assert hole_friction(-0.01, 0.03, 0.03, 150.0, 0.002) == 0.0  # out of the hole
+
+
+def test_the_tool_point_comes_in_only_through_the_top_face():
+    """From above the face's plane, then over the face: in. Started below the plane, or
+    gone below it beside the object, it is not in -- not even once it is under the face."""
+    from hlcmp_drake.core.puncture import came_in_from_above, came_in_over_time
+
+    assert came_in_from_above(False, -0.01, False)  # above the plane, beside: may come in
+    assert came_in_from_above(True, 0.02, True)  # then down over the face
+    assert not came_in_from_above(False, 0.02, True)  # started below, under the face
+    assert not came_in_from_above(True, 0.02, False)  # went below the plane beside it
+    depth = np.array([-0.01, 0.005, 0.02, 0.02, -0.01, 0.02])
+    over = np.array([True, False, False, True, True, True])
+    # Down beside the object, slid under its face, then back up and in from above.
+    assert came_in_over_time(depth, over).tolist() == [True, False, False, False, True, True]
+    assert not came_in_over_time(np.array([0.02, 0.03]), np.array([True, True])).any()
+
+
+def test_beside_by_is_the_distance_across_the_face_from_its_extent():
+    from hlcmp_drake.core.puncture import beside_by, over_the_face
+
+    top, rotation = np.array([0.6, 0.0, 0.33]), np.eye(3)
+    lower, upper = np.array([-0.15, -0.1]), np.array([0.15, 0.1])
+    points = np.array([[0.6, 0.05, 0.2], [0.6, -0.3, 0.3], [1.05, 0.5, 0.5]])
+    assert beside_by(points, top, rotation, lower, upper) == pytest.approx([0.0, 0.2, 0.5])
+    assert over_the_face(points, top, rotation, lower, upper).tolist() == [True, False, False]
+    assert beside_by(points[1], top, rotation, lower, upper) == pytest.approx(0.2)
+    assert over_the_face(points[0], top, rotation, lower, upper) is True

@@ -261,9 +261,9 @@ def test_claims_about_a_run_that_did_not_go_through_are_not_judged(insertion_run
 def _straight_down(depth_reached_m):
     """A tool point going straight down into the insertion's plank and back."""
     scenario, _ = load_scenario("insertion")
-    top, normal = insertion.object_top(scenario)
+    face = insertion.object_face(scenario)
     depth = np.interp(T, [0, 4, 8], [-0.01, depth_reached_m, -0.01])
-    x = top + np.outer(-depth, normal)
+    x = face.point + np.outer(-depth, face.normal)
     return RunResult("probe", T, {"x": x}), scenario
 
 
@@ -278,6 +278,51 @@ def test_the_insertion_is_done_when_the_tool_point_reaches_the_tear_depth():
     run, scenario = _straight_down(-0.005)  # never down to the plank
     task = insertion.went_through(run, scenario)
     assert "the tool point stayed 5.0 mm above its top, the tear needs" in task["evidence"]
+
+
+def _path(*corners):
+    """A tool point's path over 8 s through `corners` (x, y, z) [m], by straight lines."""
+    scenario, _ = load_scenario("insertion")
+    times = np.linspace(0, 8, len(corners))
+    x = np.column_stack([np.interp(T, times, axis) for axis in np.transpose(corners)])
+    return RunResult("probe", T, {"x": x}), scenario
+
+
+@pytest.mark.parametrize(
+    "corners, said",
+    [
+        # The walkthrough's demonstration: 30 mm below the plank's top (z = 0.33 m), 200 mm
+        # beside its 0.20 m width.
+        (
+            [(0.55, -0.30, 0.30), (0.60, -0.25, 0.19)],
+            "the tool point started 30.0 mm below its top, 200.0 mm beside it, and never "
+            "rose above it",
+        ),
+        (
+            [(0.60, 0.0, 0.31), (0.60, 0.0, 0.20)],  # in the foam from the start
+            "the tool point started 20.0 mm below its top, over it, and never rose above it",
+        ),
+        (
+            [(0.60, -0.30, 0.40), (0.60, -0.30, 0.29), (0.60, -0.30, 0.29)],  # down beside it
+            "the tool point reached 40.0 mm below its top only 200.0 mm beside it",
+        ),
+        (
+            [(0.60, -0.30, 0.40), (0.60, -0.30, 0.31), (0.60, 0.0, 0.31)],  # then under it
+            "the tool point reached 20.0 mm below its top under the plank only from beside "
+            "or below it",
+        ),
+    ],
+)
+def test_the_insertion_is_not_done_by_a_tool_point_that_never_came_in_from_above(corners, said):
+    """Deep enough below the plank's top, but not in through its top face: the foam did not
+    tear, and the evidence says where the tool point was."""
+    run, scenario = _path(*corners)
+    task = insertion.went_through(run, scenario)
+    assert not task["done"] and task["tear_s"] is None
+    assert task["evidence"] == (
+        f"did not go through the plank: {said}: the plank tears only where the tool point "
+        "comes in through its top face and reaches 15.0 mm below it"
+    )
 
 
 def test_an_insertion_without_a_puncture_is_not_counted_as_done():

@@ -584,9 +584,11 @@ class PunctureConfig:
     elastic and has no memory of the hole a tool makes: past the mid-plane the field would
     pull the tool through. So the tear and the torn hole are modelled explicitly:
 
-    - the tear: when the tool point first reaches `depth_m` below the object's top face
-      while moving in, the contact between the tool and the object ends for the rest of
-      the run (a collision filter set in the simulation);
+    - the tear: when the tool point, having come in through the object's top face (from
+      above its plane, then over the face), first reaches `depth_m` below it while moving
+      in, the contact between the tool and the object ends for the rest of the run (a
+      collision filter set in the simulation). A tool point that starts below the face's
+      plane, or goes below it beside the object, tears nothing;
     - the hole: from then on, while the tool is in it, an axial friction force
       F = hole_friction_N_per_m * (length of tool inside the object) *
       tanh(v / sliding_speed_m_per_s)

@@ -29,40 +29,130 @@ def depth_below(
     return float(np.dot(np.asarray(top_point) - point, top_normal))
 
 
+def _beyond_the_extent(
+    point: np.ndarray,
+    top_point: np.ndarray,
+    top_rotation: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+) -> np.ndarray:
+    """How far `point`'s coordinates along the face frame's x and y lie outside the face's
+    extent, per axis [m] (0 within it): (2,), or (T, 2) for (T, 3) points."""
+    offset = np.asarray(point) - np.asarray(top_point)
+    xy = (offset @ np.asarray(top_rotation))[..., :2]
+    return np.maximum(np.asarray(lower) - xy, 0.0) + np.maximum(xy - np.asarray(upper), 0.0)
+
+
 def over_the_face(
     point: np.ndarray,
     top_point: np.ndarray,
     top_rotation: np.ndarray,
     lower: np.ndarray,
     upper: np.ndarray,
-) -> bool:
+) -> bool | np.ndarray:
     """Whether `point` lies over (or under) the object's top face: its coordinates along
     the face's own x and y axes within the face's extent. A tool point beside the object,
     however far below the face's plane, is in no hole and tears nothing.
 
     Parameters
     ----------
-    point : (3,) array
-        The tool point, world [m].
+    point : (3,) or (T, 3) array
+        The tool point, world [m]; or its samples over time.
     top_point : (3,) array
         The face's frame origin, world [m].
     top_rotation : (3, 3) array
         The face frame's orientation in the world (its z the outward normal).
     lower, upper : (2,) arrays
         The face's extent along its frame's x and y [m].
+
+    Returns
+    -------
+    bool, or (T,) bool array for (T, 3) points
     """
-    xy = (np.asarray(top_rotation).T @ (np.asarray(point) - np.asarray(top_point)))[:2]
-    return bool(np.all(xy >= lower) and np.all(xy <= upper))
+    beyond = _beyond_the_extent(point, top_point, top_rotation, lower, upper)
+    within = np.all(beyond == 0.0, axis=-1)
+    return bool(within) if np.ndim(point) == 1 else within
 
 
-def deep_enough_to_tear(depth: float, tear_depth: float) -> bool:
+def beside_by(
+    point: np.ndarray,
+    top_point: np.ndarray,
+    top_rotation: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+) -> float | np.ndarray:
+    """How far `point` lies beside the object's top face [m]: the distance across the
+    face's plane (along its frame's x and y) from the face's extent; 0 over (or under) it.
+
+    Parameters
+    ----------
+    point : (3,) or (T, 3) array
+        The tool point, world [m]; or its samples over time.
+    top_point : (3,) array
+        The face's frame origin, world [m].
+    top_rotation : (3, 3) array
+        The face frame's orientation in the world (its z the outward normal).
+    lower, upper : (2,) arrays
+        The face's extent along its frame's x and y [m].
+
+    Returns
+    -------
+    float, or (T,) array for (T, 3) points
+    """
+    distance = np.linalg.norm(
+        _beyond_the_extent(point, top_point, top_rotation, lower, upper), axis=-1
+    )
+    return float(distance) if np.ndim(point) == 1 else distance
+
+
+def came_in_from_above(came_in: bool, depth: float, over: bool) -> bool:
+    """Whether the tool point has come into the object through its top face, the only way
+    a tear begins: it may once it is above the face's plane (nothing is in its way down,
+    over the face or beside it), it stays in while over the face, and it has not once it
+    is below the plane beside the object -- what it meets from there it meets from the
+    side. A tool point that starts below the plane has not come in from above.
+
+    Parameters
+    ----------
+    came_in : bool
+        Whether it had, at the step before (False at the start).
+    depth : float
+        Tool point below the top face [m] (negative above it).
+    over : bool
+        Whether it is over the face (`over_the_face`); read only below the plane.
+    """
+    return depth < 0.0 or (came_in and over)
+
+
+def came_in_over_time(depth: np.ndarray, over: np.ndarray) -> np.ndarray:
+    """`came_in_from_above` at each sample of a tool point's path, from the first.
+
+    Parameters
+    ----------
+    depth : (T,) array
+        Tool point below the top face at each sample [m].
+    over : (T,) bool array
+        Whether it is over the face at each sample.
+
+    Returns
+    -------
+    (T,) bool array
+    """
+    came_in, result = False, np.zeros(len(depth), dtype=bool)
+    for k, (below, above_the_face) in enumerate(zip(depth, over)):
+        came_in = came_in_from_above(came_in, float(below), bool(above_the_face))
+        result[k] = came_in
+    return result
+
+
+def deep_enough_to_tear(depth: float | np.ndarray, tear_depth: float) -> bool | np.ndarray:
     """Whether the tool point is deep enough for the foam to tear (`tears`' first half,
     which needs no velocity).
 
     Parameters
     ----------
-    depth : float
-        Tool point below the top face [m].
+    depth : float or (T,) array
+        Tool point below the top face [m]; or its samples over time.
     tear_depth : float
         The depth at which the foam tears [m].
     """
@@ -70,7 +160,8 @@ def deep_enough_to_tear(depth: float, tear_depth: float) -> bool:
 
 
 def tears(depth: float, inward_speed: float, tear_depth: float) -> bool:
-    """Whether the foam tears now.
+    """Whether the foam tears now, under a tool point that came in through its top face
+    (`came_in_from_above`): at the tear depth, moving in.
 
     Parameters
     ----------
@@ -81,7 +172,7 @@ def tears(depth: float, inward_speed: float, tear_depth: float) -> bool:
     tear_depth : float
         The depth at which the foam tears [m].
     """
-    return deep_enough_to_tear(depth, tear_depth) and inward_speed > 0.0
+    return bool(deep_enough_to_tear(depth, tear_depth)) and inward_speed > 0.0
 
 
 def hole_friction(

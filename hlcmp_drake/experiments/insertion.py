@@ -9,7 +9,7 @@ from hlcmp_drake.core.metrics import (
     mean_abs_force,
     mean_abs_position_error,
 )
-from hlcmp_drake.core.puncture import depth_below
+from hlcmp_drake.core.puncture import came_in_over_time, deep_enough_to_tear
 from hlcmp_drake.experiments.claims import (
     Claim,
     ClaimInputs,
@@ -25,7 +25,7 @@ from hlcmp_drake.experiments.plots import bar_chart, new_figure
 from hlcmp_drake.experiments.table import Table, number, per_axis
 from hlcmp_drake.io.runs import RunResult
 from hlcmp_drake.worlds.controllers import kind_of, learners
-from hlcmp_drake.worlds.puncture import object_top
+from hlcmp_drake.worlds.puncture import object_face
 
 AXES = ("x", "y", "z")
 CONTACT_FORCE_N = 0.5  # |f_ext| above this counts as contact
@@ -86,9 +86,10 @@ def controller_metrics(run: RunResult, config: ControllerConfig, scenario: Scena
 
 def went_through(run: RunResult, scenario: Scenario) -> dict:
     """The insertion's task: the tool went through the plank, i.e. the foam tore. The tear
-    is the puncture model's own condition (`task.puncture`): the tool point reaching
-    `depth_m` below the plank's top face, read off the logged tool point, so a served run
-    is judged as a simulated one.
+    is the puncture model's own condition (`task.puncture`): the tool point, having come in
+    through the plank's top face (from above it, then over it:
+    `core.puncture.came_in_from_above`), reaching `depth_m` below it, read off the logged
+    tool point, so a served run is judged as a simulated one.
 
     Parameters
     ----------
@@ -100,7 +101,8 @@ def went_through(run: RunResult, scenario: Scenario) -> dict:
     Returns
     -------
     dict
-        {"done", "evidence", "tear_s"}: the first logged time at the tear depth [s], or None.
+        {"done", "evidence", "tear_s"}: the first logged time at the tear depth [s], or None;
+        the evidence of a run that did not says where the tool point was.
 
     Raises
     ------
@@ -108,29 +110,57 @@ def went_through(run: RunResult, scenario: Scenario) -> dict:
         Without a puncture modelled: there is no tear to judge a run by (`load_scenario`
         with the experiments' needs refuses such a scenario before any run).
     """
-    top = object_top(scenario)
-    if top is None:
+    face = object_face(scenario)
+    if face is None:
         raise ValueError("the insertion's task is the tear: it needs task.puncture")
     tear_depth = scenario.task.puncture.depth_m
-    depth = depth_below(run.series["x"], *top)
-    torn = np.flatnonzero(depth >= tear_depth)
+    x = run.series["x"]
+    depth, over = face.depth_of(x), face.over(x)
+    came_in = came_in_over_time(depth, over)
+    deep_enough = deep_enough_to_tear(depth, tear_depth)
+    torn = np.flatnonzero(came_in & deep_enough)
     if torn.size:
         tear_s = float(run.t[torn[0]])
         return {"done": True, "evidence": f"tore the plank at {tear_s:.2f} s", "tear_s": tear_s}
-    deepest = float(np.max(depth))
+    return {
+        "done": False,
+        "evidence": "did not go through the plank: "
+        + _where_the_tool_was(depth, over, face.beside_by(x), came_in, deep_enough, tear_depth),
+        "tear_s": None,
+    }
+
+
+def _where_the_tool_was(depth, over, beside, came_in, deep_enough, tear_depth) -> str:
+    """Why a tool point's path tore nothing -- it never came in through the top face,
+    reached the tear depth only where it had not, or went not deep enough -- from its depth
+    below the plank's top, whether it is over the plank, how far beside it [m], whether it
+    came in and whether it is deep enough, at each sample."""
+    through_the_top = (
+        "the plank tears only where the tool point comes in through its top face and reaches "
+        f"{1000 * tear_depth:.1f} mm below it"
+    )
+    if not came_in.any():
+        where = "over it" if over[0] else f"{1000 * beside[0]:.1f} mm beside it"
+        return (
+            f"the tool point started {1000 * depth[0]:.1f} mm below its top, {where}, and "
+            f"never rose above it: {through_the_top}"
+        )
+    under_the_face = deep_enough & over
+    if under_the_face.any():
+        k = int(np.argmax(np.where(under_the_face, depth, -np.inf)))
+        where = "below its top under the plank only from beside or below it"
+        return f"the tool point reached {1000 * depth[k]:.1f} mm {where}: {through_the_top}"
+    if deep_enough.any():
+        k = int(np.argmax(np.where(deep_enough, depth, -np.inf)))
+        where = f"below its top only {1000 * beside[k]:.1f} mm beside it"
+        return f"the tool point reached {1000 * depth[k]:.1f} mm {where}: {through_the_top}"
+    deepest = float(np.max(depth[came_in]))
     reached = (
         f"reached {1000 * deepest:.1f} mm below its top"
         if deepest >= 0
         else f"stayed {-1000 * deepest:.1f} mm above its top"
     )
-    return {
-        "done": False,
-        "evidence": (
-            f"did not go through the plank: the tool point {reached}, the tear needs "
-            f"{1000 * tear_depth:.1f} mm"
-        ),
-        "tear_s": None,
-    }
+    return f"the tool point {reached}, the tear needs {1000 * tear_depth:.1f} mm"
 
 
 def _phase_times(run: RunResult, tear_s: float | None = None):

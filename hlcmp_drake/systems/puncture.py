@@ -10,6 +10,7 @@ from pydrake.multibody.plant import ExternallyAppliedSpatialForce
 from pydrake.systems.framework import BasicVector, Context, EventStatus, LeafSystem
 
 from hlcmp_drake.core.puncture import (
+    came_in_from_above,
     deep_enough_to_tear,
     depth_below,
     hole_friction,
@@ -24,11 +25,12 @@ class HoleFriction(LeafSystem):
     One periodic unrestricted update per `period` (the plant's step), handled before the
     plant's discrete update at the same time: from the tool point's position and velocity
     at t_k it computes the hole's friction with the stage before the update, holds it for
-    the plant's step, then advances the stage -- 0 until the tool point first reaches the
-    tear depth below the object's top face while moving in; then 1, when the contact
-    between tool and object must end (whoever runs the simulation does that on reading
-    `punctured`: a collision filter lives in SceneGraph's context, which a system's own
-    events cannot change); one period later 2. The friction, computed from the stage before
+    the plant's step, then advances the stage -- 0 until the tool point, having come in
+    through the object's top face (`core.puncture.came_in_from_above`: from above its
+    plane, then over the face), first reaches the tear depth while moving in; then 1, when
+    the contact between tool and object must end (whoever runs the simulation does that on
+    reading `punctured`: a collision filter lives in SceneGraph's context, which a system's
+    own events cannot change); one period later 2. The friction, computed from the stage before
     each update, acts from the update after that; the steps in between keep it from adding
     to a contact force not yet ended.
 
@@ -100,6 +102,7 @@ class HoleFriction(LeafSystem):
             "plant_state", BasicVector(plant.num_positions() + plant.num_velocities())
         )
         self._stage_index = self.DeclareDiscreteState(1)
+        self._came_in_index = self.DeclareDiscreteState(1)  # 0 until known to have come in
         self._force_index = self.DeclareDiscreteState(3)
         self._spatial_index = self.DeclareAbstractState(
             AbstractValue.Make([self._applied(np.zeros(3))])
@@ -139,6 +142,11 @@ class HoleFriction(LeafSystem):
         self._plant.SetVelocities(self._plant_context, plant_state[self._nq :])
         return self._frame.CalcSpatialVelocityInWorld(self._plant_context).translational()
 
+    def _inward_speed(self, plant_state) -> float:
+        """The tool point's speed into the object [m/s] (positive: going in), after
+        `_tool_position`."""
+        return -float(np.dot(self._tool_velocity(plant_state), self._top_normal))
+
     def _beside(self, position) -> bool:
         """Whether the tool point is beside the object (outside its top face's extent)."""
         if self._footprint is None:
@@ -153,16 +161,24 @@ class HoleFriction(LeafSystem):
         stage = self._stage(context)
         if stage == 0.0:
             # Before the tear nothing is held (the friction acts from stage 2): the update
-            # only asks whether the foam tears now, and the velocity only once it is deep
-            # enough to. Changing nothing, it says so: the Simulator then spares writing the
-            # whole diagram's state back (and recomputing everything that depends on it).
-            # Deep below the face's plane but beside the object tears nothing.
-            if not deep_enough_to_tear(depth, self._tear_depth) or self._beside(position):
+            # only follows whether the tool point came in through the top face and asks
+            # whether the foam tears now, reading the velocity only once it is deep enough
+            # to. Changing nothing, it says so: the Simulator then spares writing the whole
+            # diagram's state back (and recomputing everything that depends on it).
+            came_in_before = bool(context.get_discrete_state(self._came_in_index).get_value()[0])
+            # The footprint matters only below the face's plane (`came_in_from_above`).
+            over = depth < 0.0 or not self._beside(position)
+            came_in = came_in_from_above(came_in_before, depth, over)
+            torn = (
+                came_in
+                and deep_enough_to_tear(depth, self._tear_depth)
+                and tears(depth, self._inward_speed(plant_state), self._tear_depth)
+            )
+            if came_in == came_in_before and not torn:
                 return EventStatus.DidNothing()
-            velocity = self._tool_velocity(plant_state)
-            if not tears(depth, -float(np.dot(velocity, self._top_normal)), self._tear_depth):
-                return EventStatus.DidNothing()
-            state.get_mutable_discrete_state(self._stage_index).set_value([1.0])
+            state.get_mutable_discrete_state(self._came_in_index).set_value([float(came_in)])
+            if torn:
+                state.get_mutable_discrete_state(self._stage_index).set_value([1.0])
             return EventStatus.Succeeded()
         force = np.zeros(3)
         if stage >= 2 and depth > 0.0 and self._beside(position):

@@ -7,11 +7,12 @@ import dataclasses as dc
 
 import numpy as np
 from pydrake.geometry import Box, CollisionFilterDeclaration, GeometrySet, SceneGraph
-from pydrake.multibody.plant import MultibodyPlant
+from pydrake.multibody.plant import AddMultibodyPlantSceneGraph, MultibodyPlant
 from pydrake.multibody.tree import Frame
 from pydrake.systems.framework import Context, DiagramBuilder
 
 from hlcmp_drake.config.scenario import PunctureConfig, Scenario
+from hlcmp_drake.core.puncture import beside_by, depth_below, over_the_face
 from hlcmp_drake.systems.puncture import HoleFriction
 from hlcmp_drake.worlds.models import load_models, scoped_frame
 
@@ -103,9 +104,69 @@ def add_puncture(
     )
 
 
-def object_top(scenario: Scenario) -> tuple[np.ndarray, np.ndarray] | None:
-    """Where the punctured object's top face is: the pose `add_puncture` reads, from the
-    scenario's models alone.
+@dc.dataclass(frozen=True)
+class ObjectFace:
+    """The punctured object's top face in the world, as the foam's update reads it.
+
+    Attributes
+    ----------
+    point : (3,) array
+        The face frame's origin, on the face [m].
+    rotation : (3, 3) array
+        The face frame's orientation (its z the unit normal out of the object).
+    extent : ((2,), (2,)) arrays or None
+        Lower and upper x, y of the face in its frame [m] (`face_extent`); None: unbounded.
+    """
+
+    point: np.ndarray
+    rotation: np.ndarray
+    extent: tuple[np.ndarray, np.ndarray] | None
+
+    @property
+    def normal(self) -> np.ndarray:
+        """The face's unit normal out of the object, world."""
+        return self.rotation[:, 2]
+
+    def depth_of(self, points: np.ndarray) -> float | np.ndarray:
+        """How far `points` lie below the face [m] (`core.puncture.depth_below`).
+
+        Parameters
+        ----------
+        points : (3,) or (T, 3) array
+            World [m].
+        """
+        return depth_below(points, self.point, self.normal)
+
+    def over(self, points: np.ndarray) -> bool | np.ndarray:
+        """Whether `points` lie over (or under) the face (`core.puncture.over_the_face`;
+        everywhere for an unbounded face).
+
+        Parameters
+        ----------
+        points : (3,) or (T, 3) array
+            World [m].
+        """
+        if self.extent is None:
+            return True if np.ndim(points) == 1 else np.ones(len(points), dtype=bool)
+        return over_the_face(points, self.point, self.rotation, *self.extent)
+
+    def beside_by(self, points: np.ndarray) -> float | np.ndarray:
+        """How far `points` lie beside the face [m], 0 over it (`core.puncture.beside_by`;
+        0 everywhere for an unbounded face).
+
+        Parameters
+        ----------
+        points : (3,) or (T, 3) array
+            World [m].
+        """
+        if self.extent is None:
+            return 0.0 if np.ndim(points) == 1 else np.zeros(len(points))
+        return beside_by(points, self.point, self.rotation, *self.extent)
+
+
+def object_face(scenario: Scenario) -> ObjectFace | None:
+    """Where the punctured object's top face is and how far it reaches: what `add_puncture`
+    reads, from the scenario's models alone.
 
     Parameters
     ----------
@@ -114,17 +175,18 @@ def object_top(scenario: Scenario) -> tuple[np.ndarray, np.ndarray] | None:
 
     Returns
     -------
-    (point, normal) of (3,) arrays, or None
-        A point of the top face [m] and its unit normal out of the object, world; None
-        when the task has no puncture.
+    ObjectFace or None
+        None when the task has no puncture.
     """
     config = scenario.task.puncture
     if not config.object_frame:
         return None
-    plant = MultibodyPlant(0.0)
-    load_models(plant, scenario)
+    plant, scene_graph = AddMultibodyPlantSceneGraph(DiagramBuilder(), 0.0)
+    load_models(plant, scenario, scene_graph=scene_graph)
     top = _top_pose(plant, config)
-    return top.translation(), top.rotation().matrix()[:, 2]
+    return ObjectFace(
+        top.translation(), top.rotation().matrix(), face_extent(plant, scene_graph, config)
+    )
 
 
 def face_extent(
