@@ -325,6 +325,45 @@ def test_the_insertion_is_not_done_by_a_tool_point_that_never_came_in_from_above
     )
 
 
+@pytest.mark.parametrize(
+    "start, refused",
+    [
+        ((0.55, -0.05, 0.32), True),  # 10 mm into the foam
+        ((0.55, -0.05, -0.15), True),  # under the plank (the demonstration 0.6 m down)
+        ((0.55, -0.30, 0.30), False),  # below the top, beside the plank: a place to be
+        ((0.55, -0.05, 0.45), False),  # the bundled demonstration's start
+    ],
+)
+def test_a_reference_starting_inside_or_under_the_plank_is_refused(start, refused):
+    from hlcmp_drake.io.errors import InputError
+    from hlcmp_drake.worlds.puncture import check_start_outside
+
+    scenario, _ = load_scenario("insertion")
+    if not refused:
+        check_start_outside(scenario, np.array(start))
+        return
+    with pytest.raises(InputError, match="below the top face of 'foam_plank::plank'.* and over it"):
+        check_start_outside(scenario, np.array(start))
+
+
+def test_learning_from_a_demonstration_shifted_into_the_plank_stops_before_simulating(tmp_path):
+    """The first second of the insertion demonstration 13 cm lower starts the tool 10 mm
+    into the foam: one line, exit 2, nothing written."""
+    from conftest import run_cli
+
+    from hlcmp_drake.io.demos import read_demonstration, write_trajectory
+
+    t, positions, axes = read_demonstration(INSERTION_DEMO)
+    shifted = write_trajectory(
+        tmp_path / "low.csv", t[:100], positions[:100] - [0.0, 0.0, 0.13], axes
+    )
+    out = tmp_path / "out"
+    done = run_cli("learn", shifted, "--scenario", "insertion", "--out", out, "--quiet")
+    assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
+    assert "10.1 mm below the top face of 'foam_plank::plank'" in done.stderr
+    assert not out.exists()
+
+
 def test_an_insertion_without_a_puncture_is_not_counted_as_done():
     """Without a tear to find there is no verdict: no run is counted as done."""
     import dataclasses as dc

@@ -53,6 +53,7 @@ from hlcmp_drake.worlds.controllers import (
 from hlcmp_drake.worlds.extras import ToolSensing, add_tool_sensing
 from hlcmp_drake.worlds.models import add_plant, load_models, scoped_frame, solve_ik_for_tool
 from hlcmp_drake.worlds.pose import LOGGED_REFERENCE, add_pose_reference, pose_tick
+from hlcmp_drake.worlds.puncture import check_start_outside
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -181,7 +182,8 @@ def prepare(
     Raises
     ------
     InputError
-        From fitting the demonstration or from the inverse kinematics.
+        From fitting the demonstration, for a start inside or under the punctured object
+        (`check_start_outside`), or from the inverse kinematics.
     """
     dmp = dmp or fit_demonstration(scenario)
     orientation_dmp = orientation_dmp or fit_orientation_demonstration(scenario)
@@ -190,6 +192,7 @@ def prepare(
         if orientation_dmp is None
         else RotationMatrix(Quaternion(np.asarray(orientation_dmp.start, float)))
     )
+    check_start_outside(scenario, dmp.start)
     q0, orientation = solve_start_posture(scenario, dmp.start, start)
     return ArmSetup(dmp, q0, orientation, orientation_dmp)
 

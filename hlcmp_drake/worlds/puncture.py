@@ -13,6 +13,7 @@ from pydrake.systems.framework import Context, DiagramBuilder
 
 from hlcmp_drake.config.scenario import PunctureConfig, Scenario
 from hlcmp_drake.core.puncture import beside_by, depth_below, over_the_face
+from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.systems.puncture import HoleFriction
 from hlcmp_drake.worlds.models import load_models, scoped_frame
 
@@ -187,6 +188,45 @@ def object_face(scenario: Scenario) -> ObjectFace | None:
     return ObjectFace(
         top.translation(), top.rotation().matrix(), face_extent(plant, scene_graph, config)
     )
+
+
+def check_start_outside(scenario: Scenario, start: np.ndarray) -> None:
+    """Refuse a reference whose start puts the tool point below the punctured object's top
+    face and over it: the tool would start inside the object or under it, where it could
+    never come in through the face -- a reference in another frame than the world's, or
+    shifted. (Below the face's plane beside the object is a place the tool can be: such a
+    run goes ahead and does not tear the object.)
+
+    Parameters
+    ----------
+    scenario : Scenario
+        With an ArmTask; nothing is checked without a puncture.
+    start : (3,) array
+        The tool point's start, world [m] (the reference's first point).
+
+    Raises
+    ------
+    InputError
+        When the start is below the face and over it.
+    """
+    face = object_face(scenario)
+    if face is None:
+        return
+    start = np.asarray(start, dtype=float)
+    depth = float(face.depth_of(start))
+    if depth <= 0.0 or not face.over(start):
+        return
+    raise InputError(
+        f"the reference starts the tool point at {_point(start)} m, {1000 * depth:.1f} mm "
+        f"below the top face of '{scenario.task.puncture.object_frame}' (its centre at "
+        f"{_point(face.point)} m) and over it: the tool would start inside or under the "
+        "object and could never come in through its face to tear it; is the demonstration "
+        "in the scenario's world frame?"
+    )
+
+
+def _point(xyz) -> str:
+    return "(" + ", ".join(f"{value:.3f}" for value in xyz) + ")"
 
 
 def face_extent(
