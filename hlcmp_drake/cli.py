@@ -1278,7 +1278,19 @@ def _default_out(args):
     if args.command in ("run", "probe", "serve"):
         from hlcmp_drake.config.loading import load_scenario
 
-        scenario, _ = load_scenario(args.scenario, args.set, variant=getattr(args, "variant", None))
+        replay_problem = None
+        if args.command == "serve" and args.skill:
+            # A skill is what serve replays: reference.duration_s is checked against it.
+            from hlcmp_drake.io.skill import load_skill
+            from hlcmp_drake.run.learning import replayed_reference_problem
+
+            replay_problem = replayed_reference_problem(None, load_skill(args.skill), args.skill)
+        scenario, _ = load_scenario(
+            args.scenario,
+            args.set,
+            variant=getattr(args, "variant", None),
+            replay_problem=replay_problem,
+        )
         prefix = {"run": "", "probe": "probe_", "serve": "serve_"}[args.command]
         return Path("out") / f"{prefix}{scenario.name}"
     if args.command == "sweep":

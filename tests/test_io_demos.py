@@ -334,14 +334,16 @@ def test_a_replay_in_another_duration_is_held_to_the_speed_bounds_scaled(tmp_pat
     shortest = 1.9 * np.hypot(0.1, 0.1) / MAX_SPEED_M_PER_S
     assert replay_speed_problem(path, 1.001 * shortest) is None
     problem = replay_speed_problem(path, 0.999 * shortest)
-    assert problem.startswith("replays the 1.9 s demonstration in ") and " m/s " in problem
+    assert problem.startswith("replays the 1.9 s demonstration demo.csv in ") and " m/s " in problem
     assert problem.endswith(f"give at least {shortest:.3g} s (0: as demonstrated)")
     pose = tmp_path / "pose.csv"  # 1 rad evenly in 0.29 s and 2.9 cm: its turn binds first
     pose.write_text(_pose_text(_turn(30)))
     turning = 1.0 / MAX_TURN_RATE_RAD_PER_S
     assert replay_speed_problem(pose, 1.001 * turning) is None
     assert "rad/s at its fastest" in replay_speed_problem(pose, 0.999 * turning)
-    with pytest.raises(InputError, match=r"duration_s: replays the 1.9 s demonstration in 0.01 s"):
+    with pytest.raises(
+        InputError, match=r"duration_s: replays the 1.9 s demonstration demo.csv in 0.01 s"
+    ):
         load_scenario("insertion", [f"reference.file={path}", "reference.duration_s=0.01"])
     load_scenario("insertion", [f"reference.file={path}", "reference.duration_s=0.5"])
 

@@ -680,3 +680,33 @@ def test_an_unstable_trial_says_why_and_when(tmp_path):
         f"UNSTABLE trial 1 (hlcmp): {problem['reason']} at t = {problem['time_s']:.3f} s"
         in learned.stdout
     )
+
+
+def test_reference_duration_is_checked_against_what_learn_and_reproduce_replay(tmp_path):
+    """`--set reference.duration_s` rescales the user's demonstration (learn) or the skill
+    (reproduce), not the scenario's 8.5 s one: 0.2 s replays the first second of the
+    insertion (0.11 m/s) five times as fast, which is accepted; 0.03 s would move at 3.6
+    m/s, which is refused naming the file and its own duration."""
+    from hlcmp_drake.config.loading import load_scenario
+    from hlcmp_drake.core.dmp import Dmp
+    from hlcmp_drake.io.demos import read_demonstration, write_trajectory
+    from hlcmp_drake.io.skill import Skill, save_skill
+
+    t, positions, axes = read_demonstration(INSERTION_DEMO)
+    demo = write_trajectory(tmp_path / "ins1s.csv", t[:100], positions[:100], axes)
+    dmp = Dmp.fit(t[:100], positions[:100], axes, load_scenario("insertion")[0].dmp)
+    skill = save_skill(tmp_path / "first_second.npz", Skill.untrained(dmp))
+    short = ["--scenario", "insertion", "--set", "duration_s=0.3", "--quiet"]
+    for command, replayed, what in (
+        ("learn", demo, "0.99 s demonstration ins1s.csv"),
+        ("reproduce", skill, "0.99 s skill first_second.npz"),
+    ):
+        too_fast = run_cli(
+            command, replayed, *short, "--set", "reference.duration_s=0.03", "--out", tmp_path
+        )
+        assert too_fast.returncode == 2 and too_fast.stderr.count("\n") == 1, too_fast.stderr
+        assert f"duration_s: replays the {what} in 0.03 s, 33 times as fast" in too_fast.stderr
+        out = tmp_path / command
+        fast = run_cli(command, replayed, *short, "--set", "reference.duration_s=0.2", "--out", out)
+        assert fast.returncode == 0, fast.stderr
+        assert json.loads((out / "metrics.json").read_text())["skill_duration_s"] == 0.2

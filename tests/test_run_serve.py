@@ -697,6 +697,35 @@ def test_a_skill_that_does_not_fit_the_scenario_is_named_by_its_file(tmp_path):
     assert not (tmp_path / "o").exists()
 
 
+def test_a_skills_replay_duration_is_checked_against_the_skill(tmp_path, monkeypatch):
+    """serve --skill --set reference.duration_s: the skill (the insertion's first second)
+    is what is replayed, so 0.2 s is served and 0.03 s refused naming the skill, not the
+    scenario's 8.5 s demonstration."""
+    from hlcmp_drake.cli import main
+    from hlcmp_drake.core.dmp import Dmp
+    from hlcmp_drake.io.demos import read_demonstration
+    from hlcmp_drake.io.skill import Skill, save_skill
+
+    class Opened(Exception):
+        pass
+
+    def open_lcm(url):
+        raise Opened(url)
+
+    monkeypatch.setattr("hlcmp_drake.run.serve.open_lcm", open_lcm)
+    t, positions, axes = read_demonstration(INSERTION_DEMO)
+    skill = save_skill(
+        tmp_path / "first.npz", Skill.untrained(Dmp.fit(t[:100], positions[:100], axes))
+    )
+    serve = ["serve", "insertion", "--lcm", "memq://", "--skill", skill, "--freeze"]
+    too_fast = [*serve, "--set", "reference.duration_s=0.03"]
+    for out in ([], ["--out", tmp_path / "o"]):  # the default --out reads the scenario too
+        line = one_line_error(run_cli(*too_fast, *out))
+        assert "replays the 0.99 s skill first.npz in 0.03 s, 33 times as fast" in line
+    with pytest.raises(Opened):
+        main([*map(str, serve), "--set", "reference.duration_s=0.2", "--out", str(tmp_path)])
+
+
 def test_a_status_period_other_than_the_configured_one_stops_before_any_command():
     """A driver publishing every 5 ms to a client configured for 1 ms: said from the stamps
     during the start guard, with the fix, before a command goes out."""

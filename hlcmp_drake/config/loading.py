@@ -24,7 +24,7 @@ from pydrake.common.yaml import yaml_dump_typed, yaml_load_typed
 
 from hlcmp_drake.config.scenario import ControllerConfig, DemonstrationConfig, Scenario
 from hlcmp_drake.config.shapes import composed, misshapen_value
-from hlcmp_drake.config.validation import ExperimentNeeds, validate_scenario
+from hlcmp_drake.config.validation import ExperimentNeeds, ReplayProblem, validate_scenario
 from hlcmp_drake.io.errors import InputError, located
 from hlcmp_drake.io.file_kinds import FILE_KINDS, top_level_keys
 from hlcmp_drake.io.paths import DIAGRAMS_DIR, VARIANTS_DIR, data_file
@@ -261,7 +261,10 @@ class _Problem(Exception):
 
 
 def _first_problem(
-    scenario: Scenario, folder: Path, experiments: Mapping[str, ExperimentNeeds] | None
+    scenario: Scenario,
+    folder: Path,
+    experiments: Mapping[str, ExperimentNeeds] | None,
+    replay_problem: ReplayProblem | None = None,
 ) -> tuple[str, str] | None:
     """(dotted key, problem) of the first problem `validate_scenario` finds, or None."""
 
@@ -269,7 +272,7 @@ def _first_problem(
         raise _Problem(dotted_key, problem)
 
     try:
-        validate_scenario(scenario, folder, record, experiments)
+        validate_scenario(scenario, folder, record, experiments, replay_problem)
     except _Problem as found:
         return found.args
     return None
@@ -499,6 +502,7 @@ def load_scenario(
     overrides: Sequence[str | dict] = (),
     experiments: Mapping[str, ExperimentNeeds] | None = None,
     variant: str | Path | None = None,
+    replay_problem: ReplayProblem | None = None,
 ) -> tuple[Scenario, Path]:
     """Load, override and validate a scenario.
 
@@ -518,6 +522,10 @@ def load_scenario(
         YAML file, layered over the scenario's file before the overrides; the scenario's
         name gets "_" and the variant's name appended (its runs go to their own folder),
         unless it already ends so (a run's record of that variant).
+    replay_problem : callable(duration_s) -> str or None, optional
+        For runs that follow another reference than the scenario's demonstration file
+        (learn's own demonstration, a skill's DMP): what replaying that one in
+        `reference.duration_s` does wrong, checked instead of the file's replay.
 
     Returns
     -------
@@ -543,7 +551,7 @@ def load_scenario(
             raise InputError(
                 f"{variant_path}: cannot be read as text ({error.__class__.__name__})"
             ) from None
-    return _load_text(text, path, overrides, experiments, layer), path
+    return _load_text(text, path, overrides, experiments, layer, replay_problem), path
 
 
 class _NoController:
@@ -661,6 +669,7 @@ def _load_text(
     overrides: Sequence[str | dict],
     experiments: Mapping[str, ExperimentNeeds] | None = None,
     variant: tuple[Path, str] | None = None,
+    replay_problem: ReplayProblem | None = None,
 ) -> Scenario:
     """`load_scenario` after the files are read: parse, layer the variant, override,
     validate, resolve."""
@@ -693,7 +702,7 @@ def _load_text(
     for label, key, value in parsed:
         scenario = _overridden(scenario, label, key, value)
     source = _Source(path, text, [(label, key) for label, key, _ in parsed], variant)
-    found = _first_problem(scenario, path.parent, experiments)
+    found = _first_problem(scenario, path.parent, experiments, replay_problem)
     if found is not None:
         if not _task_given(source) and _of_the_world(found[0]):
             raise InputError(
@@ -701,7 +710,7 @@ def _load_text(
                 "the arm, !SliderTask for the one-DOF slider); without it, it is the slider "
                 f"world, where {_leaf(found[0])}: {found[1]}"
             )
-        culprit = _culprit(base, parsed, found, source, path.parent, experiments)
+        culprit = _culprit(base, parsed, found, source, path.parent, experiments, replay_problem)
         if culprit is not None:
             raise culprit
         source.fail(*found)
@@ -726,7 +735,7 @@ def _of_the_world(dotted_key: str) -> bool:
     return dotted_key in ("experiment", "reference") or dotted_key.startswith("task.")
 
 
-def check_scenario(scenario: Scenario) -> None:
+def check_scenario(scenario: Scenario, replay_problem: ReplayProblem | None = None) -> None:
     """The checks `load_scenario` makes, again, on a scenario changed in Python since it was
     loaded (a field set, a controller replaced): a value it would refuse is refused here
     too, before a diagram is built, rather than built into a run (a negative gain) or into
@@ -737,13 +746,16 @@ def check_scenario(scenario: Scenario) -> None:
     scenario : Scenario
         As `load_scenario` returned it, maybe changed since (its demonstration's file
         resolved).
+    replay_problem : callable(duration_s) -> str or None, optional
+        As `load_scenario` takes it: for runs that follow another reference than the
+        scenario's demonstration file.
 
     Raises
     ------
     InputError
         "scenario 'NAME': KEY: PROBLEM" for the first problem found.
     """
-    found = _first_problem(scenario, Path.cwd(), None)
+    found = _first_problem(scenario, Path.cwd(), None, replay_problem)
     if found is not None:
         key, problem = found
         raise InputError(f"scenario '{scenario.name}': {key}: {problem}")
@@ -809,7 +821,11 @@ _VALID_FILES: dict[tuple, bool] = {}
 
 
 def _files_valid(
-    base: Scenario, source: _Source, folder: Path, experiments: Mapping[str, ExperimentNeeds] | None
+    base: Scenario,
+    source: _Source,
+    folder: Path,
+    experiments: Mapping[str, ExperimentNeeds] | None,
+    replay_problem: ReplayProblem | None,
 ) -> bool:
     """Whether `base` (the scenario the files make, `source`'s texts) has no problem."""
     key = (
@@ -817,11 +833,12 @@ def _files_valid(
         source.text,
         source.variant and (str(source.variant[0]), source.variant[1]),
         tuple(experiments.items()) if experiments is not None else None,
+        replay_problem,
     )
     if key not in _VALID_FILES:
         if len(_VALID_FILES) > 64:
             _VALID_FILES.clear()
-        _VALID_FILES[key] = _first_problem(base, folder, experiments) is None
+        _VALID_FILES[key] = _first_problem(base, folder, experiments, replay_problem) is None
     return _VALID_FILES[key]
 
 
@@ -832,13 +849,14 @@ def _culprit(
     source: _Source,
     folder: Path,
     experiments: Mapping[str, ExperimentNeeds] | None,
+    replay_problem: ReplayProblem | None,
 ) -> InputError | None:
     """The override that alone brings about the problem `found` (dotted key, problem) of
     the overridden scenario, where the files alone (`base`) are valid: one that sets the
     key, or one that makes a value of the files wrong (task=!SliderTask against the file's
     reference, named with the file's line). None where none does so alone (or there are
     no overrides): the problem is then named where `source` finds the key."""
-    if not parsed or not _files_valid(base, source, folder, experiments):
+    if not parsed or not _files_valid(base, source, folder, experiments, replay_problem):
         return None
     key, problem = found
     touching = {label for label, _ in source.overrides_of(key)}
@@ -855,7 +873,7 @@ def _culprit(
             alone = _overridden(base, label, override_key, value)
         except InputError:  # needs another override first (a field of a new controller)
             continue
-        if _first_problem(alone, folder, experiments) == found:
+        if _first_problem(alone, folder, experiments, replay_problem) == found:
             return blamed(label)
     return None
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses as dc
 import math
+from functools import partial
 from pathlib import Path
 from typing import Any, Callable, Mapping
 
@@ -80,11 +81,17 @@ class ExperimentNeeds:
     puncture: bool = False
 
 
+# What replaying the reference in a duration [s] would do wrong, or None (`io.demos`'s
+# replay_speed_problem for a demonstration file).
+ReplayProblem = Callable[[float], str | None]
+
+
 def validate_scenario(
     scenario: Scenario,
     folder: Path,
     fail: Fail,
     experiments: Mapping[str, ExperimentNeeds] | None = None,
+    replay_problem: ReplayProblem | None = None,
 ) -> None:
     """Raise InputError (through `fail(key, problem)`) for the first problem found.
 
@@ -105,6 +112,10 @@ def validate_scenario(
     experiments : mapping of str to ExperimentNeeds, optional
         The experiments a run may name, each to what it needs; given, `experiment` must
         be one of them, fit the task, and find its frames in the models.
+    replay_problem : callable(duration_s) -> str or None, optional
+        What replaying the reference the runs follow in `reference.duration_s` does
+        wrong, where that is not the scenario's demonstration file (learn's own
+        demonstration, a skill's DMP); default: the file's (`replay_speed_problem`).
 
     Raises
     ------
@@ -145,7 +156,7 @@ def validate_scenario(
     except ValueError as error:  # "FIELD must ..."
         field, _, rule = str(error).partition(" ")
         fail(f"dmp.{field}", rule)
-    _check_reference(scenario, folder, fail)
+    _check_reference(scenario, folder, fail, replay_problem)
     scenario.task.check_scenario(scenario, fail)
     if not scenario.controllers:
         fail("controllers", "at least one controller is needed")
@@ -219,9 +230,13 @@ MAX_LOG_SAMPLES = 1_000_000
 MAX_LOG_PERIOD_S = 0.1
 
 
-def _check_reference(scenario: Scenario, folder: Path, fail: Fail) -> None:
+def _check_reference(
+    scenario: Scenario, folder: Path, fail: Fail, replay_problem: ReplayProblem | None
+) -> None:
     """The set-points (times from 0, increasing; rows of one length; all finite) or the
-    demonstration (its file, a finite duration >= 0)."""
+    demonstration (its file, a finite duration >= 0, and a replay in that duration of what
+    the runs follow -- the file, or what `replay_problem` checks -- no faster than a
+    demonstration may move)."""
     reference = scenario.reference
     if isinstance(reference, StepReferenceConfig):
         if not reference.times_s:
@@ -268,7 +283,7 @@ def _check_reference(scenario: Scenario, folder: Path, fail: Fail) -> None:
                 f"got {reference.duration_s}",
             )
         if reference.duration_s > 0:
-            problem = replay_speed_problem(demo, reference.duration_s)
+            problem = (replay_problem or partial(replay_speed_problem, demo))(reference.duration_s)
             if problem:
                 fail("reference.duration_s", problem)
 

@@ -31,6 +31,8 @@ from pathlib import Path
 
 import numpy as np
 
+from hlcmp_drake.core.dmp import Dmp
+from hlcmp_drake.core.orientation_dmp import OrientationDmp
 from hlcmp_drake.core.quaternion import geodesic_angle, hemisphere_continuous
 from hlcmp_drake.io.errors import InputError, located
 from hlcmp_drake.io.file_kinds import ZIP_MAGIC, what_it_is
@@ -491,10 +493,7 @@ def _fastest_window(t, distance) -> tuple[float, int, int]:
 
 def replay_speed_problem(path: str | Path, duration_s: float) -> str | None:
     """What is wrong with replaying a demonstration in `duration_s` instead of its own
-    duration (a scenario's `reference.duration_s`), or None: every speed and turn rate
-    scales by its duration over `duration_s`, and the fastest must stay within what a
-    demonstration may move and turn (MAX_SPEED_M_PER_S, MAX_TURN_RATE_RAD_PER_S; the
-    bounds `check_speed` and `check_turn_rate` apply to the file itself).
+    duration (a scenario's `reference.duration_s`), or None (`path_replay_problem`).
 
     Parameters
     ----------
@@ -513,6 +512,76 @@ def replay_speed_problem(path: str | Path, duration_s: float) -> str | None:
         From `read_demonstration`, for a file it refuses.
     """
     t, positions, _, quaternions = read_demonstration(path, with_orientation=True)
+    return path_replay_problem(
+        f"demonstration {Path(path).name}", t, positions, quaternions, duration_s
+    )
+
+
+# The sample period of a DMP's path when its replay is checked [s]: at the plant's 1 ms
+# step, ten samples to SPEED_WINDOW_S.
+ROLLOUT_STEP_S = 0.001
+
+
+def rollout_replay_problem(
+    what: str, dmp: Dmp, orientation_dmp: OrientationDmp | None, duration_s: float
+) -> str | None:
+    """What is wrong with replaying a DMP (a skill's) in `duration_s` instead of its own
+    tau, or None: `path_replay_problem` on the path it rolls out at its tau (and the
+    orientation its orientation DMP rolls out).
+
+    Parameters
+    ----------
+    what : str
+        What the DMP is, for the message (e.g. "skill skill.npz").
+    dmp : Dmp
+    orientation_dmp : OrientationDmp or None
+        A pose skill's.
+    duration_s : float
+        The replay's duration [s], > 0.
+
+    Returns
+    -------
+    str or None
+    """
+    t, positions, *_ = dmp.rollout(dt=ROLLOUT_STEP_S)
+    quaternions = (
+        None
+        if orientation_dmp is None
+        else orientation_dmp.rollout(duration=dmp.tau, dt=ROLLOUT_STEP_S)[1]
+    )
+    return path_replay_problem(what, t, positions, quaternions, duration_s)
+
+
+def path_replay_problem(
+    what: str,
+    t: np.ndarray,
+    positions: np.ndarray,
+    quaternions: np.ndarray | None,
+    duration_s: float,
+) -> str | None:
+    """What is wrong with replaying a path in `duration_s` instead of its own duration, or
+    None: every speed and turn rate scales by its duration over `duration_s`, and the
+    fastest must stay within what a demonstration may move and turn (MAX_SPEED_M_PER_S,
+    MAX_TURN_RATE_RAD_PER_S; the bounds `check_speed` and `check_turn_rate` apply to a
+    demonstration file itself).
+
+    Parameters
+    ----------
+    what : str
+        What the path is, for the message (e.g. "demonstration demo.csv").
+    t : (T,) array
+        Sample times [s], increasing.
+    positions : (T, M) array
+        Positions [m].
+    quaternions : (T, 4) array or None
+        Orientations (w, x, y, z), for a pose.
+    duration_s : float
+        The replay's duration [s], > 0.
+
+    Returns
+    -------
+    str or None
+    """
     demonstrated = float(t[-1] - t[0])
     scale = demonstrated / duration_s
     moves = [
@@ -536,7 +605,7 @@ def replay_speed_problem(path: str | Path, duration_s: float) -> str | None:
         rate, _, _ = _fastest_window(t, distance)
         if rate * scale > bound:
             return (
-                f"replays the {demonstrated:g} s demonstration in {duration_s:g} s, "
+                f"replays the {demonstrated:g} s {what} in {duration_s:g} s, "
                 f"{scale:.3g} times as fast: it would {verb} at {rate * scale:.3g} {unit} at its "
                 f"fastest, more than the {bound:g} {unit} a demonstration may {verb}; give at "
                 f"least {demonstrated * rate / bound:.3g} s (0: as demonstrated)"

@@ -22,6 +22,7 @@ first trial's feed-forward starts when asked (`demo_force`).
 from __future__ import annotations
 
 import dataclasses as dc
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable, Sequence
 
@@ -29,6 +30,7 @@ import numpy as np
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.config.scenario import DemonstrationConfig, Scenario
+from hlcmp_drake.config.validation import ReplayProblem
 from hlcmp_drake.config.world import world_of_scenario
 from hlcmp_drake.core.demo_force import fit_feedforward_weights
 from hlcmp_drake.core.dmp import Dmp
@@ -38,7 +40,7 @@ from hlcmp_drake.experiments.claims import learner
 from hlcmp_drake.experiments.plots import new_figure
 from hlcmp_drake.experiments.table import Table, number
 from hlcmp_drake.io import outputs
-from hlcmp_drake.io.demos import read_demonstration
+from hlcmp_drake.io.demos import read_demonstration, replay_speed_problem, rollout_replay_problem
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.io.runs import RunResult, instability_record
 from hlcmp_drake.io.skill import ROTATIONAL_FIELDS, Skill, SkillWorld, save_skill
@@ -82,6 +84,34 @@ def skill_duration(scenario: Scenario, dmp: Dmp) -> float:
     reference = scenario.reference
     scaled = reference.duration_s if isinstance(reference, DemonstrationConfig) else 0.0
     return float(scaled or dmp.tau)
+
+
+def replayed_reference_problem(
+    demo: str | Path | None, skill: Skill | None, skill_path: str | Path | None = None
+) -> ReplayProblem | None:
+    """What replaying the reference of `learn`, `reproduce` or `serve` in a duration does
+    wrong: the reference is the user's demonstration when one is given, else the skill's
+    DMP, else the scenario's own demonstration (None: `load_scenario` checks its file).
+
+    Parameters
+    ----------
+    demo : str or Path, optional
+        The user's demonstration CSV.
+    skill : Skill, optional
+        The skill replayed when no `demo` is given.
+    skill_path : str or Path, optional
+        The skill's file, named in the problem.
+
+    Returns
+    -------
+    callable(duration_s) -> str or None, or None
+    """
+    if demo is not None:
+        return partial(replay_speed_problem, demo)
+    if skill is not None:
+        what = f"skill {Path(skill_path).name}" if skill_path else "skill"
+        return partial(rollout_replay_problem, what, skill.dmp, skill.orientation)
+    return None
 
 
 def sets_duration(overrides: Sequence[str | dict]) -> bool:
@@ -346,6 +376,7 @@ def run_trials(
     theta0: tuple | None = None,
     reporter: Progress = SILENT,
     orientation_dmp: OrientationDmp | None = None,
+    replay_problem: ReplayProblem | None = None,
 ) -> list[RunResult]:
     """Reproductions of `dmp`, each starting from the theta the previous one ended with;
     stops after an unstable trial.
@@ -363,13 +394,16 @@ def run_trials(
     reporter : Progress, optional
     orientation_dmp : OrientationDmp, optional
         A 6-D learner's reference orientation (default: fitted to the demonstration).
+    replay_problem : callable(duration_s) -> str or None, optional
+        What replaying the reference in `reference.duration_s` does wrong, where that is
+        not the scenario's demonstration file (`replayed_reference_problem`).
 
     Returns
     -------
     list of RunResult
         Named trial_1, trial_2, ...
     """
-    build = diagram_factory(scenario, dmp, orientation_dmp)
+    build = diagram_factory(scenario, dmp, orientation_dmp, replay_problem)
     name = learner(scenario)
     runs = []
     for k in range(trials):
@@ -699,7 +733,10 @@ def _learn_or_reproduce(
     overrides,
     warn,
 ):
-    base, path = load_scenario(scenario_name, overrides, experiment_worlds())
+    replay_problem = replayed_reference_problem(demo, skill, skill_path)
+    base, path = load_scenario(
+        scenario_name, overrides, experiment_worlds(), replay_problem=replay_problem
+    )
     experiment = experiment_of(base, path)
     warnings: list[str] = []
     scenario = learning_scenario(
@@ -734,7 +771,13 @@ def _learn_or_reproduce(
     if demo_force:
         theta0 = demo_force_start(scenario, encoded_force)
     runs = run_trials(
-        scenario, dmp, trials, theta0=theta0, reporter=reporter, orientation_dmp=orientation
+        scenario,
+        dmp,
+        trials,
+        theta0=theta0,
+        reporter=reporter,
+        orientation_dmp=orientation,
+        replay_problem=replay_problem,
     )
     rows = trial_metrics(runs, scenario)
     unstable = instability_record(runs)

@@ -54,7 +54,7 @@ from hlcmp_drake.io.iiwa_lcm import (
 from hlcmp_drake.io.runs import RunResult
 from hlcmp_drake.io.skill import Skill
 from hlcmp_drake.present.progress import SILENT, Progress
-from hlcmp_drake.run.learning import learning_scenario
+from hlcmp_drake.run.learning import learning_scenario, replayed_reference_problem
 from hlcmp_drake.run.runner import evaluate, experiment_worlds, without_claims, write_results
 from hlcmp_drake.run.sim_driver import DriverSummary, SimulatedIiwaDriver
 from hlcmp_drake.systems.monitor import plant_state_check
@@ -1107,7 +1107,12 @@ def serve_scenario(
     """
     from hlcmp_drake.config.loading import load_scenario
 
-    scenario, _ = load_scenario(name_or_path, overrides, experiment_worlds())
+    scenario, _ = load_scenario(
+        name_or_path,
+        overrides,
+        experiment_worlds(),
+        replay_problem=replayed_reference_problem(None, skill, skill_path),
+    )
     warnings: list[str] = []
     scenario, controller, theta0 = served_scenario(
         scenario, controller, skill, freeze, skill_path, any_scenario, warnings.append

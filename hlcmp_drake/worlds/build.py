@@ -15,6 +15,7 @@ from typing import Any, Callable
 
 from hlcmp_drake.config.loading import check_scenario
 from hlcmp_drake.config.scenario import ArmTask, Scenario, SliderTask
+from hlcmp_drake.config.validation import ReplayProblem
 from hlcmp_drake.core.dmp import Dmp
 from hlcmp_drake.core.orientation_dmp import OrientationDmp
 from hlcmp_drake.io.errors import InputError
@@ -109,7 +110,10 @@ def driven_world_of(scenario: Scenario, who: str) -> World:
 
 
 def diagram_factory(
-    scenario: Scenario, dmp: Dmp | None = None, orientation_dmp: OrientationDmp | None = None
+    scenario: Scenario,
+    dmp: Dmp | None = None,
+    orientation_dmp: OrientationDmp | None = None,
+    replay_problem: ReplayProblem | None = None,
 ) -> Callable[..., BuiltDiagram]:
     """A builder of the scenario's diagrams, one per controller.
 
@@ -126,6 +130,10 @@ def diagram_factory(
     orientation_dmp : OrientationDmp, optional
         The arm's orientation DMP (a 6-D skill's); None: fitted to the demonstration when
         it is a pose. The slider world ignores it.
+    replay_problem : callable(duration_s) -> str or None, optional
+        With a DMP that is not the scenario's demonstration (a skill's, or one fitted to
+        learn's own demonstration): what replaying it in `reference.duration_s` does
+        wrong, as `load_scenario` checked it (default: the demonstration file's replay).
 
     Returns
     -------
@@ -141,7 +149,7 @@ def diagram_factory(
         been changed in Python since it was loaded), or from the world's preparation (the
         demonstration, the models, the inverse kinematics).
     """
-    check_scenario(scenario)
+    check_scenario(scenario, replay_problem)
     world = world_of(scenario)
     setup = world.prepare(scenario, dmp, orientation_dmp)
 
