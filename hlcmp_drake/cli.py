@@ -1353,8 +1353,9 @@ def _check_output(args):
 def _check_skill_not_lost(args, folder):
     """Refuse (exit 2) a command that would lose a learned skill in its output folder: one
     that writes no skill where an earlier learn left one (a reused folder keeps only the
-    last command's files), or a learn or replay that would write over the skill it was
-    given."""
+    last command's files: a frozen replay of the skill there would replace the results of
+    the run that learned it, and leave the skill out of the folder's list), or a learn or
+    replay that would write over the skill it was given."""
     from pathlib import Path
 
     from hlcmp_drake.io.outputs import listed_outputs
@@ -1365,18 +1366,26 @@ def _check_skill_not_lost(args, folder):
     given = getattr(args, "skill", None)
     is_input = given is not None and os.path.isfile(given) and os.path.samefile(given, skill)
     writes_skill = args.command == "learn" or (args.command == "reproduce" and not args.freeze)
+    learned_here = "skill.npz" in listed_outputs(folder)
     if writes_skill and is_input:
-        other = "another --out" + (", or --freeze" if args.command == "reproduce" else "")
+        # Where learn left the skill, a frozen replay into the folder is refused too.
+        freeze = args.command == "reproduce" and not learned_here
         raise InputError(
             f"--out {folder}: holds the input skill {given}, which {args.command} would "
-            f"overwrite with the skill it learns: give {other}"
+            "overwrite with the skill it learns: give another --out"
+            + (", or --freeze" if freeze else "")
         )
-    kept = is_input and args.command in ("learn", "reproduce")  # they keep their input
-    if not writes_skill and not kept and "skill.npz" in listed_outputs(folder):
+    if writes_skill or not learned_here:
+        return
+    if is_input and args.command == "reproduce":  # --freeze keeps the skill, not its run
         raise InputError(
-            f"--out {folder}: holds a learned skill ({skill}), which {args.command} would "
-            "remove as a file of an earlier command: give another --out, or move the skill"
+            f"--out {folder}: holds the learned skill {given} and the results of the run "
+            "that learned it, which the replay's would replace: give another --out"
         )
+    raise InputError(
+        f"--out {folder}: holds a learned skill ({skill}), which {args.command} would "
+        "remove as a file of an earlier command: give another --out, or move the skill"
+    )
 
 
 def _check_inputs_kept(args, folder):

@@ -721,13 +721,14 @@ def test_an_input_under_a_name_the_command_writes_in_its_folder_is_refused(tmp_p
 @pytest.mark.parametrize(
     "command, extra, refused",
     [
+        ("reproduce", [], "would overwrite with the skill it learns: give another --out$"),
         (
             "reproduce",
-            [],
-            "would overwrite with the skill it learns: give another --out, or --freeze",
+            ["--freeze"],
+            "and the results of the run that learned it, which the replay's would replace: "
+            "give another --out$",
         ),
-        ("reproduce", ["--freeze"], None),  # writes no skill and keeps its input
-        ("learn", [], "would overwrite with the skill it learns: give another --out"),
+        ("learn", [], "would overwrite with the skill it learns: give another --out$"),
         ("serve", [], "which serve would remove"),
     ],
 )
@@ -741,11 +742,46 @@ def test_a_skill_given_from_the_output_folder_is_never_written_over(
 
     skill = _learned_folder(tmp_path / "L")
     args = argparse.Namespace(command=command, skill=str(skill), freeze="--freeze" in extra)
-    if refused is None:
+    with pytest.raises(InputError, match=refused):
         _check_skill_not_lost(args, tmp_path / "L")
-    else:
-        with pytest.raises(InputError, match=refused):
-            _check_skill_not_lost(args, tmp_path / "L")
+
+
+def test_a_skill_of_yours_in_the_output_folder_is_replayed_frozen_there(tmp_path):
+    """A skill.npz no command of this tool left in the folder (not in its list) is no
+    learning run's: reproduce --freeze keeps it and writes beside it, as the refusal of
+    reproduce without --freeze suggests."""
+    import argparse
+
+    from hlcmp_drake.cli import _check_skill_not_lost
+    from hlcmp_drake.io.errors import InputError
+
+    skill = tmp_path / "mine" / "skill.npz"
+    skill.parent.mkdir()
+    skill.write_text("my own")
+    replay = argparse.Namespace(command="reproduce", skill=str(skill), freeze=False)
+    with pytest.raises(InputError, match="give another --out, or --freeze$"):
+        _check_skill_not_lost(replay, skill.parent)
+    replay.freeze = True
+    _check_skill_not_lost(replay, skill.parent)
+
+
+def test_a_frozen_replay_into_the_folder_learn_wrote_is_refused(tmp_path):
+    """reproduce L/skill.npz --freeze --out L replaced the learning run's metrics, time
+    series, recording and figures by the replay's and left the skill out of the folder's
+    list, so that a later run there removed it: refused before any simulation, the
+    folder as it was."""
+    skill = _learned_folder(tmp_path / "L")
+    listed = (tmp_path / "L" / ".hlcmp-outputs.json").read_text()
+    result = run_cli(
+        "reproduce", skill, "--scenario", "insertion", "--freeze", "--out", tmp_path / "L"
+    )
+    assert one_line_error(result) == (
+        f"hlcmp: error: --out {tmp_path / 'L'}: holds the learned skill {skill} and the "
+        "results of the run that learned it, which the replay's would replace: give "
+        "another --out"
+    )
+    assert (tmp_path / "L" / "metrics.json").read_text() == "{}"
+    assert (tmp_path / "L" / ".hlcmp-outputs.json").read_text() == listed
 
 
 def test_fit_says_how_far_its_path_strays_and_warns_when_far(tmp_path):
