@@ -1340,6 +1340,7 @@ def _check_output(args):
         _check_output_file_kind(args, out)
         return None
     check_output_folder(out)
+    _check_folder_name(args, out)
     _check_skill_not_lost(args, out)
     _check_inputs_kept(args, out)
     if args.command == "report" and args.scenarios:  # one folder per scenario, by its name
@@ -1348,6 +1349,22 @@ def _check_output(args):
         for folder in report_folders(out, args.scenarios).values():
             check_output_folder(folder, "--out")
     return out
+
+
+def _check_folder_name(args, out):
+    """Refuse (exit 2) an --out folder not made yet whose name ends in the suffix of a file
+    this tool writes (`FILE_SUFFIXES`): a file's name given where the command writes a
+    folder. An existing folder of that name, or one written with a final separator, is
+    taken as it is."""
+    from hlcmp_drake.io.outputs import FILE_SUFFIXES
+
+    suffix = Path(out).suffix
+    if suffix.lower() not in FILE_SUFFIXES or os.path.isdir(out) or out.endswith(("/", os.sep)):
+        return
+    raise InputError(
+        f"--out {out}: {args.command} writes a folder, not a {suffix} file: give a folder's "
+        f"name, e.g. --out {Path(out).with_suffix('')}"
+    )
 
 
 def _check_skill_not_lost(args, folder):

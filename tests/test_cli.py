@@ -126,11 +126,11 @@ def test_good_one_axis_demo_is_accepted(tmp_path):
         (["run", "no_such_scenario"], "not a bundled scenario"),
         (["frobnicate"], "invalid choice"),
         (
-            ["learn", "DEMO", "--scenario", "one_dof", "--out", "T"],
+            ["learn", "DEMO", "--scenario", "one_dof", "--out", "D"],
             "does not follow a demonstration",
         ),
         (
-            ["learn", "DEMO", "--scenario", "insertion", "--out", "T", "--trials", "0"],
+            ["learn", "DEMO", "--scenario", "insertion", "--out", "D", "--trials", "0"],
             "must be between 1 and 100",
         ),
     ],
@@ -141,6 +141,7 @@ def test_bad_arguments_exit_2_with_one_line(tmp_path, smooth_demo, args, expecte
     names = {
         "SKILL": tmp_path / "skill.npz",
         "T": tmp_path / "t.csv",
+        "D": tmp_path / "learned",
         "DEMO": demo,
         "S": tmp_path / "s2.npz",
         "NOSKILL": tmp_path / "missing.npz",
@@ -847,3 +848,38 @@ def test_an_empty_path_is_refused_by_the_parser_before_any_work(tmp_path, args):
         "(see --help)"
     )
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["learn", INSERTION_DEMO, "--scenario", "insertion"],
+        ["run", *short_one_dof(0.1)],
+        ["probe", "insertion"],
+    ],
+)
+@pytest.mark.parametrize("name", ["skill.npz", "traj.CSV", "metrics.json"])
+def test_an_output_folder_named_like_a_file_is_refused(tmp_path, command, name):
+    """learn --out skill.npz (fit's --out is a file) made a folder skill.npz holding
+    skill.npz, which rollout and reproduce then called a folder: a folder command's new
+    --out named with the suffix of a file this tool writes is refused before any work,
+    with a folder's name to give instead."""
+    out = tmp_path / name
+    line = one_line_error(run_cli(*command, "--out", out))
+    stem = out.with_suffix("")
+    assert line == (
+        f"hlcmp: error: --out {out}: {command[0]} writes a folder, not a {out.suffix} file: "
+        f"give a folder's name, e.g. --out {stem}"
+    )
+    assert not out.exists()
+
+
+def test_an_existing_folder_named_like_a_file_is_written_into(tmp_path):
+    """A folder made earlier (or named with a final separator) is a folder already."""
+    made = tmp_path / "made.npz"
+    made.mkdir()
+    assert run_cli("run", *short_one_dof(0.1), "--out", made, "--quiet").returncode == 0
+    assert (made / "metrics.json").is_file()
+    meant = f"{tmp_path / 'meant.csv'}/"
+    assert run_cli("run", *short_one_dof(0.1), "--out", meant, "--quiet").returncode == 0
+    assert (tmp_path / "meant.csv" / "metrics.json").is_file()

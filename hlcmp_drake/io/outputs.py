@@ -58,6 +58,11 @@ OUTPUT_NAMES = frozenset(
     }
 )
 
+# The suffixes of the files this tool writes. A new output folder whose name ends in one is
+# a file's name given where a command writes a folder (`learn --out skill.npz` after `fit
+# --out skill.npz`): it would become a folder of that name, which later reads as a file.
+FILE_SUFFIXES = frozenset({".npz", ".csv", ".json", ".yaml", ".html", ".png", ".svg", ".dot"})
+
 
 def is_output_name(relative: str | Path) -> bool:
     """Whether a path inside an output folder is one the folder commands may write there.
