@@ -35,6 +35,7 @@ import contextlib
 import functools
 import gc
 import logging
+import math
 import os
 import shlex
 import sys
@@ -433,7 +434,7 @@ def cmd_fit(args):
 
 def cmd_rollout(args):
     from hlcmp_drake.core.demo_force import feedforward_along
-    from hlcmp_drake.io.demos import write_trajectory
+    from hlcmp_drake.io.demos import bound_problem, write_trajectory
     from hlcmp_drake.io.skill import load_skill
 
     skill = load_skill(args.skill)
@@ -449,6 +450,10 @@ def cmd_rollout(args):
                 f"--goal: the skill has {dmp.n_axes} axes ({','.join(dmp.axis_names)}), "
                 f"got {len(goal)} value(s)"
             )
+        for axis, value in zip(dmp.axis_names, goal):
+            problem = bound_problem(axis, value)
+            if problem:
+                raise InputError(f"--goal: {axis} = {value:g}: {problem}")
         dmp = dmp.with_goal(goal)
     tau = args.duration or dmp.tau
     if args.dt > tau:
@@ -462,6 +467,7 @@ def cmd_rollout(args):
     q = w = force = None
     if orientation is not None:
         _, q, w, _ = orientation.rollout(dt=args.dt, tau=tau)
+    _check_rolled_out(args, t, p, q, dmp.axis_names, tau)
     if skill.demo_force is not None:  # the demonstration's force, at the rollout's phase
         force = feedforward_along(skill.demo_force, s, dmp.settings)
     write_trajectory(
@@ -473,6 +479,51 @@ def cmd_rollout(args):
         + f" -> {args.out}"
     )
     return 0
+
+
+def _check_rolled_out(args, t, positions, quaternions, axes, tau):
+    """Refuse (exit 2, nothing written) a rollout that would not read back as a
+    demonstration, which `fit` and `learn` take it for: a position beyond the reader's
+    bound (a goal's overshoot), or faster than a demonstration may move or turn (a far
+    --goal, a short --duration). A DMP's speeds scale as 1 / tau, so the shortest duration
+    that keeps within the bound is said."""
+    from hlcmp_drake.io.demos import (
+        MAX_SPEED_M_PER_S,
+        MAX_TURN_RATE_RAD_PER_S,
+        bound_problem,
+        fastest_speed,
+        fastest_turn_rate,
+    )
+
+    given = [
+        f"{option} {value}"
+        for option, value in (
+            ("--goal", args.goal),
+            ("--goal-orientation", args.goal_orientation),
+            ("--duration", None if args.duration is None else f"{args.duration:g}"),
+        )
+        if value is not None
+    ]
+    which = ", ".join(given) or args.skill
+    for column, axis in zip(positions.T, axes):
+        farthest = float(column[np.argmax(np.abs(column))])
+        problem = bound_problem(axis, farthest)
+        if problem:
+            raise InputError(
+                f"{which}: the rolled-out path reaches {axis} = {farthest:.4g} m: {problem}"
+            )
+    rates = [(fastest_speed(t, positions), MAX_SPEED_M_PER_S, "m/s", "move")]
+    if quaternions is not None:
+        rates.append((fastest_turn_rate(t, quaternions), MAX_TURN_RATE_RAD_PER_S, "rad/s", "turn"))
+    for rate, bound, unit, verb in rates:
+        if rate > bound:
+            shortest = math.ceil(100 * tau * rate / bound) / 100
+            nearer = "a nearer goal or " if args.goal or args.goal_orientation else ""
+            raise InputError(
+                f"{which}: the rolled-out path would {verb} at {rate:.3g} {unit} at its "
+                f"fastest, more than the {bound:g} {unit} a demonstration may {verb} (fit and "
+                f"learn refuse it): give {nearer}a --duration of at least {shortest:g} s"
+            )
 
 
 def _unit_quaternion(text):

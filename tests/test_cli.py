@@ -58,6 +58,64 @@ def test_fit_then_rollout_with_new_goal_and_duration(tmp_path, smooth_demo):
     np.testing.assert_allclose(positions[-1], [0.35, -0.1, 0.1], atol=0.01)
 
 
+@pytest.mark.parametrize(
+    "goal, shown",
+    [("600,100,300", "x = 600"), ("0.3,-1e30,0", "y = -1e+30"), ("0.3,0,100.5", "z = 100.5")],
+)
+def test_a_goal_beyond_where_a_demonstration_may_be_is_refused(tmp_path, smooth_demo, goal, shown):
+    """--goal 600,100,300 wrote x up to 600 m (300 m/s), which fit then refused as a
+    demonstration: the goal is held to the reader's bound on positions before rolling out."""
+    demo = write_demo(tmp_path / "demo.csv", *smooth_demo)
+    assert run_cli("fit", demo, "--out", tmp_path / "s.npz").returncode == 0
+    out = tmp_path / "r.csv"
+    line = one_line_error(run_cli("rollout", tmp_path / "s.npz", "--out", out, f"--goal={goal}"))
+    assert line == (
+        f"hlcmp: error: --goal: {shown}: positions are in metres, within 100 m of the world origin"
+    )
+    assert not out.exists()
+
+
+def test_a_rollout_faster_than_a_demonstration_may_move_is_refused(tmp_path, smooth_demo):
+    """A far goal or a short duration rolls out a path that fit and learn refuse as a
+    demonstration (faster than 3 m/s): refused, nothing written, with the shortest
+    duration that keeps within the bound; that duration rolls out a file fit reads."""
+    demo = write_demo(tmp_path / "demo.csv", *smooth_demo)
+    assert run_cli("fit", demo, "--out", tmp_path / "s.npz").returncode == 0
+    out = tmp_path / "r.csv"
+    far = ["rollout", tmp_path / "s.npz", "--out", out, "--goal", "5,0,0.05"]
+    line = one_line_error(run_cli(*far))
+    shortest = re.fullmatch(
+        r"hlcmp: error: --goal 5,0,0.05: the rolled-out path would move at [\d.]+ m/s at its "
+        r"fastest, more than the 3 m/s a demonstration may move \(fit and learn refuse it\): "
+        r"give a nearer goal or a --duration of at least ([\d.]+) s",
+        line,
+    )
+    assert shortest, line
+    assert not out.exists()
+    short = one_line_error(run_cli("rollout", tmp_path / "s.npz", "--out", out, "--duration", 0.2))
+    assert short.startswith("hlcmp: error: --duration 0.2: the rolled-out path would move at")
+    assert run_cli(*far, "--duration", shortest[1]).returncode == 0
+    assert run_cli("fit", out, "--out", tmp_path / "again.npz").returncode == 0
+
+
+def test_a_rollout_overshooting_beyond_where_a_demonstration_may_be_is_refused(tmp_path):
+    """A goal within the bound whose path overshoots it beyond (the demonstration went
+    twice as far as where it ended) is refused as the goal itself would be."""
+    t = np.linspace(0.0, 2.0, 201)
+    x = 0.2 * np.sin(np.pi * t / 2.0) ** 2 * (1 - t / 4.0) + 0.1 * (t / 2.0) ** 3
+    demo = write_demo(tmp_path / "demo.csv", t, np.column_stack([x]), header="t,x")
+    assert run_cli("fit", demo, "--out", tmp_path / "s.npz").returncode == 0
+    out = tmp_path / "r.csv"
+    args = ["rollout", tmp_path / "s.npz", "--out", out, "--goal", "90", "--duration", 3000]
+    line = one_line_error(run_cli(*args, "--dt", 1))
+    assert re.fullmatch(
+        r"hlcmp: error: --goal 90, --duration 3000: the rolled-out path reaches x = 1\d\d\.?\d* m: "
+        r"positions are in metres, within 100 m of the world origin",
+        line,
+    ), line
+    assert not out.exists()
+
+
 GOOD = "t,x\n" + "".join(f"{k * 0.1:.1f},{k * 0.01:.2f}\n" for k in range(12))
 
 

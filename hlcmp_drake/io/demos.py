@@ -104,6 +104,25 @@ MAX_TURN_RATE_RAD_PER_S = 15.0
 MAX_QUATERNION_NORM_ERROR = 0.01
 
 
+def bound_problem(column: str, value: float) -> str | None:
+    """What is wrong with `value` in a demonstration's `column` (x, y, z: a position beyond
+    MAX_ABS_POSITION_M; fx, fy, fz: a force beyond MAX_ABS_FORCE_N), or None.
+
+    Parameters
+    ----------
+    column : str
+        The column's name; one without a bound (t, a quaternion's) has no problem.
+    value : float
+
+    Returns
+    -------
+    str or None
+        e.g. "positions are in metres, within 100 m of the world origin".
+    """
+    bound, unit = _COLUMN_BOUNDS.get(column, (math.inf, ""))
+    return unit if abs(value) > bound else None
+
+
 def read_demonstration(
     path: str | Path,
     with_lines: bool = False,
@@ -316,9 +335,9 @@ def _rows_one_by_one(path, lines, header) -> tuple[np.ndarray, list[int]]:
                 raise located(path, number, f"column '{name}' is not a number: '{field}'") from None
             if not math.isfinite(value):
                 raise located(path, number, f"column '{name}' is not finite: '{field}'")
-            bound, unit = _COLUMN_BOUNDS.get(name, (math.inf, ""))
-            if abs(value) > bound:
-                raise located(path, number, f"column '{name}' is {field}: {unit}")
+            problem = bound_problem(name, value)
+            if problem:
+                raise located(path, number, f"column '{name}' is {field}: {problem}")
             values.append(value)
         if rows and values[0] <= rows[-1][1][0]:
             raise located(
@@ -491,6 +510,42 @@ def _fastest_window(t, distance) -> tuple[float, int, int]:
     return float(rate[fastest]), int(start[fastest]), int(end[fastest])
 
 
+def fastest_speed(t: np.ndarray, positions: np.ndarray) -> float:
+    """The fastest a trajectory moves [m/s], measured as `check_speed` measures a
+    demonstration's (to be held to MAX_SPEED_M_PER_S).
+
+    Parameters
+    ----------
+    t : (T,) array
+        Sample times [s], strictly increasing.
+    positions : (T, M) array
+        Positions [m].
+
+    Returns
+    -------
+    float
+    """
+    return _fastest_window(t, lambda a, b: np.linalg.norm(positions[b] - positions[a], axis=-1))[0]
+
+
+def fastest_turn_rate(t: np.ndarray, quaternions: np.ndarray) -> float:
+    """The fastest a trajectory turns [rad/s], measured as `check_turn_rate` measures a
+    demonstration's (to be held to MAX_TURN_RATE_RAD_PER_S).
+
+    Parameters
+    ----------
+    t : (T,) array
+        Sample times [s], strictly increasing.
+    quaternions : (T, 4) array
+        Unit quaternions.
+
+    Returns
+    -------
+    float
+    """
+    return _fastest_window(t, lambda a, b: geodesic_angle(quaternions[b], quaternions[a]))[0]
+
+
 def replay_speed_problem(path: str | Path, duration_s: float) -> str | None:
     """What is wrong with replaying a demonstration in `duration_s` instead of its own
     duration (a scenario's `reference.duration_s`), or None (`path_replay_problem`).
@@ -584,25 +639,10 @@ def path_replay_problem(
     """
     demonstrated = float(t[-1] - t[0])
     scale = demonstrated / duration_s
-    moves = [
-        (
-            lambda a, b: np.linalg.norm(positions[b] - positions[a], axis=-1),
-            MAX_SPEED_M_PER_S,
-            "m/s",
-            "move",
-        )
-    ]
+    moves = [(fastest_speed(t, positions), MAX_SPEED_M_PER_S, "m/s", "move")]
     if quaternions is not None:
-        moves.append(
-            (
-                lambda a, b: geodesic_angle(quaternions[b], quaternions[a]),
-                MAX_TURN_RATE_RAD_PER_S,
-                "rad/s",
-                "turn",
-            )
-        )
-    for distance, bound, unit, verb in moves:
-        rate, _, _ = _fastest_window(t, distance)
+        moves.append((fastest_turn_rate(t, quaternions), MAX_TURN_RATE_RAD_PER_S, "rad/s", "turn"))
+    for rate, bound, unit, verb in moves:
         if rate * scale > bound:
             return (
                 f"replays the {demonstrated:g} s {what} in {duration_s:g} s, "
