@@ -43,7 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hlcmp_drake.core.dmp import DmpSettings
+from hlcmp_drake.core.dmp import MAX_BASIS_FUNCTIONS, DmpSettings
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.present.progress import Progress
 
@@ -382,7 +382,7 @@ FIT_STRAY_WARNING_MM = 10.0
 
 def cmd_fit(args):
     from hlcmp_drake.core.demo_force import fit_feedforward_weights
-    from hlcmp_drake.core.dmp import Dmp
+    from hlcmp_drake.core.dmp import Dmp, fit_sample_count
     from hlcmp_drake.core.orientation_dmp import OrientationDmp
     from hlcmp_drake.io.demos import read_demonstration
     from hlcmp_drake.io.skill import Skill, save_skill
@@ -400,7 +400,8 @@ def cmd_fit(args):
     demo_force = None if force is None else fit_feedforward_weights(t, force, settings)
     save_skill(args.out, Skill.untrained(dmp, orientation, demo_force))
     # How far the fitted path strays from the demonstration: large when the smoothing or
-    # too few basis functions take its shape away.
+    # too few basis functions take its shape away, or too many for the samples leave it
+    # undetermined between them.
     fitted_t, fitted = dmp.rollout(duration=float(t[-1] - t[0]))[:2]
     at_samples = np.column_stack([np.interp(t - t[0], fitted_t, axis) for axis in fitted.T])
     stray_mm = 1000 * float(np.max(np.linalg.norm(at_samples - positions, axis=1)))
@@ -426,10 +427,21 @@ def cmd_fit(args):
     )
     if stray_mm > FIT_STRAY_WARNING_MM:
         _warn(
-            f"the fitted path strays {stray_mm:.1f} mm from the demonstration: a shorter "
-            f"--smoothing (now {args.smoothing:g} s) or more --basis keeps its shape"
+            f"the fitted path strays {stray_mm:.1f} mm from the demonstration: "
+            f"{_fit_remedy(args.basis, args.smoothing, fit_sample_count(t))} keeps its shape"
         )
     return 0
+
+
+def _fit_remedy(basis, smoothing, samples):
+    """What brings a fitted path nearer its demonstration: with at least as many basis
+    functions as the samples that set their weights (`core.dmp.fit_sample_count`), fewer
+    (their weights are not determined between samples); else more, and a shorter smoothing
+    where there is any."""
+    if basis >= samples:
+        return f"fewer --basis (now {basis}, for a fit of {samples} samples)"
+    more = f"more --basis (now {basis}, up to {min(samples - 1, MAX_BASIS_FUNCTIONS)})"
+    return f"a shorter --smoothing (now {smoothing:g} s) or {more}" if smoothing > 0 else more
 
 
 def cmd_rollout(args):

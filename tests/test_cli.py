@@ -855,8 +855,41 @@ def test_fit_says_how_far_its_path_strays_and_warns_when_far(tmp_path):
     assert far > 100 and smoothed.returncode == 0
     assert smoothed.stderr.strip() == (
         f"hlcmp: warning: the fitted path strays {far:.1f} mm from the demonstration: a "
-        "shorter --smoothing (now 5 s) or more --basis keeps its shape"
+        "shorter --smoothing (now 5 s) or more --basis (now 30, up to 1000) keeps its shape"
     )
+
+
+def test_fit_advises_fewer_basis_functions_when_more_than_its_samples(tmp_path):
+    """201 samples over 2 s (with the settled end, 301 fit the weights) and N = 1000: the
+    path strays tens of mm between samples, and more basis functions stray further; the
+    smoothing, already 0, is no remedy to name. N = 30 to 300 keep within 0.1 mm."""
+    t = np.linspace(0.0, 2.0, 201)
+    x = 0.4 + 0.1 * (10 * (t / 2) ** 3 - 15 * (t / 2) ** 4 + 6 * (t / 2) ** 5)
+    demo = write_demo(tmp_path / "good.csv", t, np.column_stack([x]), header="t,x")
+    many = run_cli("fit", demo, "--out", tmp_path / "o.npz", "--basis", 1000, "--smoothing", 0)
+    far = float(re.search(r"keeps within ([\d.]+) mm", many.stdout)[1])
+    assert far > 10 and many.returncode == 0
+    assert many.stderr.strip() == (
+        f"hlcmp: warning: the fitted path strays {far:.1f} mm from the demonstration: fewer "
+        "--basis (now 1000, for a fit of 301 samples) keeps its shape"
+    )
+    for basis in (30, 300):
+        fitted = run_cli("fit", demo, "--out", tmp_path / "o.npz", "--basis", basis)
+        assert float(re.search(r"keeps within ([\d.]+) mm", fitted.stdout)[1]) < 0.1
+        assert fitted.stderr == ""
+
+
+def test_fit_without_smoothing_advises_more_basis_functions_alone(tmp_path):
+    """A path of three swings fitted with N = 2 and no smoothing: more basis functions
+    (up to one fewer than the fit's samples) is the remedy, a shorter smoothing none."""
+    t = np.linspace(0.0, 2.0, 201)
+    x = 0.4 + 0.05 * np.sin(3 * np.pi * t) * np.sin(np.pi * t / 2) ** 2
+    demo = write_demo(tmp_path / "swings.csv", t, np.column_stack([x]), header="t,x")
+    few = run_cli("fit", demo, "--out", tmp_path / "o.npz", "--basis", 2, "--smoothing", 0)
+    assert few.returncode == 0
+    assert few.stderr.strip().endswith(
+        "from the demonstration: more --basis (now 2, up to 300) keeps its shape"
+    ), few.stderr
 
 
 def test_a_skill_that_does_not_fit_the_scenario_is_named(tmp_path):

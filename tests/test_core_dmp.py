@@ -205,3 +205,12 @@ def test_a_rollouts_forcing_in_chunks_is_the_forcing_at_once(monkeypatch):
     for got, expected in zip(dmp.rollout(duration=2.5), whole):
         np.testing.assert_array_equal(got, expected)
     assert dmp.forcing(0.5).shape == (2,)
+
+
+def test_the_fit_sample_count_is_the_resampled_demonstration_and_its_settled_end():
+    """What `hlcmp fit` weighs its basis count against: 201 samples over 2 s and half as
+    many more at rest; a recording at 50 Hz is resampled every 10 ms first."""
+    from hlcmp_drake.core.dmp import fit_sample_count
+
+    assert fit_sample_count(np.linspace(0.0, 2.0, 201)) == 301
+    assert fit_sample_count(np.linspace(0.0, 8.0, 401)) == 801 + 400
