@@ -619,7 +619,8 @@ def cmd_sweep(args):
             + (f", {len(result.failed)} failed (a re-run retries them)" if result.failed else "")
             + f"; {result.wall_s:.1f} s"
         )
-    print(f"results in {result.out_dir}: sweep.csv, sweep.json, plots/, tasks/")
+    plots = "plots/, " if result.plots else ""
+    print(f"results in {result.out_dir}: sweep.csv, sweep.json, {plots}tasks/")
     _say_foreign_folders(result.out_dir, result.foreign)
     if result.failed:
         return 1

@@ -147,3 +147,19 @@ def test_only_regular_files_inside_the_folder_are_removed_and_kept_inputs_stay(t
     with outputs.replacing_outputs(out):  # not this tool's list: nothing is ours
         outputs.write_text(out / "a.json", "{}")
     assert (out / "metrics.json").exists()
+
+
+def test_listing_a_commands_own_files_removes_what_it_listed_before_alone(tmp_path):
+    """A sweep lists its tables and plots, not its tasks' folders: the next list removes
+    the files of the last that it does not name, and nothing else."""
+    folder = tmp_path / "sweep"
+    old = [outputs.write_text(folder / name, name) for name in ("t.csv", "plots/a.png")]
+    outputs.write_text(folder / "tasks" / "x" / "metrics.json", "{}")
+    (folder / "plots" / "mine.png").write_text("mine")
+    outputs.list_outputs(folder, [*old, tmp_path / "elsewhere.csv"])
+    assert outputs.listed_outputs(folder) == {"t.csv", "plots/a.png"}
+    outputs.list_outputs(folder, [outputs.write_text(folder / "plots" / "b.png", "b"), old[0]])
+    assert outputs.listed_outputs(folder) == {"t.csv", "plots/b.png"}
+    assert not (folder / "plots" / "a.png").exists()
+    assert (folder / "plots" / "mine.png").is_file()
+    assert (folder / "tasks" / "x" / "metrics.json").is_file()

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import one_line_error, run_cli, tiny
+from conftest import one_line_error, run_cli, tiny, write_sweep
 
 from hlcmp_drake.config.loading import load_scenario_text
 from hlcmp_drake.config.sweep import load_sweep, plan_tasks
@@ -749,3 +749,47 @@ def test_a_pool_whose_workers_die_before_any_task_fails_every_task_and_returns()
     items = [_KillsTheWorkerThatReceivesIt() for _ in range(3)]
     run_in_processes(str, items, 2, lambda item, result, error: results.append((result, error)))
     assert results == [(None, NO_TASK_RAN)] * 3
+
+
+def test_a_sweep_again_into_its_folder_removes_its_own_stale_plots_alone(tmp_path):
+    """Sweeping another key into the same --out left the old key's plot beside the new
+    one, and a sweep without a grid said it wrote plots/ where it wrote none: the plots of
+    the sweep before go (a file of yours in plots/ stays), and plots/ is said only when
+    written."""
+    out = tmp_path / "out"
+    first = run_cli("sweep", tiny(tmp_path), "--out", out, "--workers", 1, "--quiet")
+    assert first.returncode == 0, first.stderr
+    assert (
+        first.stdout.splitlines()[-1] == f"results in {out}: sweep.csv, sweep.json, plots/, tasks/"
+    )
+    (out / "plots" / "mine.png").write_bytes(b"my own")
+    other_key = TINY_BY_DURATION.format(durations="[0.1, 0.2]")
+    second = run_cli("sweep", write_sweep(tmp_path, other_key), "--out", out, "--workers", 1)
+    assert second.returncode == 0, second.stderr
+    assert sorted(p.name for p in (out / "plots").iterdir()) == ["duration_s.png", "mine.png"]
+    no_grid = TINY_BY_DURATION.format(durations="[0.1]").replace("grid:", "set:")
+    no_grid = no_grid.replace("[0.1]", "0.1")
+    third = run_cli("sweep", write_sweep(tmp_path, no_grid), "--out", out, "--workers", 1)
+    assert third.returncode == 0, third.stderr
+    assert f"results in {out}: sweep.csv, sweep.json, tasks/" in third.stdout.splitlines()
+    assert [p.name for p in (out / "plots").iterdir()] == ["mine.png"]
+    (out / "plots" / "mine.png").unlink()
+    assert (
+        run_cli("sweep", write_sweep(tmp_path, other_key), "--out", out, "--workers", 1).returncode
+        == 0
+    )
+    assert (
+        run_cli("sweep", write_sweep(tmp_path, no_grid), "--out", out, "--workers", 1).returncode
+        == 0
+    )
+    assert not (out / "plots").exists()
+
+
+TINY_BY_DURATION = """\
+scenario: one_dof
+grid:
+  duration_s: {durations}
+controllers: [hlcmp]
+metrics:
+- {{label: "final x [m]", path: controllers.hlcmp.final_position_m, digits: 4}}
+"""

@@ -482,6 +482,29 @@ def replacing_outputs(out_dir: str | Path, keep: Iterable[str | Path] = ()) -> I
     if not new:  # a command that wrote nothing here leaves the folder as it was
         return
     kept = {_inside(out_dir, path) for path in keep}
+    _replace_listed(out_dir, previous, new, kept)
+
+
+def _replace_listed(out_dir: Path, previous: set[str], new: set[str], kept: set) -> None:
+    """Remove the files of `previous` not in `new` or `kept`, then list `new` alone."""
     for name in sorted(previous - new - kept):
         _remove_listed(out_dir, name)
     _write_manifest(out_dir, new)
+
+
+def list_outputs(out_dir: str | Path, files: Iterable[str | Path]) -> None:
+    """List `files` as the folder's outputs, for a command that writes some of its files
+    there as its own and leaves others to theirs (a sweep: its tables and plots, not its
+    tasks' run folders): the files the previous list names and `files` do not are removed
+    (as `replacing_outputs` removes them), and the new list names `files` alone.
+
+    Parameters
+    ----------
+    out_dir : str or Path
+        The output folder.
+    files : iterable of str or Path
+        The files the command wrote there (paths outside it are ignored).
+    """
+    out_dir = Path(out_dir)
+    names = {_inside(out_dir, path) for path in files}
+    _replace_listed(out_dir, listed_outputs(out_dir), {n for n in names if n is not None}, set())

@@ -19,7 +19,13 @@ from hlcmp_drake.run.sweep.engines import (
     cluster_joined,
 )
 from hlcmp_drake.run.sweep.planning import check_metrics, foreign_task_folders, plan_sweep
-from hlcmp_drake.run.sweep.results import SweepResult, _summary, _wall_s, _write_tables
+from hlcmp_drake.run.sweep.results import (
+    PLOTS,
+    SweepResult,
+    _summary,
+    _wall_s,
+    _write_tables,
+)
 from hlcmp_drake.run.sweep.task_results import read_task_results
 
 
@@ -133,7 +139,9 @@ def run_sweep(
         summary = _summary(plan, rows)
         files = _write_tables(plan.out_dir, summary)
         for file_name, figure in sweep_figures(summary).items():
-            files.append(outputs.save_figure(plan.out_dir / "plots" / file_name, figure))
+            files.append(outputs.save_figure(plan.out_dir / PLOTS / file_name, figure))
+        # Listed as the folder's outputs, so that a plot of a key no longer swept goes.
+        outputs.list_outputs(plan.out_dir, files)
         unstable = [task.id for task in plan.tasks if rows[task.id]["status"] == "unstable"]
         stale = sum(1 for state in plan.states.values() if state == "stale")
         return SweepResult(

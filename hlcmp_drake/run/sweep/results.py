@@ -14,6 +14,8 @@ from hlcmp_drake.experiments.table import Table
 from hlcmp_drake.io import outputs
 from hlcmp_drake.run.sweep.planning import SweepPlan
 
+PLOTS = "plots"  # the folder of a sweep's plots in its output folder
+
 
 @dc.dataclass
 class SweepResult:
@@ -57,6 +59,11 @@ class SweepResult:
     wall_s: float
     files: list
     foreign: list
+
+    @property
+    def plots(self) -> list:
+        """The plots among `files` (in OUT/plots): none for a sweep without parameters."""
+        return [file for file in self.files if Path(file).parent == Path(self.out_dir) / PLOTS]
 
 
 def _wall_s(run_dir: Path) -> float | None:
