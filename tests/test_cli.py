@@ -627,7 +627,10 @@ def test_a_demonstration_given_with_set_is_read_from_the_working_directory(tmp_p
     monkeypatch.chdir(tmp_path)
     line = one_line_error(run_cli("run", "insertion", "--set", "reference.file=nope.csv"))
     assert line.startswith("hlcmp: error: override 'reference.file=nope.csv': ")  # as typed
-    assert line.endswith(f"(looked for {tmp_path / 'nope.csv'})")
+    assert line.endswith(
+        f"(looked for {tmp_path / 'nope.csv'}); a relative path given with --set is read from "
+        "the working directory"
+    )
 
 
 @pytest.mark.parametrize(

@@ -147,3 +147,21 @@ def test_bad_engine_arguments_exit_2_with_one_line(tmp_path):
         result = run_cli("library", path, "--out", tmp_path / "L", *args)
         assert expected in one_line_error(result)
         assert not (tmp_path / "L").exists()
+
+
+def test_a_relative_demonstration_is_read_beside_the_library_file(tmp_path, monkeypatch):
+    """As in a sweep file: beside the library file, from any working directory; each
+    skill's overrides carry the path read, which learn applies again over its
+    scenario.yaml in the skill's own folder."""
+    from conftest import INSERTION_DEMO
+
+    (tmp_path / "libs").mkdir()
+    (tmp_path / "libs" / "mydemo.csv").write_bytes(INSERTION_DEMO.read_bytes())
+    monkeypatch.chdir(tmp_path)
+    path = write(tmp_path / "libs", GOOD.replace("set:\n", "set:\n  reference.file: mydemo.csv\n"))
+    tasks = plan_library_tasks(load_library_spec(path), tmp_path / "out")
+    beside = str(tmp_path / "libs" / "mydemo.csv")
+    assert all(
+        load_scenario_text(t.scenario_yaml, t.scenario_path).reference.file == beside for t in tasks
+    )
+    assert tasks[0].overrides[0] == f'reference.file="{beside}"'

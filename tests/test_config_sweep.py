@@ -137,6 +137,36 @@ def test_a_relative_scenario_path_is_read_beside_the_sweep_file(tmp_path):
     assert load_scenario_text(task.scenario_yaml, task.scenario_path).name == "mine"
 
 
+def test_a_relative_demonstration_is_read_beside_the_sweep_file(tmp_path, monkeypatch):
+    """reference.file: mydemo.csv in a sweep's set was read beside the scenario file
+    (diagrams/, for a bundled one), neither beside the sweep file nor in the working
+    directory: it is read beside the sweep file, as its scenario is, from any working
+    directory; in a grid or a case too. Not found, the one line says where it looked and
+    why there."""
+    from conftest import INSERTION_DEMO
+
+    (tmp_path / "sweeps").mkdir()
+    (tmp_path / "sweeps" / "mydemo.csv").write_bytes(INSERTION_DEMO.read_bytes())
+    (tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    sweep = "scenario: insertion\nset: {reference.file: mydemo.csv}\n"
+    (fixed,) = plan_tasks(load_sweep(write_sweep(tmp_path / "sweeps", sweep)), tmp_path / "o")
+    gridded = sweep.replace("set:", "grid:").replace("mydemo.csv}", "[mydemo.csv]}")
+    (swept,) = plan_tasks(load_sweep(write_sweep(tmp_path / "sweeps", gridded)), tmp_path / "o")
+    beside = str(tmp_path / "sweeps" / "mydemo.csv")
+    for task in (fixed, swept):
+        assert load_scenario_text(task.scenario_yaml, task.scenario_path).reference.file == beside
+    assert fixed.overrides == [f'reference.file="{beside}"']
+    path = write_sweep(tmp_path / "sweeps", sweep.replace("mydemo", "nodemo"))
+    with pytest.raises(InputError) as error:
+        plan_tasks(load_sweep(path), tmp_path / "o")
+    assert str(error.value).startswith(
+        f"{path}:2: override 'reference.file=nodemo.csv': file: demonstration file "
+        f"'{tmp_path / 'sweeps' / 'nodemo.csv'}' not found (looked for "
+        f"{tmp_path / 'sweeps' / 'nodemo.csv'}); a relative path in sweep.yaml is read beside it"
+    ), error.value
+
+
 def test_task_ids_are_readable_and_depend_only_on_the_swept_values():
     assert (
         task_id({"dmp.n_basis": "2", "controllers.hlcmp.gain_l": "[1.0]"}) == "n_basis=2,gain_l=1.0"

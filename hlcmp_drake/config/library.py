@@ -19,6 +19,7 @@ takes at least two values, each a finite number (read as a sweep's grid reads it
 included), since a skill is regressed on them. (So reference.duration_s takes no 0, which stands
 for the demonstration's own duration; and no key of `dmp` is one: the skills regressed
 together share one DMP's settings, which `set` may give.)
+A relative path (reference.file) is read beside the library file, as a sweep file's is.
 Planning loads every skill's scenario with its overrides, so a bad key or value stops the
 library before anything runs, naming the library file's line.
 """
@@ -36,6 +37,7 @@ from hlcmp_drake.config.sweep import (
     _scenario_path,
     read_typed_file,
     task_id,
+    task_overrides,
     yaml_number,
 )
 from hlcmp_drake.config.world import inputs_digest
@@ -300,8 +302,7 @@ def plan_library_tasks(spec: LibrarySpec, out_dir: str | Path) -> list[LibraryTa
     seen: set[str] = set()
     for point in itertools.product(*config.grid.values()):
         texts = dict(zip(config.grid, point))
-        overrides = [f"{k}={v}" for k, v in config.set.items()]
-        overrides += [f"{k}={v}" for k, v in texts.items()]
+        overrides = task_overrides(spec, [*config.set.items(), *texts.items()])
         scenario = _load_task_scenario(spec, overrides, texts)
         if config.demo_force and not tasks:  # one demonstration for every skill
             _check_demonstration_force(spec, scenario)

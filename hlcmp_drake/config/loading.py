@@ -210,8 +210,15 @@ class _Source:
         text: str,
         overrides: list[tuple[str, str]],
         variant: tuple[Path, str] | None = None,
+        notes: Mapping[str, str] | None = None,
     ):
         self.path, self.text, self.overrides, self.variant = path, text, overrides, variant
+        self.notes = dict(notes or {})  # by override label: why its path was read where it was
+
+    def blamed(self, label: str, problem: str) -> InputError:
+        """`override 'k=v': problem`, with the override's note when it has one."""
+        note = self.notes.get(label)
+        return InputError(f"override '{label}': {problem}" + (f"; {note}" if note else ""))
 
     def overrides_of(self, dotted_key: str) -> list[tuple[str, str]]:
         """The overrides (label, key) that set `dotted_key`, a field in it or a section
@@ -249,7 +256,7 @@ class _Source:
         ]
         if matching:
             label = (named or matching)[-1][0]
-            return InputError(f"override '{label}': {leaf}: {problem}")
+            return self.blamed(label, f"{leaf}: {problem}")
         return InputError(f"{self.where(dotted_key)}: {leaf}: {problem}")
 
     def fail(self, dotted_key: str, problem: str) -> NoReturn:
@@ -468,6 +475,29 @@ def command_line_override(override: str) -> str:
     -------
     str
     """
+    return override_read_from(
+        override, Path.cwd(), "a relative path given with --set is read from the working directory"
+    )
+
+
+def override_read_from(override: str, folder: Path, why: str) -> str:
+    """KEY=VALUE with a relative path given to a field of PATH_FIELDS made absolute from
+    `folder`, as a `TypedOverride` that keeps the text as given and `why` (for a message
+    that says where the file was looked for); anything else as given.
+
+    Parameters
+    ----------
+    override : str
+        KEY=VALUE, the value in YAML.
+    folder : Path
+        Where a relative path is read from.
+    why : str
+        Why there, for messages, e.g. "a relative path in sweep.yaml is read beside it".
+
+    Returns
+    -------
+    str
+    """
     import yaml
 
     key, sep, value = override.partition("=")
@@ -479,22 +509,26 @@ def command_line_override(override: str) -> str:
         return override  # load_scenario says what is wrong with it
     if not isinstance(path, str) or not path or "://" in path or Path(path).is_absolute():
         return override
-    return TypedOverride(f"{key.strip()}={json.dumps(str(Path(path).resolve()))}", override)
+    absolute = (Path(folder) / path).resolve()
+    return TypedOverride(f"{key.strip()}={json.dumps(str(absolute))}", override, why)
 
 
 class TypedOverride(str):
-    """An override that `command_line_override` rewrote, which keeps the text as it was
-    typed for messages (`typed`)."""
+    """An override that `override_read_from` rewrote, which keeps the text as it was
+    typed (`typed`) and why a relative path in it was read where it was (`why`), for
+    messages."""
 
     typed: str
+    why: str
 
-    def __new__(cls, text: str, typed: str) -> TypedOverride:
+    def __new__(cls, text: str, typed: str, why: str = "") -> TypedOverride:
         override = super().__new__(cls, text)
         override.typed = typed
+        override.why = why
         return override
 
     def __reduce__(self):  # pickled into a sweep's or a report's workers as it is
-        return (TypedOverride, (str(self), self.typed))
+        return (TypedOverride, (str(self), self.typed, self.why))
 
 
 def load_scenario(
@@ -701,7 +735,8 @@ def _load_text(
     base, parsed = scenario, [item for o in overrides for item in _parse_override(o)]
     for label, key, value in parsed:
         scenario = _overridden(scenario, label, key, value)
-    source = _Source(path, text, [(label, key) for label, key, _ in parsed], variant)
+    notes = {o.typed: o.why for o in overrides if isinstance(o, TypedOverride) and o.why}
+    source = _Source(path, text, [(label, key) for label, key, _ in parsed], variant, notes)
     found = _first_problem(scenario, path.parent, experiments, replay_problem)
     if found is not None:
         if not _task_given(source) and _of_the_world(found[0]):
@@ -863,7 +898,7 @@ def _culprit(
 
     def blamed(label: str) -> InputError:
         where = "" if label in touching else f" (as {source.where(key)} sets it)"
-        return InputError(f"override '{label}': {_leaf(key)}: {problem}{where}")
+        return source.blamed(label, f"{_leaf(key)}: {problem}{where}")
 
     if len(parsed) == 1:  # the overridden scenario is that override alone
         return blamed(parsed[0][0])

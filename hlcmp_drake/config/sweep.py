@@ -21,8 +21,10 @@ A sweep file (``diagrams/sweeps/*.yaml``)::
 
 Values are YAML, exactly what follows the ``=`` of ``hlcmp run --set KEY=VALUE``; a value
 given as a string is taken as that YAML text, so a tagged value is quoted:
-``"!ConstantImpedanceConfig {...}"``. Cases and grid multiply (every case with every grid
-point); each combination runs `repetitions` times.
+``"!ConstantImpedanceConfig {...}"``. A relative path (``reference.file``) is read beside
+the sweep file, as its ``scenario`` is, not from the working directory as after ``--set``.
+Cases and grid multiply (every case with every grid point); each combination runs
+`repetitions` times.
 
 Planning loads every task's scenario with its overrides, so a bad key or value stops the
 sweep before anything runs, naming the sweep file's line. Each task ships its scenario as
@@ -47,6 +49,7 @@ from hlcmp_drake.config.loading import (
     dump_scenario,
     line_of,
     load_scenario,
+    override_read_from,
     resolve_scenario_path,
     resolve_yaml,
 )
@@ -682,9 +685,10 @@ def plan_tasks(sweep: Sweep, out_dir: str | Path) -> list[SweepTask]:
     seen: dict = {}
     for case, point in itertools.product(cases, itertools.product(*config.grid.values())):
         parameters = ({CASE: case.label} if case else {}) | dict(zip(config.grid, point))
-        overrides = [f"{k}={v}" for k, v in config.set.items()]
-        overrides += [f"{k}={v}" for k, v in (case.set.items() if case else ())]
-        overrides += [f"{k}={v}" for k, v in zip(config.grid, point)]
+        overrides = task_overrides(
+            sweep,
+            [*config.set.items(), *(case.set.items() if case else ()), *zip(config.grid, point)],
+        )
         scenario = _load_task_scenario(sweep, overrides, parameters)
         unknown = [label for label in config.controllers if label not in scenario.controllers]
         if unknown:
@@ -739,6 +743,26 @@ class _ScenarioFile(Protocol):
     path: Path
     text: str
     scenario_path: Path
+
+
+def task_overrides(sweep: _ScenarioFile, values: list) -> list[str]:
+    """A task's overrides, KEY=VALUE for each (key, value text) of a sweep's (or a skill
+    library's) file: a relative path (`reference.file`) is read beside that file, as its
+    `scenario` is, wherever the command runs.
+
+    Parameters
+    ----------
+    sweep : the sweep or library spec
+        Its `path` is the file.
+    values : list of (str, str)
+        The override keys and their YAML value texts, in the order they apply.
+
+    Returns
+    -------
+    list of str
+    """
+    why = f"a relative path in {sweep.path.name} is read beside it"
+    return [override_read_from(f"{k}={v}", sweep.path.parent, why) for k, v in values]
 
 
 def _load_task_scenario(sweep: _ScenarioFile, overrides: list, parameters: dict):
