@@ -57,7 +57,27 @@ from hlcmp_drake.io.errors import InputError
         ),
         (
             "scenario: one_dof\ncases:\n- {label: a}\n- {label: a}\n",
-            ":2: cases: two cases share a label",
+            ":2: cases: case 1 and case 2 share the label 'a'",
+        ),
+        (
+            "scenario: one_dof\ncases:\n- {set: {duration_s: 1}}\n- {label: '1'}\n",
+            ":2: cases: case 1 (no label given: labelled by its number) and case 2 share the "
+            "label '1'",
+        ),
+        (
+            "scenario: one_dof\nmetrics:\n- {label: k, series: hlcmp/Ks, below: .nan}\n",
+            ":3: metrics: entry 1: below must be a finite number, got nan",
+        ),
+        (
+            "scenario: one_dof\ngrid:\n  dmp.n_basis: [2, 3]\nmetrics:\n"
+            "- {label: k, series: hlcmp/Ks}\n- {label: status, path: status}\n",
+            ":4: metrics: entry 2: label 'status' is one of sweep.csv's own columns (id, "
+            "dmp.n_basis, repetition, status, wall_s): give it another",
+        ),
+        (
+            "scenario: one_dof\ngrid:\n  dmp.n_basis: [2, 3]\nmetrics:\n"
+            "- {label: dmp.n_basis, path: status}\n",
+            ":4: metrics: entry 1: label 'dmp.n_basis' is one of sweep.csv's own columns",
         ),
         (
             "scenario: one_dof\nlabels: {dmp.n_basis: N}\n",
@@ -94,6 +114,10 @@ def test_a_bad_override_or_controller_is_found_before_anything_runs(tmp_path):
     path = write_sweep(tmp_path, "scenario: one_dof\ngrid:\n  controllers.hlcmp.nope: [1]\n")
     with pytest.raises(InputError, match=r":3: override .*no field 'nope'"):
         plan_tasks(load_sweep(path), tmp_path / "out")
+    # A fixed override's problem is every task's, not the first task's alone.
+    fixed = "scenario: one_dof\nset: {controllers.hlcmp.pii: 1.0}\ngrid:\n  duration_s: [1, 2]\n"
+    with pytest.raises(InputError, match=r":2: override .*no field 'pii'.*\(in every task\)$"):
+        plan_tasks(load_sweep(write_sweep(tmp_path, fixed)), tmp_path / "out")
     labelled = 'scenario: one_dof\nlabels:\n  controllers.hlcmp.pii: "pi"\ngrid:\n'
     path = write_sweep(tmp_path, labelled + "  controllers.hlcmp.pii: [1.0]\n")
     with pytest.raises(InputError, match=r":5: override .*no field 'pii'.*did you mean 'pi'"):

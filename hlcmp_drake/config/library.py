@@ -303,7 +303,7 @@ def plan_library_tasks(spec: LibrarySpec, out_dir: str | Path) -> list[LibraryTa
     for point in itertools.product(*config.grid.values()):
         texts = dict(zip(config.grid, point))
         overrides = task_overrides(spec, [*config.set.items(), *texts.items()])
-        scenario = _load_task_scenario(spec, overrides, texts)
+        scenario = _load_task_scenario(spec, overrides, texts, len(config.set))
         if config.demo_force and not tasks:  # one demonstration for every skill
             _check_demonstration_force(spec, scenario)
         identifier = task_id(texts)

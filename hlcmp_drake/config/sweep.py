@@ -76,7 +76,8 @@ class SweepMetric:
     Attributes
     ----------
     label : str
-        The column's header, with units (default: the path's or series' name).
+        The column's header, with units (default: the path's or series' name); none of
+        sweep.csv's own columns (id, the swept keys, repetition, status, wall_s).
     path : str
         A dotted path into metrics.json, e.g. "controllers.hlcmp.position_at_10s_m" or
         "claims.hlcmp.C4.holds" (a label with dots, "vic_fd_0.5", is matched whole); a
@@ -95,7 +96,7 @@ class SweepMetric:
     digits : int
         Decimals in the table.
     below : float, optional
-        When given, the cell is yes/no: whether the (scaled) value is below it.
+        When given (finite), the cell is yes/no: whether the (scaled) value is below it.
     missing : str
         What the table shows for a null value (an event that never happened).
     """
@@ -522,15 +523,24 @@ def _check(config: SweepConfig, fail) -> None:
         if len(set(read)) != len(read):
             fail(f"grid.{key}", f"grid: '{key}' lists a value twice: {values}")
     case_keys = set()
+    unlabelled = set()
     for k, case in enumerate(config.cases, 1):
-        case.label = case.label or str(k)
+        if not case.label:
+            unlabelled.add(k)
+            case.label = str(k)
         for key in case.set:
             if key in owner:
                 fail(key, f"cases: '{key}' is also in {owner[key]}")
             case_keys.add(key)
     labels = [case.label for case in config.cases]
-    if len(set(labels)) != len(labels):
-        fail("cases", f"cases: two cases share a label: {labels}")
+    for label in labels:
+        sharing = [k for k, other in enumerate(labels, 1) if other == label]
+        if len(sharing) > 1:
+            named = [
+                f"case {k}" + (" (no label given: labelled by its number)" * (k in unlabelled))
+                for k in sharing
+            ]
+            fail("cases", f"cases: {' and '.join(named)} share the label '{label}'")
     for key in [*config.set, *config.grid, *case_keys]:
         if not _KEY.fullmatch(key):
             fail(key, f"'{key}': an override key is dotted, e.g. controllers.hlcmp.pi")
@@ -567,6 +577,8 @@ def _check(config: SweepConfig, fail) -> None:
                 "window_s",
                 f"{where}: window_s is [start, end] with start < end, got {metric.window_s}",
             )
+        if metric.below is not None and not math.isfinite(metric.below):
+            fail("below", f"{where}: below must be a finite number, got {metric.below}")
         if metric.column < 0 or not 0 <= metric.digits <= 12 or not math.isfinite(metric.scale):
             fail(
                 "metrics",
@@ -578,6 +590,14 @@ def _check(config: SweepConfig, fail) -> None:
     names = [m.label for m in config.metrics]
     if len(set(names)) != len(names):
         fail("metrics", f"metrics: two columns share a label: {names}")
+    own = ["id", *([CASE] if config.cases else []), *config.grid, "repetition", "status", "wall_s"]
+    for k, name in enumerate(names):
+        if name in own:
+            fail(
+                "metrics",
+                f"metrics: entry {k + 1}: label '{name}' is one of sweep.csv's own columns "
+                f"({', '.join(own)}): give it another",
+            )
 
 
 def metric_line(sweep: Sweep, index: int) -> int | None:
@@ -689,7 +709,7 @@ def plan_tasks(sweep: Sweep, out_dir: str | Path) -> list[SweepTask]:
             sweep,
             [*config.set.items(), *(case.set.items() if case else ()), *zip(config.grid, point)],
         )
-        scenario = _load_task_scenario(sweep, overrides, parameters)
+        scenario = _load_task_scenario(sweep, overrides, parameters, len(config.set))
         unknown = [label for label in config.controllers if label not in scenario.controllers]
         if unknown:
             raise located(
@@ -765,7 +785,10 @@ def task_overrides(sweep: _ScenarioFile, values: list) -> list[str]:
     return [override_read_from(f"{k}={v}", sweep.path.parent, why) for k, v in values]
 
 
-def _load_task_scenario(sweep: _ScenarioFile, overrides: list, parameters: dict):
+def _load_task_scenario(sweep: _ScenarioFile, overrides: list, parameters: dict, fixed: int = 0):
+    """A task's scenario with its overrides, the first `fixed` of them the file's `set`
+    (every task's); InputError naming the file's line and the task (every task when the
+    fixed overrides alone bring the same problem)."""
     try:
         scenario, _ = load_scenario(sweep.scenario_path, overrides)
     except InputError as error:
@@ -773,6 +796,16 @@ def _load_task_scenario(sweep: _ScenarioFile, overrides: list, parameters: dict)
         key = re.match(r"override '([^=']+)=", message)
         line = _key_line(sweep.text, key.group(1), outside=("labels",)) if key else None
         values = ", ".join(f"{k}={v}" for k, v in parameters.items())
-        where = f"the task where {values}" if values else "every task"
+        every = not values or (fixed > 0 and _problem_of(sweep, overrides[:fixed]) == message)
+        where = "every task" if every else f"the task where {values}"
         raise located(sweep.path, line, f"{message} (in {where})") from None
     return scenario
+
+
+def _problem_of(sweep: _ScenarioFile, overrides: list) -> str | None:
+    """What loading the scenario with `overrides` alone refuses, or None."""
+    try:
+        load_scenario(sweep.scenario_path, overrides)
+    except InputError as error:
+        return str(error)
+    return None
