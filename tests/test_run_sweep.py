@@ -506,7 +506,15 @@ grid:
         ("path: status.ok", "status is a single value, it has no 'ok'"),
         ("path: claims.hlcmp.C5.holds", "this sweep's tasks judge no claim"),
         ("series: hlcmp/Kss", "series 'hlcmp/Kss': hlcmp logs no 'Kss' (x, xd, f_ext"),
-        ("series: vic_fd_0.5/x", "no controller 'vic_fd_0.5' runs in the tasks (hlcmp)"),
+        ("series: nope/x", "no controller 'nope' runs in the tasks (hlcmp)"),
+        (
+            "series: vic_fd_0.5/x",
+            "'vic_fd_0.5' does not run: the sweep's `controllers` leaves it out (it runs hlcmp)",
+        ),
+        (
+            "path: controllers.vic_fd_1.5.reach_time_s",
+            "'vic_fd_1.5' does not run: the sweep's `controllers` leaves it out (it runs hlcmp)",
+        ),
         ("{series: hlcmp/x, column: 1}", "column 1: hlcmp/x has 1 column(s)"),
         (
             "{series: hlcmp/Ks, reduce: max, window_s: [2.0, 3.0]}",

@@ -131,12 +131,15 @@ class TaskOutputs:
         The learners the claims are judged for; empty when the task judges no claim.
     claims : list of str or None
         The experiment's claim names (None: not known).
+    left_out : list of str
+        The scenario's controllers the sweep's `controllers` leaves out (not run).
     """
 
     metrics: dict
     series: dict
     learners: list
     claims: list | None
+    left_out: list = dc.field(default_factory=list)
 
 
 def task_outputs(task: SweepTask) -> TaskOutputs:
@@ -151,11 +154,12 @@ def task_outputs(task: SweepTask) -> TaskOutputs:
     -------
     TaskOutputs
     """
-    from hlcmp_drake.config.loading import load_scenario_text
+    from hlcmp_drake.config.loading import load_scenario, load_scenario_text
     from hlcmp_drake.experiments import claim_names, experiment_of
     from hlcmp_drake.run.runner import evaluate, run_controllers, without_claims
     from hlcmp_drake.worlds.controllers import learners
 
+    every, _ = load_scenario(task.scenario_path, task.overrides)  # before `controllers` keeps some
     scenario = load_scenario_text(task.scenario_yaml, task.scenario_path)
     scenario.controllers = {label: scenario.controllers[label] for label in task.controllers}
     experiment = experiment_of(scenario, task.scenario_path)
@@ -174,11 +178,22 @@ def task_outputs(task: SweepTask) -> TaskOutputs:
         series,
         learners(scenario) if task.claims else [],
         claim_names(experiment),
+        [label for label in every.controllers if label not in task.controllers],
     )
 
 
 def _names(node: dict) -> str:
     return ", ".join(node) or "nothing"
+
+
+def _left_out(outputs: TaskOutputs, rest: str) -> str | None:
+    """The left-out controller (`TaskOutputs.left_out`) a path's `rest` begins with, said
+    whole (a label may hold dots: vic_fd_1.5), or None."""
+    label = next((n for n in outputs.left_out if rest == n or rest.startswith(n + ".")), None)
+    if label is None:
+        return None
+    kept = _names(outputs.metrics["controllers"])
+    return f"'{label}' does not run: the sweep's `controllers` leaves it out (it runs {kept})"
 
 
 def _walk(node: object, dotted: str) -> str | None:
@@ -235,6 +250,9 @@ def path_problem(outputs: TaskOutputs, path: str) -> str | None:
         if outputs.claims is not None and claim not in outputs.claims:
             return f"claims.{learner} has no '{claim}' ({_names(outputs.claims)})"
         return None
+    left_out = _left_out(outputs, rest) if head in ("controllers", "instability") else None
+    if left_out:
+        return left_out
     if head == "instability":
         labels = outputs.metrics["controllers"]
         if not any(rest == n or rest.startswith(n + ".") for n in labels):
@@ -258,6 +276,8 @@ def series_problem(outputs: TaskOutputs, metric: SweepMetric) -> str | None:
     """
     controller, _, name = metric.series.partition("/")
     names = [key.split("/", 1)[1] for key in outputs.series if key.startswith(controller + "/")]
+    if not names and controller in outputs.left_out:
+        return _left_out(outputs, controller)
     if not names:
         labels = list(dict.fromkeys(key.split("/", 1)[0] for key in outputs.series))
         return f"no controller '{controller}' runs in the tasks ({_names(labels)})"
