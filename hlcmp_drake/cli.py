@@ -352,12 +352,10 @@ def _rounded(value: float, digits: int) -> str:
 
 
 def cmd_probe(args):
-    from hlcmp_drake.run.probe import run_probe, unused_by_the_probe
+    from hlcmp_drake.run.probe import run_probe
 
     _quiet_drake(args)
-    for override in unused_by_the_probe(args.set):
-        _warn(f"--set {override}: the probe does not use it (it pushes the tool alone)")
-    result = run_probe(args.scenario, args.out, speed=args.speed, overrides=args.set)
+    result = run_probe(args.scenario, args.out, speed=args.speed, overrides=args.set, warn=_warn)
     readings = result.readings
     print(
         f"probe {readings['scenario']} at {readings['speed_m_per_s']:.3g} m/s: peak "

@@ -9,7 +9,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import assert_output_names
+from conftest import assert_output_names, one_line_error, run_cli
 
 from hlcmp_drake.cli import main
 from hlcmp_drake.config.loading import load_scenario
@@ -143,3 +143,14 @@ def test_settings_the_probe_never_reads_are_named():
     given = ["duration_s=1", "probe.tilt_rad=0.001", "controllers.hlcmp.q_k=[1,1,1]",
              "task.puncture.depth_m=0.01", "recording.frames_per_second=30"]  # fmt: skip
     assert unused_by_the_probe(given) == [given[0], given[2], given[4]]
+
+
+def test_a_setting_the_probe_never_reads_is_refused_when_bad_and_only_then_warned_of(tmp_path):
+    """probe --set controllers.hlcmp.pi=-1 warned that the probe does not use it, then
+    refused it: a bad value is refused alone (the scenario with every --set must load, as
+    for any command), and a good one the probe never reads is warned of."""
+    bad = ["probe", "insertion", "--set", "controllers.hlcmp.pi=-1", "--out", tmp_path / "p"]
+    assert "pi must be > 0" in one_line_error(run_cli(*bad))
+    warnings = []
+    run_probe("insertion", tmp_path / "p", overrides=["duration_s=1"], warn=warnings.append)
+    assert warnings == ["--set duration_s=1: the probe does not use it (it pushes the tool alone)"]

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import dataclasses as dc
 from pathlib import Path
-from typing import TYPE_CHECKING, Sequence
+from typing import TYPE_CHECKING, Callable, Sequence
 
 import numpy as np
 from pydrake.systems.analysis import ApplySimulatorConfig, Simulator
@@ -186,6 +186,7 @@ def run_probe(
     *,
     speed: float | None = None,
     overrides: Sequence[str] = (),
+    warn: Callable[[str], None] | None = None,
 ) -> ProbeResult:
     """Probe a scenario's world and write probe.json, probe.png and probe.npz.
 
@@ -200,6 +201,9 @@ def run_probe(
         The carriage's speed [m/s] (default the scenario's probe.speed_m_per_s).
     overrides : sequence of str
         ``dotted.key=value`` overrides, e.g. ``probe.tilt_rad=0.001``.
+    warn : callable(str), optional
+        Told of each override the probe never reads (`unused_by_the_probe`), once the
+        scenario with them all has loaded: a value it refuses is an error, not a warning.
     """
     scenario, _ = load_scenario(name_or_path, overrides)
     build_probe = world_of(scenario).build_probe
@@ -215,6 +219,8 @@ def run_probe(
     if problem:
         where = f"{scenario.name}: probe.speed_m_per_s" if speed is None else "--speed"
         raise InputError(f"{where}: {problem}")
+    for override in unused_by_the_probe(overrides) if warn is not None else ():
+        warn(f"--set {override}: the probe does not use it (it pushes the tool alone)")
     world = build_probe(scenario, speed)
     t, position, force, status, wrist = simulate_probe(world, scenario)
     readings, distance, resisting, lateral = readings_of(world, scenario, t, position, force)
