@@ -759,6 +759,34 @@ def test_a_pool_whose_workers_die_before_any_task_fails_every_task_and_returns()
     assert results == [(None, NO_TASK_RAN)] * 3
 
 
+def test_a_pool_that_breaks_while_its_tasks_are_handed_out_fails_them_as_it_fails_the_rest(
+    monkeypatch,
+):
+    """A worker may die before the last task is handed to the pool: the pool refuses that
+    task then, which counts as one the pool did not start (seen in CI, where the first
+    worker died of its task before the third was submitted)."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    from hlcmp_drake.run.sweep import engines
+
+    class HandsOutAfterItBroke(ProcessPoolExecutor):
+        def submit(self, *args, **kwargs):
+            if self._submitted:  # wait for the first task to kill its worker
+                deadline = time.time() + 60
+                while not self._broken and time.time() < deadline:
+                    time.sleep(0.01)
+            self._submitted += 1
+            return super().submit(*args, **kwargs)
+
+        _submitted = 0
+
+    monkeypatch.setattr(engines, "ProcessPoolExecutor", HandsOutAfterItBroke)
+    results = []
+    items = [_KillsTheWorkerThatReceivesIt() for _ in range(3)]
+    run_in_processes(str, items, 2, lambda item, result, error: results.append((result, error)))
+    assert results == [(None, engines.NO_TASK_RAN)] * 3
+
+
 def test_a_sweep_again_into_its_folder_removes_its_own_stale_plots_alone(tmp_path):
     """Sweeping another key into the same --out left the old key's plot beside the new
     one, and a sweep without a grid said it wrote plots/ where it wrote none: the plots of

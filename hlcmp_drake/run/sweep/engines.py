@@ -234,10 +234,14 @@ def _pool_round(function, items, indices, workers, on_done, marks):
     )
     failed: list[int] = []
     try:
-        futures = {
-            executor.submit(_marked_call, function, str(marks), index, items[index]): index
-            for index in indices
-        }
+        futures = {}
+        for index in indices:
+            try:
+                futures[
+                    executor.submit(_marked_call, function, str(marks), index, items[index])
+                ] = index
+            except BrokenProcessPool:  # a worker died while the tasks were handed out
+                failed.append(index)
         processes = list((getattr(executor, "_processes", None) or {}).values())
         for future in as_completed(futures):
             index = futures[future]
