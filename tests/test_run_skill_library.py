@@ -556,3 +556,36 @@ def test_generalize_refuses_to_replace_a_trained_skill_but_replaces_a_generalize
         result = run_cli("generalize", folder, *query, "--out", generalized)
         assert result.returncode == 0, result.stderr
     assert load_skill(generalized).world is not None  # learned, and replaced all the same
+
+
+def test_a_relative_demonstration_in_the_librarys_set_is_read_beside_its_file(
+    tmp_path, monkeypatch
+):
+    """`hlcmp library` reads a relative reference.file of its `set` beside the library
+    file; generalize reads it there too (it looked beside the scenario: not found, exit 2),
+    and the commands it prints name it from anywhere."""
+    folder = write_library(tmp_path, *GRID)
+    (tmp_path / "specs").mkdir()
+    (tmp_path / "specs" / "mydemo.csv").write_text(DEMO_CSV)
+    record = json.loads((folder / "library.json").read_text())
+    record["set"] = {"reference.file": "mydemo.csv"}
+    record["library_file"] = str(tmp_path / "specs" / "lib.yaml")
+    (folder / "library.json").write_text(json.dumps(record))
+    monkeypatch.chdir(tmp_path)  # neither the library file's folder nor the scenario's
+    out = tmp_path / "s.npz"
+    result = run_cli(
+        "generalize",
+        folder,
+        "--query",
+        f"{DEPTH}=0.01125",
+        "--query",
+        f"{FRICTION}=90",
+        "--out",
+        out,
+    )
+    assert result.returncode == 0, result.stderr
+    beside = str(tmp_path / "specs" / "mydemo.csv")
+    assert SkillLibrary.load(folder).overrides({DEPTH: 0.01125, FRICTION: 90.0})[0] == (
+        f'reference.file="{beside}"'
+    )
+    assert beside in result.stdout  # the printed commands' --set

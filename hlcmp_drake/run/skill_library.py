@@ -40,7 +40,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from hlcmp_drake.config.library import SKILLS_DIR
-from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.config.loading import load_scenario, override_read_from
 from hlcmp_drake.config.world import world_of_scenario
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.io.paths import DIAGRAMS_DIR
@@ -433,8 +433,9 @@ class SkillLibrary:
         return forces[0]
 
     def overrides(self, query: Mapping[str, float]) -> list[str]:
-        """The --set overrides of the world at a query: the library's fixed ones, then
-        one per task parameter.
+        """The --set overrides of the world at a query: the library's fixed ones (a relative
+        path in them read beside the library file, as `hlcmp library` read it), then one
+        per task parameter.
 
         Parameters
         ----------
@@ -445,6 +446,13 @@ class SkillLibrary:
         list of str
         """
         fixed = [f"{key}={value}" for key, value in self.record["set"].items()]
+        library_file = self.record.get("library_file")
+        if isinstance(library_file, str) and library_file:
+            # A relative path (reference.file) was read beside the library file when the
+            # skills were learned (`config.sweep.task_overrides`): so it is here.
+            folder, name = Path(library_file).parent, Path(library_file).name
+            why = f"a relative path in {name} is read beside it"
+            fixed = [override_read_from(override, folder, why) for override in fixed]
         return fixed + [f"{key}={float(query[key])!r}" for key in self.parameters]
 
     def scenario_argument(self) -> str:
