@@ -51,3 +51,16 @@ def test_beside_by_is_the_distance_across_the_face_from_its_extent():
     assert over_the_face(points, top, rotation, lower, upper).tolist() == [True, False, False]
     assert beside_by(points[1], top, rotation, lower, upper) == pytest.approx(0.2)
     assert over_the_face(points[0], top, rotation, lower, upper) is True
+
+
+def test_a_tool_point_at_the_face_comes_in_through_it():
+    """A tool resting on the face, or started just below it by the start posture's 0.1 mm
+    of inverse-kinematics tolerance (a reference starting on the face or 0.08 mm above
+    it), comes in through the face: it tears once deep enough. Deeper, it has not."""
+    from hlcmp_drake.core.puncture import AT_THE_FACE_M, came_in_from_above, came_in_over_time
+
+    assert came_in_from_above(False, 0.0, True)
+    assert came_in_from_above(False, 0.0001, True)
+    assert came_in_from_above(False, 0.0005, True)
+    assert not came_in_from_above(False, AT_THE_FACE_M, True)
+    assert came_in_over_time(np.array([0.0001, 0.01, 0.02]), np.ones(3, dtype=bool)).all()

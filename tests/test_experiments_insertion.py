@@ -332,6 +332,8 @@ def test_the_insertion_is_not_done_by_a_tool_point_that_never_came_in_from_above
         ((0.55, -0.05, -0.15), True),  # under the plank (the demonstration 0.6 m down)
         ((0.55, -0.30, 0.30), False),  # below the top, beside the plank: a place to be
         ((0.55, -0.05, 0.45), False),  # the bundled demonstration's start
+        ((0.60, 0.0, 0.33), False),  # on the face: the tool resting on it
+        ((0.60, 0.0, 0.3295), False),  # pressing it in by 0.5 mm
     ],
 )
 def test_a_reference_starting_inside_or_under_the_plank_is_refused(start, refused):
@@ -344,6 +346,15 @@ def test_a_reference_starting_inside_or_under_the_plank_is_refused(start, refuse
         return
     with pytest.raises(InputError, match="below the top face of 'foam_plank::plank'.* and over it"):
         check_start_outside(scenario, np.array(start))
+
+
+def test_a_tool_point_started_at_the_face_goes_through():
+    """A reference starting 0.08 mm above the face starts the tool point 0.02 mm below it
+    (the start posture's inverse kinematics is solved to 0.1 mm): it came in through the
+    face, and tore the plank once 15 mm below it."""
+    run, scenario = _path((0.5999, 0.0, 0.32998), (0.5999, 0.0, 0.30), (0.5999, 0.0, 0.40))
+    task = insertion.went_through(run, scenario)
+    assert task["done"], task["evidence"]
 
 
 def test_learning_from_a_demonstration_shifted_into_the_plank_stops_before_simulating(tmp_path):

@@ -90,6 +90,21 @@ def test_an_update_that_changes_nothing_says_so():
     assert system.punctured(context)
 
 
+def test_a_tool_point_started_at_the_face_tears_the_foam():
+    """Started 0.1 mm below the face (the inverse kinematics' tolerance under a reference
+    starting on it), then down to 20 mm, going in: it came in through the face."""
+    from pydrake.systems.analysis import Simulator
+
+    system = _tool_on_a_slide()
+    context = system.CreateDefaultContext()
+    system.plant_state.FixValue(context, [0.3299, -0.03])
+    simulator = Simulator(system, context)
+    simulator.AdvanceTo(0.0005)
+    system.plant_state.FixValue(context, [0.31, -0.03])
+    simulator.AdvanceTo(0.0015)
+    assert system.punctured(context)
+
+
 @pytest.mark.parametrize("start_z", [0.31, 0.20])  # in the foam; under it
 def test_a_tool_point_that_starts_below_the_top_face_tears_nothing(start_z):
     """Over the face, deep and going in, but never above the face: it never came in

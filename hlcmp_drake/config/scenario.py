@@ -588,7 +588,8 @@ class PunctureConfig:
       above its plane, then over the face), first reaches `depth_m` below it while moving
       in, the contact between the tool and the object ends for the rest of the run (a
       collision filter set in the simulation). A tool point that starts below the face's
-      plane, or goes below it beside the object, tears nothing;
+      plane (more than 1 mm: less is resting on it), or goes below it beside the object,
+      tears nothing;
     - the hole: from then on, while the tool is in it, an axial friction force
       F = hole_friction_N_per_m * (length of tool inside the object) *
       tanh(v / sliding_speed_m_per_s)

@@ -105,12 +105,20 @@ def beside_by(
     return float(distance) if np.ndim(point) == 1 else distance
 
 
+# How far below the top face's plane a tool point still counts as at the face [m]: a tool
+# resting on the foam presses it in a little, and the start posture's inverse kinematics
+# puts the tool point up to 0.1 mm (per axis) off the reference's start, below it as often
+# as not. A reference starting at the face, or just above it, starts the tool there.
+AT_THE_FACE_M = 0.001
+
+
 def came_in_from_above(came_in: bool, depth: float, over: bool) -> bool:
     """Whether the tool point has come into the object through its top face, the only way
-    a tear begins: it may once it is above the face's plane (nothing is in its way down,
-    over the face or beside it), it stays in while over the face, and it has not once it
-    is below the plane beside the object -- what it meets from there it meets from the
-    side. A tool point that starts below the plane has not come in from above.
+    a tear begins: it may once it is above the face's plane or at it (less than
+    AT_THE_FACE_M below: nothing is in its way down, over the face or beside it), it stays
+    in while over the face, and it has not once it is deeper below the plane beside the
+    object -- what it meets from there it meets from the side. A tool point that starts
+    deeper below the plane has not come in from above.
 
     Parameters
     ----------
@@ -119,9 +127,10 @@ def came_in_from_above(came_in: bool, depth: float, over: bool) -> bool:
     depth : float
         Tool point below the top face [m] (negative above it).
     over : bool
-        Whether it is over the face (`over_the_face`); read only below the plane.
+        Whether it is over the face (`over_the_face`); read only deeper than
+        AT_THE_FACE_M below the plane.
     """
-    return depth < 0.0 or (came_in and over)
+    return depth < AT_THE_FACE_M or (came_in and over)
 
 
 def came_in_over_time(depth: np.ndarray, over: np.ndarray) -> np.ndarray:

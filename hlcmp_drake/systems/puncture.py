@@ -10,6 +10,7 @@ from pydrake.multibody.plant import ExternallyAppliedSpatialForce
 from pydrake.systems.framework import BasicVector, Context, EventStatus, LeafSystem
 
 from hlcmp_drake.core.puncture import (
+    AT_THE_FACE_M,
     came_in_from_above,
     deep_enough_to_tear,
     depth_below,
@@ -166,8 +167,8 @@ class HoleFriction(LeafSystem):
             # to. Changing nothing, it says so: the Simulator then spares writing the whole
             # diagram's state back (and recomputing everything that depends on it).
             came_in_before = bool(context.get_discrete_state(self._came_in_index).get_value()[0])
-            # The footprint matters only below the face's plane (`came_in_from_above`).
-            over = depth < 0.0 or not self._beside(position)
+            # The footprint matters only below the face (`came_in_from_above`).
+            over = depth < AT_THE_FACE_M or not self._beside(position)
             came_in = came_in_from_above(came_in_before, depth, over)
             torn = (
                 came_in

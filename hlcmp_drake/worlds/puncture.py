@@ -12,7 +12,7 @@ from pydrake.multibody.tree import Frame
 from pydrake.systems.framework import Context, DiagramBuilder
 
 from hlcmp_drake.config.scenario import PunctureConfig, Scenario
-from hlcmp_drake.core.puncture import beside_by, depth_below, over_the_face
+from hlcmp_drake.core.puncture import AT_THE_FACE_M, beside_by, depth_below, over_the_face
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.systems.puncture import HoleFriction
 from hlcmp_drake.worlds.models import load_models, scoped_frame
@@ -195,7 +195,8 @@ def check_start_outside(scenario: Scenario, start: np.ndarray) -> None:
     face and over it: the tool would start inside the object or under it, where it could
     never come in through the face -- a reference in another frame than the world's, or
     shifted. (Below the face's plane beside the object is a place the tool can be: such a
-    run goes ahead and does not tear the object.)
+    run goes ahead and does not tear the object. A start at the face, less than
+    `core.puncture.AT_THE_FACE_M` below it, is the tool resting on it: it comes in.)
 
     Parameters
     ----------
@@ -207,14 +208,14 @@ def check_start_outside(scenario: Scenario, start: np.ndarray) -> None:
     Raises
     ------
     InputError
-        When the start is below the face and over it.
+        When the start is below the face (AT_THE_FACE_M or more) and over it.
     """
     face = object_face(scenario)
     if face is None:
         return
     start = np.asarray(start, dtype=float)
     depth = float(face.depth_of(start))
-    if depth <= 0.0 or not face.over(start):
+    if depth < AT_THE_FACE_M or not face.over(start):
         return
     raise InputError(
         f"the reference starts the tool point at {_point(start)} m, {1000 * depth:.1f} mm "
