@@ -72,6 +72,20 @@ def test_a_probe_that_touches_nothing_says_so(tmp_path, capsys):
     assert "warning" not in capsys.readouterr().err
 
 
+def test_a_probe_started_in_the_plank_is_refused(tmp_path, capsys):
+    """10 mm into the foam the tool never comes in through its face, so the foam never
+    tears: the probe would read the memoryless field pulling it in (residual 0 N, a
+    negative resisting force) as the plank's. Refused, as a run's reference is."""
+    inside = "probe.start_m=[0.6, 0.0, 0.32]"
+    assert main(["probe", "insertion", "--out", str(tmp_path), "--set", inside]) == 2
+    err = capsys.readouterr().err
+    assert (
+        "insertion: probe.start_m puts the tool point at (0.600, 0.000, 0.320) m, 10.0 mm " in err
+    )
+    assert "start it above the face" in err
+    assert not any(tmp_path.iterdir())
+
+
 def test_a_scenario_without_a_probe_is_one_clear_line(capsys):
     assert main(["probe", "one_dof"]) == 2
     assert "has no probe" in capsys.readouterr().err

@@ -212,6 +212,16 @@ def run_probe(
             f"scenario '{scenario.name}' has no probe: it needs an arm task and probe.start_m, "
             "probe.push_m"
         )
+    # As a run's reference is (`worlds.arm.prepare`): a tool started in the foam never
+    # tears it, and the probe would read the memoryless field's pull as the foam's.
+    from hlcmp_drake.worlds.puncture import check_start_outside
+
+    check_start_outside(
+        scenario,
+        scenario.probe.start_m,
+        f"{scenario.name}: probe.start_m puts",
+        "start it above the face (the bundled probe starts 5 mm above it)",
+    )
     # Checked here, not at load: only a probe moves the carriage (a run at another time
     # step never uses it).
     given = scenario.probe.speed_m_per_s if speed is None else speed

@@ -190,7 +190,12 @@ def object_face(scenario: Scenario) -> ObjectFace | None:
     )
 
 
-def check_start_outside(scenario: Scenario, start: np.ndarray) -> None:
+def check_start_outside(
+    scenario: Scenario,
+    start: np.ndarray,
+    starts: str = "the reference starts",
+    advice: str = "is the demonstration in the scenario's world frame?",
+) -> None:
     """Refuse a reference whose start puts the tool point below the punctured object's top
     face and over it: the tool would start inside the object or under it, where it could
     never come in through the face -- a reference in another frame than the world's, or
@@ -204,6 +209,10 @@ def check_start_outside(scenario: Scenario, start: np.ndarray) -> None:
         With an ArmTask; nothing is checked without a puncture.
     start : (3,) array
         The tool point's start, world [m] (the reference's first point).
+    starts : str, optional
+        What starts the tool point there, for the message (e.g. "probe.start_m puts").
+    advice : str, optional
+        What to look at, ending the message.
 
     Raises
     ------
@@ -218,11 +227,10 @@ def check_start_outside(scenario: Scenario, start: np.ndarray) -> None:
     if depth < AT_THE_FACE_M or not face.over(start):
         return
     raise InputError(
-        f"the reference starts the tool point at {_point(start)} m, {1000 * depth:.1f} mm "
+        f"{starts} the tool point at {_point(start)} m, {1000 * depth:.1f} mm "
         f"below the top face of '{scenario.task.puncture.object_frame}' (its centre at "
         f"{_point(face.point)} m) and over it: the tool would start inside or under the "
-        "object and could never come in through its face to tear it; is the demonstration "
-        "in the scenario's world frame?"
+        f"object and could never come in through its face to tear it; {advice}"
     )
 
 
