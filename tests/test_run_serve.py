@@ -301,6 +301,22 @@ def test_watchdogs_name_the_problem():
     )
 
 
+def test_a_client_answering_every_other_status_still_checks_and_logs_at_100_hz():
+    """A client that falls behind answers the newest status, which may be every second one:
+    its 100 Hz checks (and its logs, and its look for another client's commands) run at the
+    first answered tick of each log period, not only at ticks on the period's grid, which
+    it might never answer (seen in CI: no look for 64 commands, its own taken for
+    another's)."""
+    client, send, commands = _client_fed_by_hand()
+    send(0, client.q0)
+    time.sleep(0.002)
+    send(0, client.q0)
+    for k in range(1, 42, 2):  # statuses 1, 3, 5, ..., 41 ms: never a multiple of 10 ms
+        send(1000 * k, client.q0)
+    assert not client.done and len(commands) == 22
+    assert client.log_t == pytest.approx([0.0, 0.011, 0.021, 0.031, 0.041])
+
+
 def test_a_wrist_sensor_that_is_silent_or_goes_quiet_stops_the_commands():
     """The contact force comes from the wrist sensor (the default): with no wrench on its
     channel by the end of the start guard (a sensor missing, a channel misspelt) nothing

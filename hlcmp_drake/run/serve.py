@@ -249,6 +249,7 @@ class TorqueClient:
             self.theta,
         ).law.rates
         self._log_every = max(1, int(round(scenario.log_period_s / self.config.period_s)))
+        self._next_check_k = 0  # the tick index from which the next 100 Hz check is due
         self._state_check = plant_state_check(self.nq, scenario.max_abs_position_m)
         self._safety = arm_check(plant, scenario.task)
         # As arm_check tolerates; as floats, which the tick compares without an array.
@@ -619,8 +620,12 @@ class TorqueClient:
         self._last_utime = utime
         self._rate = result.law.rates
         # The simulated run's monitor and loggers read the wrist force at 100 Hz; so does this,
-        # after the command is out: a problem found stops the next command.
-        if k % self._log_every == 0:
+        # after the command is out: a problem found stops the next command. At the first
+        # answered tick from each log period on, not only at ticks on the period's grid: a
+        # client that falls behind and answers every other status would otherwise skip the
+        # checks, and the listener that tells its own commands from another client's.
+        if k >= self._next_check_k:
+            self._next_check_k = (k // self._log_every + 1) * self._log_every
             self._hear_other_clients()
             if self._check(t, torque_external, state, command, result):
                 self._log(t, k, state, result)
