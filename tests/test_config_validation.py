@@ -336,3 +336,60 @@ def test_a_scenario_name_that_is_no_plain_folder_name_is_refused_before_any_run(
     assert (tmp_path / "metrics.json").read_text() == "the user's own"
     line = one_line_error(run_cli("run", "one_dof", "--set", f"name={name}", cwd=tmp_path))
     assert line.startswith(f"hlcmp: error: override 'name={name}': name: "), line
+
+
+def test_the_models_are_parsed_once_for_loads_that_change_neither_them_nor_the_config(
+    monkeypatch,
+):
+    """Loads of one scenario share its checked plant; a weld moved by 1e-12 m, another
+    plant config, or a bundled model file that changed each parse the models anew."""
+    from hlcmp_drake.config import validation
+
+    parses = []  # of the scenario's models (a load parses the plant config alone too)
+    real = validation.process_directives
+
+    def counted(plant, directives, *args, **kwargs):
+        parses.extend([1] if directives else [])
+        return real(plant, directives, *args, **kwargs)
+
+    monkeypatch.setattr(validation, "process_directives", counted)
+    monkeypatch.setattr(validation, "_PARSED", type(validation._PARSED)())
+    load_scenario("peg_in_hole")
+    assert len(parses) == 1
+    seed = "task.ik_seed_rad=[0, 0.4, 0, -1.6, 0, 1.2, 0]"
+    load_scenario("peg_in_hole", ["duration_s=1.5", seed])
+    assert len(parses) == 1
+    scenario, _ = load_scenario("peg_in_hole")
+    weld = next(d.add_weld for d in scenario.directives if d.add_weld and d.add_weld.X_PC)
+    weld.X_PC.translation = weld.X_PC.translation + [1e-12, 0.0, 0.0]
+    validation.scenario_plant(scenario, fail=None)
+    assert len(parses) == 2
+    load_scenario("peg_in_hole", ["plant_config.penetration_allowance=0.002"])
+    assert len(parses) == 3
+    monkeypatch.setattr(validation, "bundled_models_version", lambda directives: ("edited",))
+    load_scenario("peg_in_hole")
+    assert len(parses) == 4
+
+
+def test_the_bundled_models_version_follows_every_file_and_only_bundled_models(
+    monkeypatch, tmp_path
+):
+    """A model file or a mesh rewritten changes the version; a directive that reads a file
+    outside the bundled models has none (its changes are not followed)."""
+    import os
+    import shutil
+
+    from hlcmp_drake.config import models
+    from hlcmp_drake.io.paths import MODELS_DIR
+
+    copy = tmp_path / "models"
+    shutil.copytree(MODELS_DIR, copy)
+    monkeypatch.setattr(models, "MODELS_DIR", copy)
+    scenario, _ = load_scenario("peg_in_hole")
+    before = models.bundled_models_version(scenario.directives)
+    assert before is not None and len(before) == len(list(MODELS_DIR.iterdir()))
+    mesh = copy / "peg_fixture.obj"
+    os.utime(mesh, ns=(mesh.stat().st_atime_ns, mesh.stat().st_mtime_ns + 1))
+    assert models.bundled_models_version(scenario.directives) != before
+    scenario.directives[0].add_model.file = f"file://{copy}/iiwa14.sdf"
+    assert models.bundled_models_version(scenario.directives) is None

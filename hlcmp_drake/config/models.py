@@ -5,6 +5,7 @@ and bodies that scenario fields hold."""
 from __future__ import annotations
 
 import re
+from stat import S_ISREG
 from typing import TYPE_CHECKING, Sequence
 
 from pydrake.geometry import CollisionFilterDeclaration, GeometrySet
@@ -246,6 +247,35 @@ def bundled_model_texts(
         else:
             return None
     return texts
+
+
+def bundled_models_version(directives: Sequence[ModelDirective]) -> tuple | None:
+    """What the models of `directives` are read from, as a value that changes when any of
+    it does: the name, size and modification time of every bundled model file (meshes
+    included), when the directives read no other file; else None.
+
+    Parameters
+    ----------
+    directives : sequence of ModelDirective
+
+    Returns
+    -------
+    tuple or None
+        None for an add_directives, or an add_model of a file that is not a bundled model
+        (package://hlcmp_drake/models/...): files whose changes this does not follow.
+    """
+    if any(
+        d.add_directives is not None
+        or (d.add_model is not None and not d.add_model.file.startswith(_BUNDLED))
+        for d in directives
+    ):
+        return None
+    files = []
+    for path in sorted(MODELS_DIR.rglob("*")):
+        stat = path.stat()
+        if S_ISREG(stat.st_mode):
+            files.append((str(path), stat.st_size, stat.st_mtime_ns))
+    return tuple(files)
 
 
 def bundled_model_text(add: AddModel) -> str | None:

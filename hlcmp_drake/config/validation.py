@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import dataclasses as dc
 import math
+import sys
+from collections import OrderedDict
 from functools import partial
 from pathlib import Path
 from typing import Any, Callable, Mapping
@@ -17,6 +19,7 @@ from pydrake.systems.framework import DiagramBuilder
 
 from hlcmp_drake.config.models import (
     DIRECTIVE_KINDS,
+    bundled_models_version,
     frame_problem,
     loading_problem,
     missing_model,
@@ -448,16 +451,44 @@ def check_simulator_config(config: SimulatorConfig, fail: Fail) -> None:
         )
 
 
+# The plants `_parsed` made last, by what they were made of: a sweep, a library or a
+# session loads many variants of one scenario, most with its models unchanged, and each
+# parse builds the foam's hydroelastic mesh again (a third of a load's time).
+_PARSED: OrderedDict[tuple, MultibodyPlant] = OrderedDict()
+PARSED_KEPT = 8
+
+
 def _parsed(
     config: MultibodyPlantConfig, directives: list, by_drake: bool = False
 ) -> MultibodyPlant:
     """A finalized plant (with a SceneGraph, so that collision filters are resolved) of
     `config` and `directives`; Drake's RuntimeError when it cannot be made (by_drake:
-    every directive processed by Drake, `process_directives`)."""
+    every directive processed by Drake, `process_directives`). The plant is shared by the
+    loads of the same config and directives while the bundled models' files are unchanged
+    (`_parsed_key`): its users only read it."""
+    key = _parsed_key(config, directives, by_drake)
+    if key is not None and key in _PARSED:
+        _PARSED.move_to_end(key)
+        return _PARSED[key]
     plant, scene_graph = AddMultibodyPlant(config, DiagramBuilder())
     process_directives(plant, directives, scene_graph, by_drake)
     plant.Finalize()
+    if key is not None:
+        _PARSED[key] = plant
+        if len(_PARSED) > PARSED_KEPT:
+            _PARSED.popitem(last=False)
     return plant
+
+
+def _parsed_key(config: MultibodyPlantConfig, directives: list, by_drake: bool) -> tuple | None:
+    """Everything `_parsed` reads, as a key: the config and the directives to the last bit
+    of every number (`repr` with numpy's shortest exact floats) and the bundled models'
+    files (`bundled_models_version`); None where a directive reads another file."""
+    models = bundled_models_version(directives)
+    if models is None:
+        return None
+    with np.printoptions(floatmode="unique", threshold=sys.maxsize):
+        return repr(config), tuple(map(repr, directives)), by_drake, models
 
 
 def _refused_directive(scenario: Scenario, problem: str) -> int:
