@@ -18,6 +18,7 @@ from conftest import one_line_error, run_cli, tiny, write_sweep
 
 from hlcmp_drake.config.loading import load_scenario_text
 from hlcmp_drake.config.sweep import load_sweep, plan_tasks
+from hlcmp_drake.core.kernels import numba_available
 from hlcmp_drake.run.sweep import plan_sweep, read_task_results, run_sweep, task_state
 from hlcmp_drake.run.sweep.engines import run_in_processes
 
@@ -657,17 +658,26 @@ def _imported(module):
     return module in sys.modules
 
 
+def _compiler_prepared(_):
+    from hlcmp_drake.core import kernels
+
+    return bool(kernels._numba)  # numba imported and its compiler set up (prepare_compiler)
+
+
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="spawned elsewhere")
 def test_local_workers_start_with_the_task_imports_and_the_pools_environment(monkeypatch):
     """Forked from the fork server, a worker has imported what tasks need before its first
-    (matplotlib's Agg backend, which nothing else imports here) and runs in the environment
+    (matplotlib's Agg backend and Figure, which nothing else imports here) and numba's
+    compiler set up (`worker_start`), and runs in the environment
     of its sweep's process when the pool was made, not of when the server started."""
     results = []
 
     def keep(item, result, error):
         results.append((item, result, error))
 
-    run_in_processes(_imported, ["matplotlib.backends.backend_agg"], 1, keep)
+    run_in_processes(_imported, ["matplotlib.backends.backend_agg", "matplotlib.figure"], 1, keep)
+    if numba_available():
+        run_in_processes(_compiler_prepared, ["numba"], 1, keep)
     monkeypatch.setenv("HLCMP_SWEEP_TEST", "set after the fork server started")
     run_in_processes(os.getenv, ["HLCMP_SWEEP_TEST"], 2, keep)
     # A variable the fork server's imports read when imported (matplotlib's, here): the
@@ -676,6 +686,8 @@ def test_local_workers_start_with_the_task_imports_and_the_pools_environment(mon
     run_in_processes(_imported, ["matplotlib.backends.backend_agg"], 1, keep)
     assert results == [
         ("matplotlib.backends.backend_agg", True, None),
+        ("matplotlib.figure", True, None),
+        *([("numba", True, None)] if numba_available() else []),
         ("HLCMP_SWEEP_TEST", "set after the fork server started", None),
         ("matplotlib.backends.backend_agg", False, None),
     ]

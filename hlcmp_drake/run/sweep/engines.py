@@ -48,6 +48,7 @@ WORKER_IMPORTS = (
     "hlcmp_drake.run.report",
     "numba",
     "matplotlib.backends.backend_agg",
+    "hlcmp_drake.run.sweep.worker_start",
 )
 
 
