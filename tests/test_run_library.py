@@ -88,17 +88,17 @@ def test_a_tiny_library_is_learned_indexed_and_resumed(tiny_library, tmp_path):
     assert partial.ran == ["depth_m=0.015"] and partial.already_done == 1
     assert partial.record == json.loads((out / "library.json").read_text())
 
-    more = build_library(tiny(tmp_path, trials=2), out, workers=2)
-    assert sorted(more.ran) == ["depth_m=0.01", "depth_m=0.015"]
-    assert all(e["metrics"]["trial"] == 2 for e in more.record["skills"])
-
     # Learned from the demonstration's force: relearned, and each skill says so.
-    forced = build_library(tiny(tmp_path, trials=2, demo_force=True), out, workers=2)
+    forced = build_library(tiny(tmp_path, demo_force=True), out, workers=2)
     assert sorted(forced.ran) == ["depth_m=0.01", "depth_m=0.015"]
     assert forced.record["demo_force"] is True
     for entry in forced.record["skills"]:
         metrics = json.loads((out / "skills" / entry["id"] / "metrics.json").read_text())
         assert metrics["feedforward_from_demo_force"] is True
+
+    more = build_library(tiny(tmp_path, trials=2, demo_force=True), out, workers=2)
+    assert sorted(more.ran) == ["depth_m=0.01", "depth_m=0.015"]
+    assert all(e["metrics"]["trial"] == 2 for e in more.record["skills"])
 
 
 @pytest.mark.slow

@@ -920,7 +920,7 @@ def test_a_driver_that_stops_ends_the_served_run_in_one_line(
             "--set",
             "iiwa_driver.stale_status_s=0.5",
             "--set",
-            f"iiwa_driver.first_status_timeout_s={2 if driver is None else 120}",
+            f"iiwa_driver.first_status_timeout_s={0.5 if driver is None else 120}",
         )
     finally:
         if driver is not None:
