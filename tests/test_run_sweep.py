@@ -693,6 +693,25 @@ def test_local_workers_start_with_the_task_imports_and_the_pools_environment(mon
     ]
 
 
+def _kernels_cache_folder(_):
+    from hlcmp_drake.core import kernels
+
+    kernels.numba_available()
+    return kernels._numba[0].config.CACHE_DIR
+
+
+@pytest.mark.skipif(not numba_available(), reason="the compiled path needs numba")
+def test_a_pool_made_after_the_cache_home_changed_compiles_into_the_new_one(monkeypatch, tmp_path):
+    """The fork server sets numba's compiler up, its cache folder under XDG_CACHE_HOME as
+    it was then: a pool made after it changed is spawned and files its kernels under the
+    new one, as a new process would."""
+    found = []
+    run_in_processes(_kernels_cache_folder, [0], 1, lambda *done: found.append(done[1]))
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    run_in_processes(_kernels_cache_folder, [0], 1, lambda *done: found.append(done[1]))
+    assert not found[0].startswith(str(tmp_path)) and found[1].startswith(str(tmp_path))
+
+
 SIGINT_PROBE = """\
 import os, signal
 with open(os.environ["SIGINT_PROBE"], "w") as record:

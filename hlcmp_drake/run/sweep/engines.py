@@ -105,9 +105,10 @@ def _alive(pid: int) -> bool:
 
 
 # Environment variables the fork server's imports read when imported (numba's, matplotlib's,
-# the BLAS thread pools', Drake's): a pool made after one of them changed is spawned, so
-# that its workers import under the new value, as they would in a new process.
-IMPORT_TIME_VARIABLES = ("NUMBA_", "MPL", "OMP_", "OPENBLAS_", "MKL_", "DRAKE_")
+# the BLAS thread pools', Drake's; the cache folders matplotlib and the kernels' compiler,
+# set up there, take from XDG_CACHE_HOME or HOME): a pool made after one of them changed is
+# spawned, so that its workers import under the new value, as they would in a new process.
+IMPORT_TIME_VARIABLES = ("NUMBA_", "MPL", "OMP_", "OPENBLAS_", "MKL_", "DRAKE_", "XDG_", "HOME")
 _fork_server_environment: list[dict] = []  # those variables when the fork server started
 
 
