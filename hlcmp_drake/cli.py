@@ -495,8 +495,8 @@ def _check_rolled_out(args, t, positions, quaternions, axes, tau):
     """Refuse (exit 2, nothing written) a rollout that would not read back as a
     demonstration, which `fit` and `learn` take it for: a position beyond the reader's
     bound (a goal's overshoot), or faster than a demonstration may move or turn (a far
-    --goal, a short --duration). A DMP's speeds scale as 1 / tau, so the shortest duration
-    that keeps within the bound is said."""
+    --goal or --goal-orientation, a short --duration). A DMP's speeds scale as 1 / tau, so
+    the shortest duration that keeps within the bound is said."""
     from hlcmp_drake.io.demos import (
         MAX_SPEED_M_PER_S,
         MAX_TURN_RATE_RAD_PER_S,
@@ -522,13 +522,24 @@ def _check_rolled_out(args, t, positions, quaternions, axes, tau):
             raise InputError(
                 f"{which}: the rolled-out path reaches {axis} = {farthest:.4g} m: {problem}"
             )
-    rates = [(fastest_speed(t, positions), MAX_SPEED_M_PER_S, "m/s", "move")]
+    # A nearer goal helps only where it sets what is too fast: --goal the path's speed,
+    # --goal-orientation its turn rate; a shorter --duration speeds up both.
+    rates = [(fastest_speed(t, positions), MAX_SPEED_M_PER_S, "m/s", "move", args.goal, "goal")]
     if quaternions is not None:
-        rates.append((fastest_turn_rate(t, quaternions), MAX_TURN_RATE_RAD_PER_S, "rad/s", "turn"))
-    for rate, bound, unit, verb in rates:
+        rates.append(
+            (
+                fastest_turn_rate(t, quaternions),
+                MAX_TURN_RATE_RAD_PER_S,
+                "rad/s",
+                "turn",
+                args.goal_orientation,
+                "goal orientation",
+            )
+        )
+    for rate, bound, unit, verb, goal_given, goal_name in rates:
         if rate > bound:
             shortest = math.ceil(100 * tau * rate / bound) / 100
-            nearer = "a nearer goal or " if args.goal or args.goal_orientation else ""
+            nearer = f"a nearer {goal_name} or " if goal_given else ""
             raise InputError(
                 f"{which}: the rolled-out path would {verb} at {rate:.3g} {unit} at its "
                 f"fastest, more than the {bound:g} {unit} a demonstration may {verb} (fit and "

@@ -99,6 +99,35 @@ def test_a_rollout_faster_than_a_demonstration_may_move_is_refused(tmp_path, smo
     assert run_cli("fit", out, "--out", tmp_path / "again.npz").returncode == 0
 
 
+def test_a_rollout_turning_faster_than_a_demonstration_may_turn_names_what_helps(tmp_path):
+    """A pose rollout refused for its turn rate said "give a nearer goal", as if it moved
+    too fast: a nearer goal orientation helps a turn (where one was given), a nearer
+    --goal does not; a longer --duration helps both."""
+    t, positions, quaternions, truth = tilted_turn(3)
+    demo = write_demo(
+        tmp_path / "pose.csv", t, np.hstack([positions, quaternions]), "t,x,y,z,qw,qx,qy,qz"
+    )
+    assert run_cli("fit", demo, "--out", tmp_path / "s.npz").returncode == 0
+    out = tmp_path / "r.csv"
+    rollout = ["rollout", tmp_path / "s.npz", "--out", out, "--duration", 0.3]
+    goal_orientation = ",".join(f"{v:.12g}" for v in truth(t[-1:])[0])
+    turning = r"the rolled-out path would turn at [\d.]+ rad/s at its fastest, more than the 15 "
+    turning += r"rad/s a demonstration may turn \(fit and learn refuse it\): give "
+    line = one_line_error(run_cli(*rollout, "--goal-orientation", goal_orientation))
+    assert re.fullmatch(
+        rf"hlcmp: error: --goal-orientation \S+, --duration 0.3: {turning}a nearer goal "
+        r"orientation or a --duration of at least [\d.]+ s",
+        line,
+    ), line
+    goal = ",".join(f"{v:.12g}" for v in positions[-1])
+    line = one_line_error(run_cli(*rollout, "--goal", goal))
+    assert re.fullmatch(
+        rf"hlcmp: error: --goal \S+, --duration 0.3: {turning}a --duration of at least [\d.]+ s",
+        line,
+    ), line
+    assert not out.exists()
+
+
 def test_a_rollout_overshooting_beyond_where_a_demonstration_may_be_is_refused(tmp_path):
     """A goal within the bound whose path overshoots it beyond (the demonstration went
     twice as far as where it ended) is refused as the goal itself would be."""
