@@ -501,7 +501,22 @@ grid:
             "path 'controllers.hlcmp.final_position': controllers.hlcmp has no 'final_position' "
             "(position_at_10s_m, final_position_m, reach_time_s, return_time_s, task)",
         ),
-        ("path: controllers.hlcpm.reach_time_s", "controllers has no 'hlcpm' (hlcmp)"),
+        (
+            "path: controllers.hlcpm.reach_time_s",
+            "path 'controllers.hlcpm.reach_time_s': the scenario has no controller 'hlcpm' (its "
+            "controllers: hlcmp, hlcmp_per_step, vic_fd_0.5, vic_fd_1.5, vic_fd_5.0; did you "
+            "mean 'hlcmp'?)",
+        ),
+        (
+            "path: controllers.vic_fd_2.final_position_m",
+            "the scenario has no controller 'vic_fd_2' (its controllers: hlcmp, hlcmp_per_step, "
+            "vic_fd_0.5, vic_fd_1.5, vic_fd_5.0; did you mean 'vic_fd_5.0'?)",
+        ),
+        (
+            "path: instability.pid.t_s",
+            "the scenario has no controller 'pid' (its controllers: hlcmp, hlcmp_per_step, "
+            "vic_fd_0.5, vic_fd_1.5, vic_fd_5.0)",
+        ),
         ("path: controllers.hlcmp", "controllers.hlcmp is a group (position_at_10s_m"),
         ("path: controller.hlcmp.reach_time_s", "metrics.json has no 'controller' (scenario,"),
         ("path: status.ok", "status is a single value, it has no 'ok'"),

@@ -5,6 +5,7 @@ tasks will write (`check_metrics`) before any of them runs."""
 from __future__ import annotations
 
 import dataclasses as dc
+import difflib
 from pathlib import Path
 
 from hlcmp_drake.config.sweep import (
@@ -196,6 +197,20 @@ def _left_out(outputs: TaskOutputs, rest: str) -> str | None:
     return f"'{label}' does not run: the sweep's `controllers` leaves it out (it runs {kept})"
 
 
+def _no_controller(outputs: TaskOutputs, rest: str) -> str | None:
+    """None when a path's `rest` (after `controllers.` or `instability.`) begins with a
+    controller that runs; else that the scenario has no such controller, naming its
+    controllers (those that run, then those the sweep leaves out) and the nearest one."""
+    running = list(outputs.metrics["controllers"])
+    if any(rest == n or rest.startswith(n + ".") for n in running):
+        return None
+    asked = rest.split(".")[0]
+    every = running + [n for n in outputs.left_out if n not in running]
+    nearest = difflib.get_close_matches(asked, every, n=1)
+    hint = f"; did you mean '{nearest[0]}'?" if nearest else ""
+    return f"the scenario has no controller '{asked}' (its controllers: {_names(every)}{hint})"
+
+
 def _walk(node: object, dotted: str) -> str | None:
     """None when the dotted path names one value in `node` (step by step as
     `path_step` reads it, and `results._lookup`); else what is wrong."""
@@ -250,14 +265,10 @@ def path_problem(outputs: TaskOutputs, path: str) -> str | None:
         if outputs.claims is not None and claim not in outputs.claims:
             return f"claims.{learner} has no '{claim}' ({_names(outputs.claims)})"
         return None
-    left_out = _left_out(outputs, rest) if head in ("controllers", "instability") else None
-    if left_out:
-        return left_out
-    if head == "instability":
-        labels = outputs.metrics["controllers"]
-        if not any(rest == n or rest.startswith(n + ".") for n in labels):
-            return f"instability has no '{rest.split('.')[0]}' ({_names(labels)})"
-        return None
+    if head in ("controllers", "instability") and rest:
+        problem = _left_out(outputs, rest) or _no_controller(outputs, rest)
+        if problem or head == "instability":
+            return problem
     known = {k: v for k, v in outputs.metrics.items() if k not in ("claims", "instability")}
     return _walk({**known, "claims": {}, "instability": {}} if head not in known else known, path)
 
