@@ -444,7 +444,8 @@ def _fit_remedy(basis, smoothing, samples):
 
 def cmd_rollout(args):
     from hlcmp_drake.core.demo_force import feedforward_along
-    from hlcmp_drake.io.demos import bound_problem, write_trajectory
+    from hlcmp_drake.core.dmp import rollout_times
+    from hlcmp_drake.io.demos import bound_problem, sampling_problem, write_trajectory
     from hlcmp_drake.io.skill import load_skill
 
     skill = load_skill(args.skill)
@@ -473,6 +474,13 @@ def cmd_rollout(args):
         )
     if tau / args.dt > 2_000_000:
         raise InputError(f"--dt {args.dt} s over {tau} s would write more than 2,000,000 samples")
+    # fit and learn read the trajectory as a demonstration: sampled as the reader demands
+    problem = sampling_problem(rollout_times(tau, None, args.dt, dmp.settings.alpha_s)[0])
+    if problem:
+        raise InputError(
+            f"--dt {args.dt:.15g} s over {tau:.15g} s: the rollout would not read back as a "
+            f"demonstration (fit and learn refuse it): {problem}"
+        )
     t, p, v, _, s = dmp.rollout(dt=args.dt, tau=tau)
     q = w = force = None
     if orientation is not None:

@@ -128,6 +128,38 @@ def test_a_rollout_turning_faster_than_a_demonstration_may_turn_names_what_helps
     assert not out.exists()
 
 
+@pytest.mark.parametrize(
+    "args, problem",
+    [
+        (["--dt", 0.3], "--dt 0.3 s over 2 s: 8 samples; a demonstration needs at least 10"),
+        (
+            ["--dt", 0.5, "--duration", 10],
+            "--dt 0.5 s over 10 s: its samples are 0.5 s apart (the median; t from 0 to 10 s): "
+            "a demonstration is sampled more often than every 0.5 s",
+        ),
+        (
+            ["--dt", 0.1, "--duration", 3700],
+            "--dt 0.1 s over 3700 s: it lasts 3700 s; a demonstration lasts at most 3600 s",
+        ),
+    ],
+)
+def test_a_rollout_the_demonstration_reader_would_refuse_is_not_written(
+    tmp_path, smooth_demo, args, problem
+):
+    """rollout wrote trajectories that fit and learn then refused as a demonstration: too
+    few samples, too far apart, too long. Refused in one line before anything is written."""
+    demo = write_demo(tmp_path / "demo.csv", *smooth_demo)
+    assert run_cli("fit", demo, "--out", tmp_path / "s.npz").returncode == 0
+    out = tmp_path / "r.csv"
+    line = one_line_error(run_cli("rollout", tmp_path / "s.npz", "--out", out, *args))
+    given, _, reason = problem.partition(": ")
+    assert line == (
+        f"hlcmp: error: {given}: the rollout would not read back as a demonstration (fit and "
+        f"learn refuse it): {reason}"
+    )
+    assert not out.exists()
+
+
 def test_a_rollout_overshooting_beyond_where_a_demonstration_may_be_is_refused(tmp_path):
     """A goal within the bound whose path overshoots it beyond (the demonstration went
     twice as far as where it ended) is refused as the goal itself would be."""
@@ -137,7 +169,7 @@ def test_a_rollout_overshooting_beyond_where_a_demonstration_may_be_is_refused(t
     assert run_cli("fit", demo, "--out", tmp_path / "s.npz").returncode == 0
     out = tmp_path / "r.csv"
     args = ["rollout", tmp_path / "s.npz", "--out", out, "--goal", "90", "--duration", 3000]
-    line = one_line_error(run_cli(*args, "--dt", 1))
+    line = one_line_error(run_cli(*args, "--dt", 0.25))
     assert re.fullmatch(
         r"hlcmp: error: --goal 90, --duration 3000: the rolled-out path reaches x = 1\d\d\.?\d* m: "
         r"positions are in metres, within 100 m of the world origin",

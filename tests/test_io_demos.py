@@ -104,8 +104,8 @@ def test_a_short_recording_with_its_time_in_milliseconds_is_refused_by_its_sampl
     with pytest.raises(InputError) as error:
         read_demonstration(path)
     assert str(error.value) == (
-        f"{path}: its samples are 4 s apart (the median; t from 0 to 2500 s): t is in seconds, "
-        "and a demonstration is sampled more often than every 0.5 s (a time in milliseconds?)"
+        f"{path}: its samples are 4 s apart (the median; t from 0 to 2500 s): a demonstration "
+        "is sampled more often than every 0.5 s; t is in seconds (a time in milliseconds?)"
     )
     t = 0.4 * np.arange(12)  # 2.5 Hz, sparse but in seconds
     assert len(read_demonstration(_write(path, t, 0.01 * t))[0]) == 12

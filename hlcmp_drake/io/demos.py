@@ -215,16 +215,11 @@ def read_demonstration(
     else:
         numbered = _numbered_lines(body, header_line + 1)
         data, numbers = _rows_one_by_one(path, numbered, header)
-    if len(data) < MIN_SAMPLES:
+    problem = sampling_problem(data[:, 0])  # its duration is held to the bound line by line
+    if problem:
+        sparse = len(data) >= MIN_SAMPLES  # sampled too seldom: t in another unit
         raise InputError(
-            f"{path}: {len(data)} samples; a demonstration needs at least {MIN_SAMPLES}"
-        )
-    period = float(np.median(np.diff(data[:, 0])))
-    if period >= MAX_SAMPLE_PERIOD_S:
-        raise InputError(
-            f"{path}: its samples are {period:g} s apart (the median; t from {data[0, 0]:g} to "
-            f"{data[-1, 0]:g} s): t is in seconds, and a demonstration is sampled more often "
-            f"than every {MAX_SAMPLE_PERIOD_S:g} s (a time in milliseconds?)"
+            f"{path}: {problem}" + ("; t is in seconds (a time in milliseconds?)" if sparse else "")
         )
     check_speed(path, data[:, 0], data[:, 1 : 1 + len(axes)], numbers)
     result: tuple = (data[:, 0], data[:, 1 : 1 + len(axes)], axes)
@@ -239,6 +234,34 @@ def read_demonstration(
         force = data[:, [header.index(name) for name in force_columns]]
         result += (force if force_columns else None,)
     return result + (list(numbers),) if with_lines else result
+
+
+def sampling_problem(t: np.ndarray) -> str | None:
+    """What keeps samples at times `t` from being a demonstration's, or None: fewer than
+    MIN_SAMPLES, a median period of MAX_SAMPLE_PERIOD_S or more, or longer than
+    MAX_DURATION_S. `read_demonstration` refuses such a file; `hlcmp rollout` refuses to
+    write one.
+
+    Parameters
+    ----------
+    t : (T,) array
+        Sample times [s], strictly increasing.
+
+    Returns
+    -------
+    str or None
+    """
+    if len(t) < MIN_SAMPLES:
+        return f"{len(t)} samples; a demonstration needs at least {MIN_SAMPLES}"
+    period = float(np.median(np.diff(t)))
+    if period >= MAX_SAMPLE_PERIOD_S:
+        return (
+            f"its samples are {period:g} s apart (the median; t from {t[0]:g} to {t[-1]:g} s): "
+            f"a demonstration is sampled more often than every {MAX_SAMPLE_PERIOD_S:g} s"
+        )
+    if t[-1] - t[0] > MAX_DURATION_S:
+        return f"it lasts {t[-1] - t[0]:g} s; a demonstration lasts at most {MAX_DURATION_S:g} s"
+    return None
 
 
 # What str.splitlines ends a line at, besides "\n" (and "\r\n").
