@@ -207,6 +207,32 @@ def test_a_rollouts_forcing_in_chunks_is_the_forcing_at_once(monkeypatch):
     assert dmp.forcing(0.5).shape == (2,)
 
 
+def test_every_fit_holds_the_demonstration_at_rest_over_the_one_settled_tail(monkeypatch):
+    """The position, orientation and force fits take the samples after tau from
+    `with_settled_tail` (the orientation's and the force's computed their own copy of it):
+    a longer TAIL_FRACTION there changes the weights of each."""
+    from hlcmp_drake.core.orientation_dmp import OrientationDmp
+    from hlcmp_drake.core.quaternion import from_rotation_vector
+
+    t = np.linspace(0.0, 2.0, 401)
+    positions = np.column_stack([np.sin(t), 0.2 * t**2])
+    quaternions = from_rotation_vector(np.outer(np.sin(t), [0.1, 0.3, 1.0]))
+    force = np.column_stack([np.cos(2 * t), t])
+    settings = DmpSettings(n_basis=20)
+
+    def weights():
+        return {
+            "position": Dmp.fit(t, positions, ("x", "z"), settings).theta_p,
+            "orientation": OrientationDmp.fit(t, quaternions, settings).theta,
+            "force": fit_feedforward_weights(t, force, settings),
+        }
+
+    usual = weights()
+    monkeypatch.setattr(dmp_module, "TAIL_FRACTION", 2 * dmp_module.TAIL_FRACTION)
+    longer = weights()
+    assert [fit for fit in usual if np.array_equal(usual[fit], longer[fit])] == []
+
+
 def test_the_fit_sample_count_is_the_resampled_demonstration_and_its_settled_end():
     """What `hlcmp fit` weighs its basis count against: 201 samples over 2 s and half as
     many more at rest; a recording at 50 Hz is resampled every 10 ms first."""

@@ -23,13 +23,13 @@ import numpy as np
 
 from hlcmp_drake.core.adaptation import compliant_profiles
 from hlcmp_drake.core.dmp import (
-    TAIL_FRACTION,
     DmpSettings,
     basis_centers_and_widths,
     fit_weights_in_chunks,
     normalized_basis,
     phase_at,
     resample_and_differentiate,
+    with_settled_tail,
 )
 
 
@@ -41,10 +41,11 @@ def fit_feedforward_weights(t: np.ndarray, force: np.ndarray, settings: DmpSetti
     The force is prepared as the positions are for theta_p (`Dmp.fit`): resampled to the
     same uniform grid, smoothed by the same zero-phase Gaussian (settings.smoothing_s),
     over the demonstration's duration tau with its phase s(t) = exp(-alpha_s t / tau); and
-    it is held at its last value for a further TAIL_FRACTION * tau, where the demonstration
-    rests (the positions' fit sees the forcing term vanish there), so the last basis
-    functions, which carry the profile after tau, hold the force the demonstration ends
-    with. Solved per axis by the regularized least squares of `fit_weights_in_chunks`.
+    it is held at its last value over the settled tail (`core.dmp.with_settled_tail`, a
+    further TAIL_FRACTION * tau), where the demonstration rests (the positions' fit sees the
+    forcing term vanish there), so the last basis functions, which carry the profile after
+    tau, hold the force the demonstration ends with. Solved per axis by the regularized
+    least squares of `fit_weights_in_chunks`.
 
     Parameters
     ----------
@@ -64,12 +65,9 @@ def fit_feedforward_weights(t: np.ndarray, force: np.ndarray, settings: DmpSetti
     """
     t = np.asarray(t, dtype=float)
     t_u, smoothed, _, _ = resample_and_differentiate(t, force, settings.smoothing_s)
-    tau = float(t_u[-1])
-    dt = t_u[1] - t_u[0]
-    t_tail = tau + dt * np.arange(1, int(TAIL_FRACTION * tau / dt) + 1)
-    s = phase_at(np.concatenate([t_u, t_tail]), tau, settings.alpha_s)
+    s = phase_at(with_settled_tail(t_u), float(t_u[-1]), settings.alpha_s)
     centers, widths = basis_centers_and_widths(settings.n_basis, settings.alpha_s)
-    targets = np.vstack([smoothed, np.repeat(smoothed[-1:], len(t_tail), axis=0)])
+    targets = np.vstack([smoothed, np.repeat(smoothed[-1:], len(s) - len(t_u), axis=0)])
     axes = targets.shape[1]
 
     def features_at(phases):  # g(s), the same for every axis

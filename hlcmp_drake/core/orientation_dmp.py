@@ -77,7 +77,6 @@ from hlcmp_drake.core import quaternion as quat
 from hlcmp_drake.core.dmp import (
     DEGENERATE_GOAL_FRACTION,
     FEATURE_CHUNK_VALUES,
-    TAIL_FRACTION,
     Dmp,
     DmpSettings,
     basis_centers_and_widths,
@@ -87,6 +86,7 @@ from hlcmp_drake.core.dmp import (
     rollout_times,
     solve_forcing_weights,
     step_transformation_system,
+    with_settled_tail,
 )
 
 # The axis names of `OrientationDmp.error_dmp`: the components of e.
@@ -208,7 +208,8 @@ def fit_trajectory_weights(
     e(0) plus sum_n theta_n Phi_n(t), Phi_n the response (from rest at 0) to the n-th
     column of Eq. 13's features. Those responses are stepped exactly as a rollout steps
     (`core.dmp.step_transformation_system`). As in `core.dmp.fit_demonstration_weights`,
-    the demonstration is extended by TAIL_FRACTION * tau held at its goal (e = 0).
+    the demonstration is extended by its settled tail (`core.dmp.with_settled_tail`), held
+    at its goal (e = 0).
 
     Parameters
     ----------
@@ -226,14 +227,13 @@ def fit_trajectory_weights(
         The weights [-].
     """
     tau, dt = float(t[-1]), t[1] - t[0]
-    t_tail = tau + dt * np.arange(1, int(TAIL_FRACTION * tau / dt) + 1)
-    s = phase_at(np.concatenate([t, t_tail]), tau, settings.alpha_s)
+    s = phase_at(with_settled_tail(t), tau, settings.alpha_s)
     centers, widths = basis_centers_and_widths(settings.n_basis, settings.alpha_s)
     alpha, beta, n = settings.alpha, settings.beta_value, settings.n_basis
     free, _ = step_transformation_system(
         error[0], np.zeros(3), np.zeros((len(s), 3)), tau, dt, alpha, beta
     )
-    target = np.concatenate([error, np.zeros((len(t_tail), 3))]) - free
+    target = np.concatenate([error, np.zeros((len(s) - len(t), 3))]) - free
     # The responses, stepped and summed into the normal equations chunk by chunk (those of
     # an hour at 1 kHz would take gigabytes at once); each chunk starts from the state the
     # one before ended in, at the sample they share, so the responses are those of one
