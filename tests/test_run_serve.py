@@ -166,13 +166,19 @@ def test_ctrl_c_while_serving_stops_it_and_writes_what_was_served(tmp_path, monk
     monkeypatch.setattr(TorqueClient, "_answer", answer_then_interrupt)
     out = tmp_path / "serve"
     args = ["serve", "insertion", "--lcm", "memq://", "--duration", "1", "--quiet"]
-    assert main([*args, "--out", str(out)]) == 130
+    # Python's own Ctrl-C handler, as in a terminal: a pytest started in the background by
+    # a shell without job control inherits SIGINT ignored, and Python then installs none.
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        assert main([*args, "--out", str(out)]) == 130
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # put back
+    finally:
+        signal.signal(signal.SIGINT, before)
     record = json.loads((out / "serve.json").read_text())
     assert record["status"] == "interrupted" and record["ticks"] == 100
     assert record["stopped_because"] == "Ctrl-C at t = 0.099 s"
     assert json.loads((out / "metrics.json").read_text())["status"] == "interrupted"
     assert len(np.load(out / "timeseries.npz")["t"]) == 10  # logged at 100 Hz up to then
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # put back
 
 
 def test_a_stale_status_stops_the_commands(tmp_path, monkeypatch):
