@@ -875,3 +875,20 @@ controllers: [hlcmp]
 metrics:
 - {{label: "final x [m]", path: controllers.hlcmp.final_position_m, digits: 4}}
 """
+
+
+def test_a_path_names_the_longest_controller_label_it_begins_with():
+    """Labels may hold dots: with vic_fd_1 left out and vic_fd_1.5 running, a path into
+    vic_fd_1.5 is vic_fd_1.5's, and the other way round it is the left-out one's."""
+    from hlcmp_drake.run.sweep.planning import TaskOutputs, path_problem
+
+    metrics = {"controllers": {"vic_fd_1.5": {"reach_time_s": 1.0}}}
+    outputs = TaskOutputs(metrics, {}, [], None, ["vic_fd_1"])
+    assert path_problem(outputs, "controllers.vic_fd_1.5.reach_time_s") is None
+    assert path_problem(outputs, "controllers.vic_fd_1.reach_time_s").startswith(
+        "'vic_fd_1' does not run"
+    )
+    outputs = TaskOutputs({"controllers": {"vic_fd_1": {}}}, {}, [], None, ["vic_fd_1.5"])
+    assert path_problem(outputs, "controllers.vic_fd_1.5.reach_time_s") == (
+        "'vic_fd_1.5' does not run: the sweep's `controllers` leaves it out (it runs vic_fd_1)"
+    )

@@ -187,25 +187,25 @@ def _names(node: dict) -> str:
     return ", ".join(node) or "nothing"
 
 
-def _left_out(outputs: TaskOutputs, rest: str) -> str | None:
-    """The left-out controller (`TaskOutputs.left_out`) a path's `rest` begins with, said
-    whole (a label may hold dots: vic_fd_1.5), or None."""
-    label = next((n for n in outputs.left_out if rest == n or rest.startswith(n + ".")), None)
-    if label is None:
-        return None
-    kept = _names(outputs.metrics["controllers"])
+def _left_out(label: str, running: list) -> str:
+    """That a controller the sweep leaves out does not run, and which run."""
+    kept = _names(running)
     return f"'{label}' does not run: the sweep's `controllers` leaves it out (it runs {kept})"
 
 
-def _no_controller(outputs: TaskOutputs, rest: str) -> str | None:
+def _controller_problem(outputs: TaskOutputs, rest: str) -> str | None:
     """None when a path's `rest` (after `controllers.` or `instability.`) begins with a
-    controller that runs; else that the scenario has no such controller, naming its
-    controllers (those that run, then those the sweep leaves out) and the nearest one."""
+    controller that runs; else that it is one the sweep leaves out (`TaskOutputs.left_out`),
+    or that the scenario has none such, naming its controllers (those that run, then those
+    left out) and the nearest one. A label may hold dots (vic_fd_1.5), so the longest of the
+    labels `rest` begins with is the one it names (vic_fd_1.5, not vic_fd_1)."""
     running = list(outputs.metrics["controllers"])
-    if any(rest == n or rest.startswith(n + ".") for n in running):
-        return None
-    asked = rest.split(".")[0]
     every = running + [n for n in outputs.left_out if n not in running]
+    named = [n for n in every if rest == n or rest.startswith(n + ".")]
+    if named:
+        label = max(named, key=len)
+        return None if label in running else _left_out(label, running)
+    asked = rest.split(".")[0]
     nearest = difflib.get_close_matches(asked, every, n=1)
     hint = f"; did you mean '{nearest[0]}'?" if nearest else ""
     return f"the scenario has no controller '{asked}' (its controllers: {_names(every)}{hint})"
@@ -266,7 +266,7 @@ def path_problem(outputs: TaskOutputs, path: str) -> str | None:
             return f"claims.{learner} has no '{claim}' ({_names(outputs.claims)})"
         return None
     if head in ("controllers", "instability") and rest:
-        problem = _left_out(outputs, rest) or _no_controller(outputs, rest)
+        problem = _controller_problem(outputs, rest)
         if problem or head == "instability":
             return problem
     known = {k: v for k, v in outputs.metrics.items() if k not in ("claims", "instability")}
@@ -288,7 +288,7 @@ def series_problem(outputs: TaskOutputs, metric: SweepMetric) -> str | None:
     controller, _, name = metric.series.partition("/")
     names = [key.split("/", 1)[1] for key in outputs.series if key.startswith(controller + "/")]
     if not names and controller in outputs.left_out:
-        return _left_out(outputs, controller)
+        return _left_out(controller, list(outputs.metrics["controllers"]))
     if not names:
         labels = list(dict.fromkeys(key.split("/", 1)[0] for key in outputs.series))
         return f"no controller '{controller}' runs in the tasks ({_names(labels)})"
