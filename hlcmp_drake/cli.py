@@ -445,7 +445,12 @@ def _fit_remedy(basis, smoothing, samples):
 def cmd_rollout(args):
     from hlcmp_drake.core.demo_force import feedforward_along
     from hlcmp_drake.core.dmp import rollout_times
-    from hlcmp_drake.io.demos import bound_problem, sampling_problem, write_trajectory
+    from hlcmp_drake.io.demos import (
+        as_written,
+        bound_problem,
+        sampling_problem,
+        write_trajectory,
+    )
     from hlcmp_drake.io.skill import load_skill
 
     skill = load_skill(args.skill)
@@ -474,11 +479,13 @@ def cmd_rollout(args):
         )
     if tau / args.dt > 2_000_000:
         raise InputError(f"--dt {args.dt} s over {tau} s would write more than 2,000,000 samples")
-    # fit and learn read the trajectory as a demonstration: sampled as the reader demands
-    problem = sampling_problem(rollout_times(tau, None, args.dt, dmp.settings.alpha_s)[0])
+    # fit and learn read the file as a demonstration: its times, as written, sampled as the
+    # reader demands
+    times = as_written(rollout_times(tau, None, args.dt, dmp.settings.alpha_s)[0])
+    problem = sampling_problem(times)
     if problem:
         raise InputError(
-            f"--dt {args.dt:.15g} s over {tau:.15g} s: the rollout would not read back as a "
+            f"a rollout of {tau:.15g} s at --dt {args.dt:.15g} s would not read back as a "
             f"demonstration (fit and learn refuse it): {problem}"
         )
     t, p, v, _, s = dmp.rollout(dt=args.dt, tau=tau)

@@ -129,22 +129,30 @@ def test_a_rollout_turning_faster_than_a_demonstration_may_turn_names_what_helps
 
 
 @pytest.mark.parametrize(
-    "args, problem",
+    "args, rollout, problem",
     [
-        (["--dt", 0.3], "--dt 0.3 s over 2 s: 8 samples; a demonstration needs at least 10"),
+        (["--dt", 0.3], "2 s at --dt 0.3 s", "8 samples; a demonstration needs at least 10"),
         (
             ["--dt", 0.5, "--duration", 10],
-            "--dt 0.5 s over 10 s: its samples are 0.5 s apart (the median; t from 0 to 10 s): "
-            "a demonstration is sampled more often than every 0.5 s",
+            "10 s at --dt 0.5 s",
+            "its samples are 0.5 s apart (the median; t from 0 to 10 s): a demonstration is "
+            "sampled more often than every 0.5 s",
+        ),
+        (  # the file's times have nine digits: 0.49999999999 is written 0.5
+            ["--dt", 0.49999999999, "--duration", 5],
+            "5 s at --dt 0.49999999999 s",
+            "its samples are 0.5 s apart (the median; t from 0 to 5 s): a demonstration is "
+            "sampled more often than every 0.5 s",
         ),
         (
             ["--dt", 0.1, "--duration", 3700],
-            "--dt 0.1 s over 3700 s: it lasts 3700 s; a demonstration lasts at most 3600 s",
+            "3700 s at --dt 0.1 s",
+            "it lasts 3700 s; a demonstration lasts at most 3600 s",
         ),
     ],
 )
 def test_a_rollout_the_demonstration_reader_would_refuse_is_not_written(
-    tmp_path, smooth_demo, args, problem
+    tmp_path, smooth_demo, args, rollout, problem
 ):
     """rollout wrote trajectories that fit and learn then refused as a demonstration: too
     few samples, too far apart, too long. Refused in one line before anything is written."""
@@ -152,10 +160,9 @@ def test_a_rollout_the_demonstration_reader_would_refuse_is_not_written(
     assert run_cli("fit", demo, "--out", tmp_path / "s.npz").returncode == 0
     out = tmp_path / "r.csv"
     line = one_line_error(run_cli("rollout", tmp_path / "s.npz", "--out", out, *args))
-    given, _, reason = problem.partition(": ")
     assert line == (
-        f"hlcmp: error: {given}: the rollout would not read back as a demonstration (fit and "
-        f"learn refuse it): {reason}"
+        f"hlcmp: error: a rollout of {rollout} would not read back as a demonstration (fit "
+        f"and learn refuse it): {problem}"
     )
     assert not out.exists()
 

@@ -769,6 +769,26 @@ def _check_header(path, line, header):
     return tuple(positions)
 
 
+# How `write_trajectory` writes each number: nine significant digits.
+WRITTEN = ".9g"
+
+
+def as_written(values: np.ndarray) -> np.ndarray:
+    """`values` as a file `write_trajectory` wrote reads them back (nine significant digits).
+
+    Parameters
+    ----------
+    values : array
+
+    Returns
+    -------
+    array
+        Of the same shape, float.
+    """
+    values = np.asarray(values, dtype=float)
+    return np.array([float(f"{v:{WRITTEN}}") for v in values.ravel()]).reshape(values.shape)
+
+
 def write_trajectory(
     path: str | Path,
     t: np.ndarray,
@@ -819,5 +839,5 @@ def write_trajectory(
     columns = [np.asarray(t)[:, None]]
     columns += [np.asarray(values) for _, values in groups if values is not None]
     data = np.hstack(columns)
-    body = "\n".join(",".join(f"{v:.9g}" for v in row) for row in data)
+    body = "\n".join(",".join(f"{v:{WRITTEN}}" for v in row) for row in data)
     return write_text(path, ",".join(header) + "\n" + body + "\n")
