@@ -393,3 +393,23 @@ def test_the_bundled_models_version_follows_every_file_and_only_bundled_models(
     assert models.bundled_models_version(scenario.directives) != before
     scenario.directives[0].add_model.file = f"file://{copy}/iiwa14.sdf"
     assert models.bundled_models_version(scenario.directives) is None
+    # A bundled URL that leads out of the models' folder reads a file it does not follow.
+    scenario.directives[0].add_model.file = "package://hlcmp_drake/models/../diagrams/x.sdf"
+    assert models.bundled_models_version(scenario.directives) is None
+
+
+def test_a_pose_that_repr_does_not_spell_out_is_parsed_anew():
+    """A weld's !DeterministicVector prints as its address, which a freed value's successor
+    may take: such directives are not kept (a moved fixture read the old pose)."""
+    from pydrake.common.schema import DeterministicVector, Transform
+
+    from hlcmp_drake.config import validation
+
+    scenario, _ = load_scenario("peg_in_hole")
+    weld = next(d.add_weld for d in scenario.directives if d.add_weld and d.add_weld.X_PC)
+    key = validation._parsed_key(scenario.plant_config, scenario.directives, False)
+    assert key is not None
+    pose = Transform()
+    pose.translation = DeterministicVector[3](value=[0.6005, 0.0, 0.3])
+    weld.X_PC = pose
+    assert validation._parsed_key(scenario.plant_config, scenario.directives, False) is None

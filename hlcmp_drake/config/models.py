@@ -262,14 +262,21 @@ def bundled_models_version(directives: Sequence[ModelDirective]) -> tuple | None
     -------
     tuple or None
         None for an add_directives, or an add_model of a file that is not a bundled model
-        (package://hlcmp_drake/models/...): files whose changes this does not follow.
+        (package://hlcmp_drake/models/..., inside that folder): files whose changes this
+        does not follow.
     """
-    if any(
-        d.add_directives is not None
-        or (d.add_model is not None and not d.add_model.file.startswith(_BUNDLED))
-        for d in directives
-    ):
-        return None
+    root = MODELS_DIR.resolve()
+    for d in directives:
+        if d.add_directives is not None:
+            return None
+        if (
+            d.add_model is not None
+            and not (
+                d.add_model.file.startswith(_BUNDLED)  # and not out of it: models/../elsewhere
+                and (MODELS_DIR / d.add_model.file[len(_BUNDLED) :]).resolve().is_relative_to(root)
+            )
+        ):
+            return None
     files = []
     for path in sorted(MODELS_DIR.rglob("*")):
         stat = path.stat()

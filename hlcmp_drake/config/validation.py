@@ -483,12 +483,18 @@ def _parsed(
 def _parsed_key(config: MultibodyPlantConfig, directives: list, by_drake: bool) -> tuple | None:
     """Everything `_parsed` reads, as a key: the config and the directives to the last bit
     of every number (`repr` with numpy's shortest exact floats) and the bundled models'
-    files (`bundled_models_version`); None where a directive reads another file."""
+    files (`bundled_models_version`); None where a directive reads another file or holds
+    a value that `repr` does not spell out."""
     models = bundled_models_version(directives)
     if models is None:
         return None
     with np.printoptions(floatmode="unique", threshold=sys.maxsize):
-        return repr(config), tuple(map(repr, directives)), by_drake, models
+        texts = repr(config), tuple(map(repr, directives))
+    # A value without a repr of its own (a schema's !DeterministicVector) shows its address,
+    # which another value may take once it is freed.
+    if " object at 0x" in str(texts):
+        return None
+    return *texts, by_drake, models
 
 
 def _refused_directive(scenario: Scenario, problem: str) -> int:
