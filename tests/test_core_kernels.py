@@ -324,3 +324,22 @@ def test_a_first_compile_is_said_once_before_the_wait(tmp_path):
     assert done.returncode == 0 and len(lines) == 1, done.stderr
     assert lines[0].startswith("hlcmp: compiling the controller's kernels with numba")
     assert str(tmp_path) in lines[0] and not [p for p in tmp_path.rglob("*") if p.is_file()]
+
+
+def test_the_compiler_set_up_in_advance_never_raises_and_skips_the_numpy_path(monkeypatch):
+    """The fork server imports it: a problem there (no home folder for the kernels' cache)
+    would end the server and every task, where a worker fails its task in one line."""
+    from hlcmp_drake.core import kernels
+
+    asked = []
+
+    def no_home():
+        asked.append(1)
+        raise RuntimeError("Could not determine home directory.")
+
+    monkeypatch.setattr(kernels, "numba_available", no_home)
+    kernels.prepare_compiler()
+    assert asked == [1]
+    monkeypatch.setenv(KERNEL_VARIABLE, "numpy")
+    kernels.prepare_compiler()
+    assert asked == [1]  # not even asked

@@ -125,9 +125,17 @@ def numba_available() -> bool:
 def prepare_compiler() -> None:
     """Set numba's compiler up now (its target's registries, about a quarter of a second a
     process), as a process's first compiled call would: in the local engine's fork server,
-    so that the workers forked from it start with it done. Nothing without numba."""
-    if numba_available():
-        _numba[0].njit(_next_float)(0.0)  # a function of its own: no kernel's cache is read
+    so that the workers forked from it start with it done. Nothing without numba or with
+    ``HLCMP_KERNEL=numpy``; and it never raises: a fork server that raised while it imports
+    would take every task with it, where a worker that meets the same problem fails its
+    task in one line."""
+    if os.environ.get(KERNEL_VARIABLE) == "numpy":
+        return
+    try:
+        if numba_available():
+            _numba[0].njit(_next_float)(0.0)  # a function of its own: no kernel's cache read
+    except Exception as problem:  # e.g. no home folder for the kernels' cache
+        _log.debug("numba's compiler not set up in advance: %s", problem)
 
 
 def _next_float(x: float) -> float:
