@@ -222,8 +222,28 @@ def as_finished(task, record, metrics=None):
     (run_dir / INPUTS_FILE).write_text(task.inputs_digest + "\n")
     (run_dir / "metrics.json").write_text(json.dumps(metrics or {"status": status}))
     if status == "ok":
-        (run_dir / "skill.npz").write_bytes(b"")
+        (run_dir / "skill.npz").write_bytes(_skill_bytes())
     (run_dir / TASK_RECORD).write_text(json.dumps(record))
+
+
+_SKILL_BYTES: list = []
+
+
+def _skill_bytes():
+    """A readable skill file (the insertion demonstration's untrained skill), made once."""
+    if not _SKILL_BYTES:
+        import tempfile
+
+        from hlcmp_drake.core.dmp import Dmp
+        from hlcmp_drake.io.demos import read_demonstration
+        from hlcmp_drake.io.skill import Skill, save_skill
+
+        t, positions, axes = read_demonstration(INSERTION_DEMO)
+        dmp = Dmp.fit(t, positions, axes, load_scenario("insertion")[0].dmp)
+        with tempfile.TemporaryDirectory() as folder:
+            path = save_skill(Path(folder) / "skill.npz", Skill.untrained(dmp))
+            _SKILL_BYTES.append(path.read_bytes())
+    return _SKILL_BYTES[0]
 
 
 def test_skills_that_ended_unstable_are_counted_apart_with_their_reasons(tmp_path, monkeypatch):
@@ -260,16 +280,21 @@ def test_skills_that_ended_unstable_are_counted_apart_with_their_reasons(tmp_pat
         assert lines[-1].endswith("library.json (1 skill)")
 
 
-def test_a_finished_skill_whose_file_is_lost_is_learned_again(tmp_path):
-    """A skill is finished only while library.json's files of it are there: its
+def test_a_finished_skill_whose_file_is_lost_or_damaged_is_learned_again(tmp_path):
+    """A skill is finished only while library.json's files of it are there and read: its
     metrics.json, and its skill.npz unless it went unstable (and saved none)."""
     ok, unstable = library_tasks(load_library_spec(tiny(tmp_path)), tmp_path / "L")
     record = {"trials": 1, "demo_force": False, "controller": "hlcmp"}
     as_finished(ok, {**record, "status": "ok"})
     as_finished(unstable, {**record, "status": "unstable"})
     assert skill_state(ok) == "done" and skill_state(unstable) == "done"
-    (Path(ok.run_dir) / "skill.npz").unlink()
+    skill = Path(ok.run_dir) / "skill.npz"
+    skill.write_bytes(skill.read_bytes()[: skill.stat().st_size // 2])  # damaged: generalize
+    assert skill_state(ok) == "stale"  # would refuse it
+    skill.unlink()
     assert skill_state(ok) == "stale"
+    (Path(unstable.run_dir) / "metrics.json").write_text("{")
+    assert skill_state(unstable) == "stale"
     (Path(unstable.run_dir) / "metrics.json").unlink()
     assert skill_state(unstable) == "stale"
 

@@ -40,6 +40,7 @@ from hlcmp_drake.config.loading import line_of, load_scenario, load_scenario_tex
 from hlcmp_drake.config.sweep import INPUTS_FILE
 from hlcmp_drake.io import outputs
 from hlcmp_drake.io.errors import InputError, located
+from hlcmp_drake.io.skill import load_skill
 from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.run.learning import learn, learning_scenario
 from hlcmp_drake.run.sweep.engines import (
@@ -117,7 +118,7 @@ def run_library_task_returning_files(task: LibraryTask) -> tuple[dict, dict]:
 
 def skill_state(task: LibraryTask) -> str:
     """ "done" (learned with the same scenario, trials and learner, and its files there),
-    "stale" (with others, or a file of it lost: learned again) or "pending".
+    "stale" (with others, or a file of it lost or damaged: learned again) or "pending".
 
     Parameters
     ----------
@@ -131,13 +132,26 @@ def skill_state(task: LibraryTask) -> str:
     # What library.json takes from a finished skill; only a stable one saved a skill.
     needed = ["metrics.json"] + (["skill.npz"] if record.get("status") == "ok" else [])
     if (
-        any(not (run_dir / name).is_file() for name in needed)
+        any(not _readable(run_dir / name) for name in needed)
         or not ran_with(run_dir, task.scenario_yaml, task.inputs_digest)
         or record.get("trials") != task.trials
         or record.get("demo_force", False) != task.demo_force
     ):
         return "stale"
     return "done" if _learned_by(record, task) == task.controller else "stale"
+
+
+def _readable(path: Path) -> bool:
+    """Whether a skill's metrics.json or skill.npz is there and reads (`generalize` reads
+    both)."""
+    try:
+        if path.suffix == ".npz":
+            load_skill(path)
+        else:
+            json.loads(path.read_text())
+    except (OSError, ValueError, InputError):
+        return False
+    return True
 
 
 def _learned_by(record: dict, task: LibraryTask) -> str | None:
