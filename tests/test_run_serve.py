@@ -151,9 +151,13 @@ def test_two_processes_over_udpm(tmp_path):
     assert_metrics_match(served, json.loads(json.dumps(simulated)))
 
 
-def test_ctrl_c_while_serving_stops_it_and_writes_what_was_served(tmp_path, monkeypatch):
-    """SIGINT after the 100th tick: the client stops there, between two ticks, and the run
-    up to then is written (serve.json says so); the command exits 130 as for any Ctrl-C."""
+@pytest.mark.parametrize("number, name", [(signal.SIGINT, "Ctrl-C"), (signal.SIGTERM, "SIGTERM")])
+def test_ctrl_c_or_sigterm_while_serving_stops_it_and_writes_what_was_served(
+    tmp_path, monkeypatch, number, name
+):
+    """SIGINT or SIGTERM (`kill`, `timeout`) after the 100th tick: the client stops there,
+    between two ticks, and the run up to then is written (serve.json says so); the command
+    exits 130 as for any Ctrl-C. (SIGTERM ended it at once, writing nothing.)"""
     from hlcmp_drake.cli import main
 
     answer = TorqueClient._answer
@@ -161,22 +165,24 @@ def test_ctrl_c_while_serving_stops_it_and_writes_what_was_served(tmp_path, monk
     def answer_then_interrupt(self, *status_and_receipt):
         answer(self, *status_and_receipt)
         if self.ticks == 100:
-            signal.raise_signal(signal.SIGINT)
+            signal.raise_signal(number)
 
     monkeypatch.setattr(TorqueClient, "_answer", answer_then_interrupt)
     out = tmp_path / "serve"
     args = ["serve", "insertion", "--lcm", "memq://", "--duration", "1", "--quiet"]
-    # Python's own Ctrl-C handler, as in a terminal: a pytest started in the background by
-    # a shell without job control inherits SIGINT ignored, and Python then installs none.
-    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    # Python's own handlers, as in a terminal: a pytest started in the background by a
+    # shell without job control inherits SIGINT ignored, and Python then installs none.
+    own = {signal.SIGINT: signal.default_int_handler, signal.SIGTERM: signal.SIG_DFL}
+    before = {n: signal.signal(n, handler) for n, handler in own.items()}
     try:
         assert main([*args, "--out", str(out)]) == 130
-        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # put back
+        assert {n: signal.getsignal(n) for n in own} == own  # put back
     finally:
-        signal.signal(signal.SIGINT, before)
+        for n, handler in before.items():
+            signal.signal(n, handler)
     record = json.loads((out / "serve.json").read_text())
     assert record["status"] == "interrupted" and record["ticks"] == 100
-    assert record["stopped_because"] == "Ctrl-C at t = 0.099 s"
+    assert record["stopped_because"] == f"{name} at t = 0.099 s"
     assert json.loads((out / "metrics.json").read_text())["status"] == "interrupted"
     assert len(np.load(out / "timeseries.npz")["t"]) == 10  # logged at 100 Hz up to then
 

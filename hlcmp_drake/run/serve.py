@@ -69,7 +69,7 @@ from hlcmp_drake.worlds.pose import LOGGED_REFERENCE
 # The statuses a served run may end with: "ok" (served its duration), "unstable" (a
 # safety watchdog), "stopped" (the driver or the wrist sensor went quiet, or sent something
 # unreadable), "degraded" (served to the end, missing too many ticks), "interrupted" (the
-# user stopped it, Ctrl-C: what was served up to then is written all the same).
+# user stopped it, Ctrl-C or SIGTERM: what was served up to then is written all the same).
 FINISHED, UNSAFE, STOPPED, DEGRADED = "ok", "unstable", "stopped", "degraded"
 INTERRUPTED = "interrupted"
 # Steps between statuses the period is measured over before a mismatch is called: the
@@ -958,33 +958,36 @@ def without_garbage_collection() -> Iterator[None]:
 
 @contextlib.contextmanager
 def interruptible(client: TorqueClient) -> Iterator[None]:
-    """Ctrl-C (SIGINT) while serving stops the client (INTERRUPTED) instead of ending the
-    command: on an arm it is how a run is stopped, and what was served up to then is
-    written. The handler only marks the client stopped, so the loop ends between two ticks
-    and no log is left half-appended. Elsewhere than in the main thread, where Python
-    takes no signal handler, Ctrl-C ends the command as usual; where SIGINT is ignored (a
-    process started in the background by a script) it stays ignored.
+    """Ctrl-C (SIGINT) or SIGTERM (`kill`, `timeout`, a service manager) while serving stops
+    the client (INTERRUPTED) instead of ending the command: on an arm it is how a run is
+    stopped, and what was served up to then is written. The handler only marks the client
+    stopped, so the loop ends between two ticks and no log is left half-appended. Elsewhere
+    than in the main thread, where Python takes no signal handler, either ends the command
+    as usual; a signal ignored when the process started (SIGINT for one started in the
+    background by a script) stays ignored.
 
     Parameters
     ----------
     client : TorqueClient
-        The client Ctrl-C stops.
+        The client the signals stop.
     """
-    if (
-        threading.current_thread() is not threading.main_thread()
-        or signal.getsignal(signal.SIGINT) is signal.SIG_IGN  # started with `&`: not ours
-    ):
+    if threading.current_thread() is not threading.main_thread():
         yield
         return
+    names = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM"}
 
     def stop(signum, frame):
-        client.stop(INTERRUPTED, f"Ctrl-C at t = {client.served_time():.3f} s")
+        client.stop(INTERRUPTED, f"{names[signum]} at t = {client.served_time():.3f} s")
 
-    previous = signal.signal(signal.SIGINT, stop)
+    previous = {}
+    for number in names:
+        if signal.getsignal(number) is not signal.SIG_IGN:  # not ours to take
+            previous[number] = signal.signal(number, stop)
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, previous)
+        for number, handler in previous.items():
+            signal.signal(number, handler)
 
 
 def write_served(
