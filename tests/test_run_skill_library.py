@@ -211,6 +211,43 @@ def test_a_library_over_the_skills_tau_regresses_it(tmp_path):
     assert 6.0 < skill.dmp.tau < 6.5 and isinstance(skill.dmp.tau, float)
 
 
+@pytest.mark.parametrize(
+    "method, extrapolate", [("regression", False), ("regression", True), ("nearest", False)]
+)
+def test_a_library_over_reference_duration_gives_the_querys_duration_as_tau(
+    tmp_path, method, extrapolate
+):
+    """Each skill of a library over reference.duration_s was saved at that duration: the
+    skill at a query has the query's tau, not a regression's near it (30 s gave 26.41 s)."""
+    key, durations = "reference.duration_s", [6.0, 8.5, 11.0]
+    dmp, entries = _dmp(tmp_path), []
+    for duration in durations:
+        values = smooth(duration / 1000.0, 90.0)
+        skill = Skill(dataclasses.replace(dmp, tau=duration), 100 * values, 10 * values, values)
+        identifier = f"duration_s={duration}"
+        save_skill(tmp_path / "L" / "skills" / identifier / "skill.npz", skill)
+        entries.append(
+            {"id": identifier, "query": {key: duration}, "skill": f"skills/{identifier}/skill.npz",
+             "metrics": {}}
+        )  # fmt: skip
+    record = {
+        "format_version": 1,
+        "scenario": "insertion",
+        "scenario_path": str(DIAGRAMS_DIR / "insertion.yaml"),
+        "set": {},
+        "trials": 1,
+        "parameters": [key],
+        "skills": entries,
+        "not_learned": [],
+    }
+    (tmp_path / "L" / "library.json").write_text(json.dumps(record))
+    query = 11.5 if extrapolate else 7.3
+    skill, _, _ = SkillLibrary.load(tmp_path / "L").generalize(
+        {key: query}, method=method, extrapolate=extrapolate
+    )
+    assert skill.dmp.tau == query and isinstance(skill.dmp.tau, float)
+
+
 def test_generalize_prints_the_length_scales(tmp_path):
     folder = write_library(tmp_path, *GRID)
     result = run_cli(

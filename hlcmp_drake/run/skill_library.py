@@ -39,7 +39,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from hlcmp_drake.config.library import SKILLS_DIR
+from hlcmp_drake.config.library import AS_DEMONSTRATED_AT_0, SKILLS_DIR
 from hlcmp_drake.config.loading import load_scenario, override_read_from
 from hlcmp_drake.config.world import world_of_scenario
 from hlcmp_drake.io.errors import InputError
@@ -403,6 +403,10 @@ class SkillLibrary:
         dmp_arrays = {f: prediction.mean[f] for f in DMP_FIELDS if f in prediction.mean}
         if "tau" in dmp_arrays:
             dmp_arrays["tau"] = float(dmp_arrays["tau"])
+        # A skill is saved at the tau it ran at, which over reference.duration_s is that
+        # task parameter itself: the query's value, where a regression only comes near it.
+        if AS_DEMONSTRATED_AT_0 in self.parameters:
+            dmp_arrays["tau"] = float(query[AS_DEMONSTRATED_AT_0])
         dmp = dc.replace(base.dmp, **dmp_arrays) if dmp_arrays else base.dmp
         try:
             scenario, _ = load_scenario(self.scenario_argument(), self.overrides(query))
