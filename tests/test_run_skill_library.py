@@ -67,13 +67,18 @@ def write_library(
                     "metrics": {},
                 }
             )
+    return write_record(tmp_path, [DEPTH, FRICTION], entries)
+
+
+def write_record(tmp_path, parameters, entries):
+    """The library.json of an insertion library over `parameters` with `entries`."""
     record = {
         "format_version": 1,
         "scenario": "insertion",
         "scenario_path": str(DIAGRAMS_DIR / "insertion.yaml"),
         "set": {},
         "trials": 1,
-        "parameters": [DEPTH, FRICTION],
+        "parameters": parameters,
         "skills": entries,
         "not_learned": [],
     }
@@ -230,19 +235,9 @@ def test_a_library_over_reference_duration_gives_the_querys_duration_as_tau(
             {"id": identifier, "query": {key: duration}, "skill": f"skills/{identifier}/skill.npz",
              "metrics": {}}
         )  # fmt: skip
-    record = {
-        "format_version": 1,
-        "scenario": "insertion",
-        "scenario_path": str(DIAGRAMS_DIR / "insertion.yaml"),
-        "set": {},
-        "trials": 1,
-        "parameters": [key],
-        "skills": entries,
-        "not_learned": [],
-    }
-    (tmp_path / "L" / "library.json").write_text(json.dumps(record))
+    folder = write_record(tmp_path, [key], entries)
     query = 11.5 if extrapolate else 7.3
-    skill, _, _ = SkillLibrary.load(tmp_path / "L").generalize(
+    skill, _, _ = SkillLibrary.load(folder).generalize(
         {key: query}, method=method, extrapolate=extrapolate
     )
     assert skill.dmp.tau == query and isinstance(skill.dmp.tau, float)
