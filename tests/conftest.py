@@ -31,9 +31,10 @@ DEMO_CSV = "t,x,y,z\n" + "".join(
 
 # --- the slow marker, and what stays on one worker ------------------------------------------
 
-# Tests that use a whole bundled scenario's run are slow (tens of seconds each). Every slow
-# test says so itself with @pytest.mark.slow; one that uses these runs and forgets is
-# still deselected by -m "not slow", and collecting it warns.
+# A test that takes about 1.5 s or more alone is slow (`pytest --durations`), so that
+# -m "not slow" stays a check to run after each change; the whole suite runs them all.
+# Every slow test says so itself with @pytest.mark.slow; one that uses a whole bundled
+# scenario's run (tens of seconds) and forgets is still deselected, and collecting it warns.
 SCENARIO_RUNS = {"one_dof_run", "insertion_run", "cutting_run"}
 
 # The costly fixtures, costliest first. pytest-xdist (-n, with --dist loadgroup) sends the

@@ -255,6 +255,7 @@ def test_an_arm_recording_draws_the_tool_frame_and_a_6d_run_its_desired_orientat
     assert b"/drake/runs/hlcmp/tool_desired" not in objects + animation  # no orientation task
 
 
+@pytest.mark.slow  # a real browser (about 2.5 s)
 def test_the_tool_triads_are_drawn_offline_in_chromium(peg_recording, tmp_path):
     page = tmp_path / "recording.html"
     page.write_text(peg_recording[1])

@@ -150,6 +150,7 @@ def test_the_pose_dmp_rows_show_both_sides_or_say_n_a():
     assert "(40 ms / n/a)" in text and text.count("n/a") >= 3
 
 
+@pytest.mark.slow  # a whole report, timed (about 2.0 s)
 def test_the_report_is_timed_in_a_folder_of_its_own(tmp_path):
     from hlcmp_drake.io.paths import DIAGRAMS_DIR
     from hlcmp_drake.run.benchmark import report_wall_s

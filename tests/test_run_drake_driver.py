@@ -72,6 +72,7 @@ def test_the_project_driver_reports_what_drakes_driver_reports():
     assert np.abs(moved.torque_commanded).max() > 10.0  # gravity compensation is in it
 
 
+@pytest.mark.slow  # two drivers serve the insertion in lockstep (about 1.6-1.9 s)
 @pytest.mark.parametrize("period", [0.001, 0.005])
 def test_drakes_driver_is_the_project_driver_with_a_command_one_plant_step_late(period):
     """The insertion's Hl-CMP served in lockstep by Drake's driver and by the project's with

@@ -682,6 +682,7 @@ def test_an_unstable_trial_says_why_and_when(tmp_path):
     )
 
 
+@pytest.mark.slow  # an insertion learned and reproduced with all their files (about 2.9 s)
 def test_reference_duration_is_checked_against_what_learn_and_reproduce_replay(tmp_path):
     """`--set reference.duration_s` rescales the user's demonstration (learn) or the skill
     (reproduce), not the scenario's 8.5 s one: 0.2 s replays the first second of the

@@ -61,6 +61,7 @@ def copy_of(tiny_library, folder):
     return spec, folder / "L"
 
 
+@pytest.mark.slow  # six learning runs in a pool of processes (about 7.5 s)
 def test_a_tiny_library_is_learned_indexed_and_resumed(tiny_library, tmp_path):
     spec, out = copy_of(tiny_library, tmp_path)
     record = json.loads((out / "library.json").read_text())
@@ -119,6 +120,7 @@ def test_the_ray_engine_learns_the_tiny_library_as_the_local_engine_does(tmp_pat
     assert build_library(tiny(tmp_path), tmp_path / "ray", workers=1).ran == []
 
 
+@pytest.mark.slow  # the tiny library, then the command twice (about 2.2 s)
 def test_the_command_prints_the_skills_and_a_rerun_says_nothing_was_relearned(
     tiny_library, tmp_path
 ):

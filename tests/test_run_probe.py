@@ -133,6 +133,7 @@ def _travel_where_axial_force_first_exceeds(out_dir, threshold):
     return travel[above[0]] if above.size else math.inf
 
 
+@pytest.mark.slow  # the peg pushed the whole depth of the hole (about 2.3 s)
 def test_a_peg_free_to_turn_about_its_tip_aligns_with_the_tilted_hole(tmp_path):
     readings = run_probe("peg_in_hole", tmp_path).readings
     assert readings["status"] == "ok"
@@ -142,6 +143,7 @@ def test_a_peg_free_to_turn_about_its_tip_aligns_with_the_tilted_hole(tmp_path):
     assert _travel_where_axial_force_first_exceeds(tmp_path, JAM_FORCE_N) == math.inf
 
 
+@pytest.mark.slow  # the peg pushed the whole depth of the hole (about 2.8 s)
 def test_a_peg_held_stiffly_in_rotation_jams_in_the_tilted_hole(tmp_path):
     overrides = ["probe.wrist_stiffness_Nm_per_rad=[100,100,100]"]  # the arm's hold today
     readings = run_probe("peg_in_hole", tmp_path, overrides=overrides).readings

@@ -203,6 +203,7 @@ def test_a_report_shows_an_arm_on_the_real_arm_beside_the_perfect_one(tmp_path):
     assert [task.probe for task in work] == [False] * len(perfect["controllers"]) + [True]
 
 
+@pytest.mark.slow  # the report twice, once in a process pool (about 3.0 s)
 def test_a_report_in_processes_writes_what_the_serial_one_writes(tmp_path):
     _reports_agree(tmp_path, {"jobs": 2})
 

@@ -99,6 +99,7 @@ def test_a_live_meshcat_shows_each_run_while_it_simulates(tmp_path):
     assert (tmp_path / "recording.html").exists()  # the offline recording is still written
 
 
+@pytest.mark.slow  # two runs with all their files (about 1.6 s)
 def test_a_reused_out_folder_loses_the_previous_runs_files_and_keeps_the_users(
     tmp_path, monkeypatch
 ):

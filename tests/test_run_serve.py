@@ -651,7 +651,13 @@ def test_serve_in_one_process_from_the_command_line(tmp_path, capsys):
 
 @pytest.mark.parametrize(
     "scenario_name, controller",
-    [("insertion", "const_500"), ("cutting", "hlcmp"), ("peg_in_hole", "const_6d_stiff")],
+    [
+        ("insertion", "const_500"),
+        ("cutting", "hlcmp"),
+        pytest.param(  # the peg simulated, then served (about 1.7 s)
+            "peg_in_hole", "const_6d_stiff", marks=pytest.mark.slow
+        ),
+    ],
 )
 def test_served_controller_equals_its_simulated_run(scenario_name, controller, tmp_path):
     """A constant impedance, the cutting's Hl-CMP and a constant 6-D impedance: served over
@@ -903,8 +909,12 @@ def test_statuses_queued_while_the_client_was_busy_do_not_fool_the_period():
     "driver_duration, ticks, reason",
     [
         (None, [0], "no status on IIWA_STATUS at udpm://"),  # no driver: it stopped before
-        (0.0005, [1], "no status for 500 ms (stale) at t = 0.000 s"),  # after the first tick
-        (0.3, [300, 301], "no status for 500 ms (stale) at t = 0.3"),  # mid-run
+        pytest.param(  # after the first tick; the watchdog waits 0.5 s (about 1.6 s)
+            0.0005, [1], "no status for 500 ms (stale) at t = 0.000 s", marks=pytest.mark.slow
+        ),
+        pytest.param(  # mid-run; the watchdog waits 0.5 s (about 1.7 s)
+            0.3, [300, 301], "no status for 500 ms (stale) at t = 0.3", marks=pytest.mark.slow
+        ),
     ],
 )
 def test_a_driver_that_stops_ends_the_served_run_in_one_line(

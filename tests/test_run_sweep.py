@@ -230,6 +230,7 @@ def _read_csv(path):
         return list(csv.DictReader(stream))
 
 
+@pytest.mark.slow  # a pool of two processes (about 2.1 s)
 def test_the_local_engine_runs_a_tiny_sweep_and_a_rerun_skips_it(tmp_path):
     out = tmp_path / "out"
     result = run_sweep(tiny(tmp_path), out, workers=2)
@@ -356,6 +357,7 @@ def _descendants(pid):
     return found
 
 
+@pytest.mark.slow  # a sweep in a process of its own, killed while its pool runs (about 2.9 s)
 @pytest.mark.skipif(
     not sys.platform.startswith("linux"), reason="the kernel's parent-death signal is Linux's"
 )
@@ -571,6 +573,7 @@ def test_a_path_into_a_list_names_one_element_by_its_index():
     )
 
 
+@pytest.mark.slow  # two peg runs in a pool of processes (about 2.8 s)
 def test_a_sweep_over_the_rotational_learning_rates_runs_with_the_6d_metrics(tmp_path):
     """peg_in_hole's hlcmp_6d for 0.1 s at two Q_kr: each task's table row holds the 6-D
     metrics of its own metrics.json and time series, and the larger Q_kr learns the
@@ -734,6 +737,7 @@ with open(os.environ["SIGINT_PROBE"], "w") as record:
 """
 
 
+@pytest.mark.slow  # a pool started in a Python process of its own (about 1.9 s)
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="spawned elsewhere")
 def test_the_fork_server_ignores_ctrl_c_while_it_imports(tmp_path):
     """Ctrl-C reaches the whole process group: the fork server, still importing what tasks
@@ -833,6 +837,7 @@ def test_a_pool_that_breaks_while_its_tasks_are_handed_out_fails_them_as_it_fail
     assert results == [(None, engines.NO_TASK_RAN)] * 3
 
 
+@pytest.mark.slow  # five sweeps, each with a process pool (about 3.2 s)
 def test_a_sweep_again_into_its_folder_removes_its_own_stale_plots_alone(tmp_path):
     """Sweeping another key into the same --out left the old key's plot beside the new
     one, and a sweep without a grid said it wrote plots/ where it wrote none: the plots of

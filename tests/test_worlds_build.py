@@ -51,6 +51,7 @@ def assert_paths_agree(scenario, first, second):
             assert abs(a[key] - b[key]) <= allowed, (controller, key, a[key], b[key])
 
 
+@pytest.mark.slow  # five controllers for 3 s on each path, the modular one slowly (about 4.7 s)
 def test_the_slider_runs_the_same_on_both_paths():
     """3 s of every 1-DOF controller (pressing into the object), fast and modular."""
     sets = ["duration_s=3.0"]
