@@ -218,7 +218,8 @@ BREAKS = [
     ("iiwa_driver.realtime_priority", lambda v, s: [-1, 100]),
     ("iiwa_driver.*", _number("> 0")),  # the periods, the timeouts and the tolerance
     # a robot that is not its model
-    ("robot_imperfection.*_mass_error", lambda v, s: [NAN, -1.0]),
+    # a fraction of the mass: -1 leaves none, 3 is 3 % typed as a percentage
+    ("robot_imperfection.*_mass_error", lambda v, s: [NAN, -1.0, 3.0]),
     ("robot_imperfection.tool_com_error_m", lambda v, s: [[0.0, 0.0], _with_nan(v)]),
     (
         "robot_imperfection.*_friction_*",  # one per joint of the plant (7 or 1), >= 0

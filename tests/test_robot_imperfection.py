@@ -289,7 +289,14 @@ def test_a_run_of_the_variant_reruns_from_its_record_with_the_variant_once(tmp_p
     [
         ("robot_imperfection.coulomb_friction_Nm=[0.1, 0.1]", "needs none or 7 values"),
         ("robot_imperfection.control_period_s=0.0025", "a whole number of plant steps"),
-        ("robot_imperfection.link_mass_error=-1", "must be finite and > -1"),
+        ("robot_imperfection.link_mass_error=-1", "must be a fraction of the mass from -0.5"),
+        # 3 % typed as a percentage: the model's links 4 times as heavy as the arm's
+        (
+            "robot_imperfection.link_mass_error=3",
+            r"^override 'robot_imperfection.link_mass_error=3': link_mass_error: must be a "
+            r"fraction of the mass from -0.5 to 0.5 \(0.03 for 3 %\), got 3$",
+        ),
+        ("robot_imperfection.tool_mass_error=0.51", "from -0.5 to 0.5"),
         ("robot_imperfection.force_noise_N=[0.1, -0.1, 0.1]", "finite and >= 0"),
         ("task.control_path=modular", "the fast control path"),
     ],

@@ -1300,6 +1300,12 @@ class IiwaDriverConfig:
             )
 
 
+# The largest relative error of the controller's model of a mass (link_mass_error,
+# tool_mass_error), either way: a model of this arm is a few percent off, and a value of 1
+# or more is most likely a percentage typed where the fraction goes.
+MAX_MASS_ERROR = 0.5
+
+
 @dc.dataclass
 class RobotImperfection:
     """A real iiwa's imperfections: a robot that is not its model (`hlcmp run` only; a
@@ -1336,10 +1342,12 @@ class RobotImperfection:
     Attributes
     ----------
     link_mass_error : float
-        The controller's model of every arm link's mass, relative to the arm's, minus 1:
-        finite and > -1. Default 0.
+        The controller's model of every arm link's mass, relative to the arm's, minus 1: a
+        fraction (-0.03: 3 % lighter), from -0.5 to 0.5 (`MAX_MASS_ERROR`). A model is a few
+        percent off (`real_arm`: 3 %, 5 %); one off by more than half the mass is not of
+        this arm, and 3 is most likely 3 % typed where the fraction goes. Default 0.
     tool_mass_error : float
-        The same for the tool's body (the body of `task.tool_frame`): finite and > -1.
+        The same for the tool's body (the body of `task.tool_frame`), in the same range.
         Default 0.
     tool_com_error_m : list of float
         Where the controller's model puts the tool's centre of mass, minus where it is,
@@ -1416,8 +1424,12 @@ class RobotImperfection:
         key = "robot_imperfection."
         for name in ("link_mass_error", "tool_mass_error"):
             value = getattr(self, name)
-            if not (math.isfinite(value) and value > -1):
-                fail(key + name, f"must be finite and > -1 (a mass stays positive), got {value}")
+            if not (math.isfinite(value) and abs(value) <= MAX_MASS_ERROR):
+                fail(
+                    key + name,
+                    f"must be a fraction of the mass from -{MAX_MASS_ERROR:g} to "
+                    f"{MAX_MASS_ERROR:g} (0.03 for 3 %), got {value:g}",
+                )
         check_vector(self.tool_com_error_m, key + "tool_com_error_m", fail, (3,), " (x, y, z) [m]")
         for name in ("viscous_friction_Nms_per_rad", "coulomb_friction_Nm"):
             for value in getattr(self, name):
