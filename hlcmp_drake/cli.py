@@ -839,21 +839,26 @@ def _not_learned_because(entry: dict) -> str:
 
 
 def _query(items):
-    """--query KEY=VALUE ... as {key: number}; a malformed or repeated one is bad input."""
+    """--query KEY=VALUE ... as {key: number}; a malformed or repeated one is bad input.
+    A value that is not one finite number (11mm, 0.011,0.012, nan) is named as the library
+    names a value it refuses: `--query KEY=VALUE: ...`."""
     query = {}
     for item in items:
         key, sep, text = item.partition("=")
-        key = key.strip()
+        key, text = key.strip(), text.strip()
         if not sep or not key:
             raise InputError(
                 f"--query {item}: expected KEY=VALUE, e.g. task.puncture.depth_m=0.011"
             )
         if key in query:
             raise InputError(f"--query {key}: given twice")
-        value = _floats(text.strip(), f"--query {key}")
-        if len(value) != 1:
-            raise InputError(f"--query {key}: expected one number, got '{text}'")
-        query[key] = value[0]
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not math.isfinite(value):
+            raise InputError(f"--query {key}={text}: expected one finite number")
+        query[key] = value
     return query
 
 

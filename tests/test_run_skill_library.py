@@ -280,9 +280,9 @@ def test_the_generalized_skill_keeps_the_demonstrations_force(tmp_path, force, k
         ([f"{DEPTH}=0.012", f"{FRICTION}=90", "duration_s=3"], "--query duration_s: the library "),
         ([f"{DEPTH}=0.012"], f"--query: missing {FRICTION}"),
         ([f"{DEPTH}=0.012", f"{FRICTION}=200"], "outside the library's range [60, 120]"),
-        ([f"{DEPTH}=0.012", f"{FRICTION}=abc"], "expected comma-separated numbers"),
+        ([f"{DEPTH}=0.012", f"{FRICTION}=abc"], f"--query {FRICTION}=abc: expected one finite "),
         ([f"{DEPTH}=0.012", f"{DEPTH}=0.013", f"{FRICTION}=90"], "given twice"),
-        ([f"{DEPTH}=0.012", f"{FRICTION}=nan"], "must be finite"),
+        ([f"{DEPTH}=0.012", f"{FRICTION}=nan"], f"--query {FRICTION}=nan: expected one finite "),
     ],
 )
 def test_a_bad_query_exits_2_with_one_line_and_writes_nothing(tmp_path, queries, expected):
@@ -291,6 +291,22 @@ def test_a_bad_query_exits_2_with_one_line_and_writes_nothing(tmp_path, queries,
     result = run_cli("generalize", folder, *args, "--out", tmp_path / "s.npz")
     assert expected in one_line_error(result)
     assert not (tmp_path / "s.npz").exists()
+
+
+@pytest.mark.parametrize("text", ["11mm", "0.011,0.012", "", "inf"])
+def test_a_query_value_that_is_not_one_number_is_refused_in_one_form(tmp_path, text):
+    """A unit typed with the value and two values read alike, as the library names a value
+    it refuses (`--query KEY=VALUE: ...`): they read "expected comma-separated numbers" and
+    "expected one number, got '0.011,0.012'", one naming the value and the other not."""
+    folder = write_library(tmp_path, *GRID)
+    args = ["--query", f"{DEPTH}={text}", "--query", f"{FRICTION}=90"]
+    result = run_cli("generalize", folder, *args, "--out", tmp_path / "s.npz")
+    assert one_line_error(result) == (
+        f"hlcmp: error: --query {DEPTH}={text}: expected one finite number"
+    )
+    assert not (tmp_path / "s.npz").exists()
+    with pytest.raises(InputError, match=rf"^--query {DEPTH}=nan: expected one finite number$"):
+        SkillLibrary.load(folder).query_vector({DEPTH: float("nan"), FRICTION: 90.0})
 
 
 def test_a_query_the_world_refuses_is_named_as_the_query(tmp_path):

@@ -316,7 +316,7 @@ class SkillLibrary:
         for j, key in enumerate(self.parameters):
             value = query[key]
             if not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise InputError(f"--query {key}={value}: must be a finite number")
+                raise InputError(f"--query {key}={value}: expected one finite number")
             low, high = float(self.lower[j]), float(self.upper[j])
             margin = EXTRAPOLATION_MARGIN * (high - low)
             if not low - margin <= value <= high + margin:
