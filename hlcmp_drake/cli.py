@@ -89,6 +89,19 @@ def _positive(text):
     return _number(text, 0.0, inclusive=False)
 
 
+class _Typed(float):
+    """A number read from the command line that keeps its text as typed (`text`), for a
+    message that names the option (`--duration 1e9`, not 1000000000.0)."""
+
+    text: str
+
+
+def _positive_as_typed(text):
+    value = _Typed(_positive(text))
+    value.text = text
+    return value
+
+
 def _non_negative(text):
     return _number(text, 0.0, inclusive=True)
 
@@ -666,6 +679,7 @@ def _say_foreign_folders(out_dir, foreign):
 
 
 def cmd_serve(args):
+    from hlcmp_drake.config.loading import OptionOverride
     from hlcmp_drake.io.skill import load_skill
     from hlcmp_drake.run.serve import serve_scenario
     from hlcmp_drake.run.sim_driver import DriverAbort
@@ -674,7 +688,11 @@ def cmd_serve(args):
     skill = load_skill(args.skill) if args.skill else None
     if args.any_scenario and skill is None:
         raise InputError("--any-scenario needs --skill: it lets a skill from another world serve")
-    overrides = list(args.set) + ([f"duration_s={args.duration}"] if args.duration else [])
+    overrides = list(args.set)
+    if args.duration:  # named --duration in a message, as typed
+        overrides.append(
+            OptionOverride(f"duration_s={float(args.duration)}", f"--duration {args.duration.text}")
+        )
     try:
         result = serve_scenario(
             args.scenario,
@@ -1232,7 +1250,9 @@ def build_parser():
         help="with --skill: serve a skill learned in another world (scenario) all the same",
     )
     serve.add_argument(
-        "--duration", type=_positive, help="seconds to serve (default the scenario's duration_s)"
+        "--duration",
+        type=_positive_as_typed,
+        help="seconds to serve (default the scenario's duration_s)",
     )
     serve.add_argument("--out", type=_path, help="output folder (default out/serve_SCENARIO)")
     serve.set_defaults(func=cmd_serve)

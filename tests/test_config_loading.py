@@ -7,7 +7,7 @@ import re
 import pytest
 from conftest import INSERTION_DEMO, mutations, one_line_error, run_cli
 
-from hlcmp_drake.config.loading import load_scenario
+from hlcmp_drake.config.loading import OptionOverride, load_scenario
 from hlcmp_drake.config.scenario import HlcmpConfig, VariableImpedanceConfig
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.io.paths import DIAGRAMS_DIR
@@ -292,6 +292,36 @@ def test_a_misspelt_override_names_the_nearest_field(override, nearest):
     part = override.split("=")[0].split(".")[-1]
     message = f"override '{override}': no field '{part}' in the scenario"
     assert str(error.value) == message + (f" (did you mean '{nearest}'?)" if nearest else "")
+
+
+@pytest.mark.parametrize(
+    "override, expected",
+    [
+        # refused by the validation, alone and among --set overrides of the same field
+        (
+            ["duration_s=1000000000.0"],
+            "--duration 1e9: duration_s: must be at most 3600 s, got 1e+09: ",
+        ),
+        (
+            ["duration_s=2", "log_period_s=0.02", "duration_s=1000000000.0"],
+            "--duration 1e9: duration_s: must be at most 3600 s, got 1e+09: ",
+        ),
+        (["duration_s=[1]"], "--duration 1e9: duration_s: "),  # by the schema, as it loads
+    ],
+)
+def test_an_option_that_stands_for_an_override_is_named_as_typed(override, expected):
+    """`hlcmp serve --duration 1e9` is the override duration_s=1000000000.0, which the user
+    never typed: a message names the option as typed, as an override is named as typed."""
+    import pickle
+
+    *typed, own = override
+    option = OptionOverride(own, "--duration 1e9")
+    assert pickle.loads(pickle.dumps(option)).typed == "--duration 1e9"
+    assert type(pickle.loads(pickle.dumps(option))) is OptionOverride
+    with pytest.raises(InputError) as error:
+        load_scenario("insertion", [*typed, option])
+    assert str(error.value).startswith(expected), str(error.value)
+    assert "override" not in str(error.value)
 
 
 @pytest.mark.parametrize(

@@ -417,6 +417,16 @@ def test_saturated_torques_stop_the_client_after_max_saturation_s():
             "has no controller 'nope'",
         ),
         (["serve", "insertion", "--lcm", "memq://", "--freeze"], "--freeze needs --skill"),
+        # --duration named as typed, not as an override 'duration_s=1000000000.0' never typed
+        (
+            ["serve", "insertion", "--lcm", "memq://", "--duration", "1e9"],
+            "hlcmp: error: --duration 1e9: duration_s: must be at most 3600 s, got 1e+09: ",
+        ),
+        (
+            ["serve", "insertion", "--lcm", "memq://", "--set", "duration_s=2"]
+            + ["--duration", "1e9"],
+            "hlcmp: error: --duration 1e9: duration_s: must be at most 3600 s, got 1e+09: ",
+        ),
         (
             [
                 "serve",

@@ -216,9 +216,10 @@ class _Source:
         self.notes = dict(notes or {})  # by override label: why its path was read where it was
 
     def blamed(self, label: str, problem: str) -> InputError:
-        """`override 'k=v': problem`, with the override's note when it has one."""
+        """`override 'k=v': problem` (or the option an `OptionOverride` stands for), with
+        the override's note when it has one."""
         note = self.notes.get(label)
-        return InputError(f"override '{label}': {problem}" + (f"; {note}" if note else ""))
+        return InputError(f"{_named(label)}: {problem}" + (f"; {note}" if note else ""))
 
     def overrides_of(self, dotted_key: str) -> list[tuple[str, str]]:
         """The overrides (label, key) that set `dotted_key`, a field in it or a section
@@ -452,7 +453,10 @@ def _parse_override(override) -> list[tuple[str, str, str]]:
             f"override '{override}': expected KEY=VALUE with a dotted KEY, "
             "e.g. controllers.hlcmp.q_k=[300,300,300]"
         )
-    return [(getattr(override, "typed", str(override)), key.strip(), value.strip())]
+    label = getattr(override, "typed", str(override))
+    if isinstance(override, OptionOverride):
+        label = _OptionLabel(label)
+    return [(label, key.strip(), value.strip())]
 
 
 # Scenario fields that name a file: a relative path in a scenario's file is read beside that
@@ -528,7 +532,23 @@ class TypedOverride(str):
         return override
 
     def __reduce__(self):  # pickled into a sweep's or a report's workers as it is
-        return (TypedOverride, (str(self), self.typed, self.why))
+        return (type(self), (str(self), self.typed, self.why))
+
+
+class OptionOverride(TypedOverride):
+    """An override that a command's own option stands for, e.g. `hlcmp serve --duration
+    1e9` for ``duration_s=1000000000.0``: a message names the option as it was typed
+    (`typed`, "--duration 1e9"), not an override the user never typed."""
+
+
+class _OptionLabel(str):
+    """The label of an `OptionOverride`: the option as typed."""
+
+
+def _named(label: str) -> str:
+    """How a message names an override by its label: `override 'KEY=VALUE'` as typed
+    after --set, or the option an `OptionOverride` stands for as typed."""
+    return str(label) if isinstance(label, _OptionLabel) else f"override '{label}'"
 
 
 def load_scenario(
@@ -835,18 +855,18 @@ def _overridden(scenario: Scenario, label: str, key: str, value: str) -> Scenari
         part, fields = error.args
         nearest = difflib.get_close_matches(part, fields, n=1)
         hint = f" (did you mean '{nearest[0]}'?)" if nearest else ""
-        raise InputError(f"override '{label}': no field '{part}' in the scenario{hint}") from None
+        raise InputError(f"{_named(label)}: no field '{part}' in the scenario{hint}") from None
     except InputError as error:
-        raise InputError(f"override '{label}': {error}") from None
+        raise InputError(f"{_named(label)}: {error}") from None
     misshapen = misshapen_value(data, Scenario)
     if misshapen:
-        raise InputError(f"override '{label}': {_leaf(misshapen[1])}: {misshapen[2]}")
+        raise InputError(f"{_named(label)}: {_leaf(misshapen[1])}: {misshapen[2]}")
     try:
         # yaml_load_typed reads into a copy of `defaults`: `scenario` stays as it was
         return yaml_load_typed(schema=Scenario, data=data, defaults=scenario)
     except Exception as error:
         message = " ".join(str(getattr(error, "problem", None) or error).split())
-        raise InputError(f"override '{label}': {message}") from None
+        raise InputError(f"{_named(label)}: {message}") from None
 
 
 # Whether the files alone make a valid scenario, by their texts: a command with a bad
