@@ -768,13 +768,29 @@ def cmd_sim_driver(args):
     except DriverAbort as error:
         print(f"hlcmp sim-driver: aborted: {error}", file=sys.stderr)
         return EXIT_DRIVER_ABORT
-    late = f", {summary.late_steps} late" if args.realtime else ""
-    print(
-        f"sim-driver: {summary.steps} steps ({summary.commanded_steps} commanded, "
-        f"{summary.held_steps} held{late}), "
-        f"{summary.sim_time_s:.3f} s simulated in {summary.wall_s:.1f} s; {summary.stopped_because}"
-    )
+    print(_driver_summary(summary, args))
     return 0
+
+
+def _driver_summary(summary, args):
+    """sim-driver's line: the steps a command acted in, held, still waiting out
+    --command-delay (and late, in real time); and, where no command acted, that it did not."""
+    waiting = summary.steps - summary.commanded_steps - summary.held_steps
+    counts = [f"{summary.commanded_steps} commanded", f"{summary.held_steps} held"]
+    if waiting:
+        counts.append(f"{waiting} waiting out --command-delay {args.command_delay}")
+    if args.realtime:
+        counts.append(f"{summary.late_steps} late")
+    line = (
+        f"sim-driver: {summary.steps} steps ({', '.join(counts)}), {summary.sim_time_s:.3f} s "
+        f"simulated in {summary.wall_s:.1f} s; {summary.stopped_because}"
+    )
+    if waiting and not summary.commanded_steps:
+        line += (
+            f"; no command acted: --command-delay {args.command_delay} "
+            f"({summary.command_delay_s:g} s of plant steps) is longer than the run"
+        )
+    return line
 
 
 def _drake_driver(args):

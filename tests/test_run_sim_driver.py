@@ -10,9 +10,27 @@ from pydrake.lcm import DrakeLcm
 
 from hlcmp_drake.config.loading import load_scenario
 from hlcmp_drake.io.iiwa_lcm import (
+    decode_status,
     encode_torque_command,
 )
 from hlcmp_drake.run.sim_driver import DriverAbort, SimulatedIiwaDriver
+
+UDPM = "udpm://239.255.76.67:7667?ttl=0"
+
+
+def answering_client(lcm, scenario, until_utime, on_answer=None):
+    """A client on `lcm` that answers each status stamped before `until_utime` with a zero
+    torque command, and then goes quiet; `on_answer(utime)` after each answer."""
+
+    def answer(data):
+        utime = decode_status(data, 7).utime
+        if utime < until_utime:
+            command = encode_torque_command(utime, np.zeros(7), np.zeros(7))
+            lcm.Publish(scenario.iiwa_driver.command_channel, command)
+            if on_answer is not None:
+                on_answer(utime)
+
+    lcm.Subscribe(scenario.iiwa_driver.status_channel, answer)
 
 
 def test_the_driver_aborts_on_a_command_within_its_start_guard():
@@ -84,8 +102,85 @@ def test_a_command_delay_is_checked_against_duration_only_when_there_is_one(monk
         raise Opened(url)
 
     monkeypatch.setattr("hlcmp_drake.run.sim_driver.open_lcm", open_lcm)
-    url = "udpm://239.255.76.67:7667?ttl=0"
+    url = UDPM
     with pytest.raises(Opened):  # past every check of its input: 100 s of delay
         run_sim_driver("insertion", url, command_delay_steps=100_000)
     with pytest.raises(InputError, match=r"^--command-delay 2000: 2 s of plant steps must be "):
         run_sim_driver("insertion", url, duration=2.0, command_delay_steps=2000)
+
+
+def test_a_command_delay_is_checked_against_the_steps_duration_runs(monkeypatch):
+    """--duration ends at the whole period nearest it: --duration 0.0104 runs 10 periods
+    of 1 ms, so a delay of 10 plant steps (0.01 s, shorter than 0.0104 s) was taken, and no
+    command acted."""
+    from hlcmp_drake.io.errors import InputError
+    from hlcmp_drake.run.sim_driver import run_sim_driver
+
+    class Opened(Exception):
+        pass
+
+    def open_lcm(url):
+        raise Opened(url)
+
+    monkeypatch.setattr("hlcmp_drake.run.sim_driver.open_lcm", open_lcm)
+    with pytest.raises(Opened):
+        run_sim_driver("insertion", UDPM, duration=0.0104, command_delay_steps=9)
+    with pytest.raises(
+        InputError,
+        match=r"^--command-delay 10: 0.01 s of plant steps must be shorter than the run "
+        r"\(0.01 s, --duration 0.0104 s to whole periods\)$",
+    ):
+        run_sim_driver("insertion", UDPM, duration=0.0104, command_delay_steps=10)
+    with pytest.raises(Opened):  # no step, but no delay either: a driver that stops at once
+        run_sim_driver("insertion", UDPM, duration=0.0005)
+
+
+@pytest.mark.parametrize("delay, commanded", [(0, 50), (20, 30), (50, 0), (1000, 0)])
+def test_only_the_steps_a_command_acted_in_count_as_commanded(monkeypatch, delay, commanded):
+    """A client answers the statuses of the first 50 ms: with --command-delay N the first
+    N plant steps (1 ms periods) run before its first command acts. They counted as
+    commanded, so a delay longer than the run reported every step commanded."""
+    from hlcmp_drake.run.sim_driver import drive
+
+    monkeypatch.setattr("hlcmp_drake.run.sim_driver.START_COMMAND_GUARD_S", 0.0)
+    scenario, _ = load_scenario("insertion", ["duration_s=1.0"])
+    lcm = DrakeLcm("memq://")
+    driver = SimulatedIiwaDriver(scenario, lcm, command_delay_steps=delay)
+    answering_client(lcm, scenario, until_utime=50_000)
+    summary = drive(driver, lcm, idle_timeout_s=0.1)
+    assert summary.steps == 50 and summary.held_steps == 0
+    assert summary.commanded_steps == commanded
+    assert summary.command_delay_s == pytest.approx(delay * 0.001)
+
+
+def test_the_summary_says_when_no_command_acted(monkeypatch):
+    """Without --duration the run's length is the client's, unknown up front: a delay
+    longer than it is taken, and the summary says that no command acted (it said every
+    step was commanded, and exited 0 like its client)."""
+    from conftest import run_cli
+
+    monkeypatch.setattr("hlcmp_drake.run.sim_driver.START_COMMAND_GUARD_S", 0.0)
+    scenario, _ = load_scenario("insertion")
+
+    def open_lcm(url):
+        lcm = DrakeLcm("memq://")
+        answering_client(lcm, scenario, until_utime=50_000)
+        return lcm
+
+    monkeypatch.setattr("hlcmp_drake.run.sim_driver.open_lcm", open_lcm)
+    args = ["sim-driver", "insertion", "--lcm", UDPM, "--idle-timeout", "0.1", "--quiet"]
+    result = run_cli(*args, "--command-delay", "100")
+    assert result.returncode == 0, result.stderr
+    line = result.stdout.strip()
+    assert line.startswith(
+        "sim-driver: 50 steps (0 commanded, 0 held, 50 waiting out --command-delay 100), "
+        "0.050 s simulated in "
+    )
+    assert line.endswith(
+        "; the client stopped answering at t = 0.050 s (no command for 0.1 s); no command "
+        "acted: --command-delay 100 (0.1 s of plant steps) is longer than the run"
+    )
+    acted = run_cli(*args, "--command-delay", "20").stdout.strip()
+    assert acted.startswith("sim-driver: 50 steps (30 commanded, 0 held, 20 waiting out ")
+    assert "no command acted" not in acted
+    assert run_cli(*args).stdout.startswith("sim-driver: 50 steps (50 commanded, 0 held), ")

@@ -23,6 +23,7 @@ its status on, or `command_delay_steps` plant steps later (1: Drake's simulated 
 from __future__ import annotations
 
 import dataclasses as dc
+import math
 import time
 from typing import Sequence
 
@@ -64,9 +65,11 @@ class DriverAbort(Exception):
 
 @dc.dataclass
 class DriverSummary:
-    """How a `drive` ended: steps simulated (with a command, holding; in real time, the
-    steps that started more than a period late), the simulated and wall time, and why it
-    stopped."""
+    """How a `drive` ended: steps simulated (those a command acted in, those the driver
+    held the arm in; in real time, the steps that started more than a period late), the
+    simulated and wall time, and why it stopped. A step of neither kind had its command
+    still waiting out `command_delay_s`, the arm under gravity compensation and the torque
+    in force before it (none, or the hold's)."""
 
     steps: int
     commanded_steps: int
@@ -75,6 +78,7 @@ class DriverSummary:
     sim_time_s: float
     wall_s: float
     stopped_because: str
+    command_delay_s: float = 0.0
 
 
 class SimulatedIiwaDriver:
@@ -114,16 +118,12 @@ class SimulatedIiwaDriver:
         self.config = scenario.iiwa_driver
         step = scenario.plant_config.time_step
         self.period = self.config.period_s
-        if step <= 0 or abs(self.period / step - round(self.period / step)) > 1e-9:
-            raise InputError(
-                f"{scenario.name}: iiwa_driver.period_s = {self.period} s must be a whole number "
-                f"of plant steps (plant_config.time_step = {step} s)"
-            )
+        steps_per_period = plant_steps_per_period(scenario)
         if command_delay_steps < 0:
             raise InputError(f"--command-delay {command_delay_steps}: expected 0 or more steps")
         self.command_delay_steps = command_delay_steps
         self._plant_step = step
-        self._steps_per_period = int(round(self.period / step))
+        self._steps_per_period = steps_per_period
         self._lcm = lcm
         setup = setup or world.prepare(scenario, None)
         assert world.build_driven is not None
@@ -149,6 +149,7 @@ class SimulatedIiwaDriver:
         )
         self.nv = self.plant.num_velocities()
         self._applied = np.zeros(self.nv)  # the torque in force (a command's or the hold's)
+        self._commanding = False  # whether _applied is a command's
         self._pending: list[tuple[int, np.ndarray]] = []  # (the plant step it acts from, torque)
         self._hold = None
         self._plant_steps = 0
@@ -163,6 +164,11 @@ class SimulatedIiwaDriver:
     def time(self) -> float:
         """The simulated time [s]."""
         return self._context.get_time()
+
+    @property
+    def command_delay_s(self) -> float:
+        """`command_delay_steps` in simulated time [s]."""
+        return self.command_delay_steps * self._plant_step
 
     def publish_status(self) -> None:
         """Publish the wrist sensor's wrench and the arm's status at the present time."""
@@ -216,7 +222,7 @@ class SimulatedIiwaDriver:
         gravity = -self.plant.CalcGravityGeneralizedForces(self._context)
         return np.clip(torque + gravity, -self._limits, self._limits)
 
-    def step(self, torque: np.ndarray | None) -> None:
+    def step(self, torque: np.ndarray | None) -> bool:
         """Advance one period with `torque` on top of gravity compensation (recomputed
         every plant step), from `command_delay_steps` plant steps on, or (None) hold the
         arm where it is with the driver's joint PD.
@@ -225,6 +231,12 @@ class SimulatedIiwaDriver:
         ----------
         torque : (nv,) array or None
             The command's joint torques [N m].
+
+        Returns
+        -------
+        bool
+            Whether a command's torques acted in a plant step of this period (not while
+            every command was still waiting out the delay, nor while holding).
 
         Raises
         ------
@@ -237,14 +249,18 @@ class SimulatedIiwaDriver:
             self._hold = q.copy() if self._hold is None else self._hold
             self._pending.clear()
             self._applied = -HOLD_KP * (q - self._hold) - HOLD_KD * v
+            self._commanding = False
         else:
             self._hold = None
             self._pending.append(
                 (self._plant_steps + self.command_delay_steps, np.asarray(torque, dtype=float))
             )
+        acted = False
         for _ in range(self._steps_per_period):
             while self._pending and self._pending[0][0] <= self._plant_steps:
                 self._applied = self._pending.pop(0)[1]
+                self._commanding = True
+            acted = acted or self._commanding
             self._actuation.FixValue(context, self._joint_torque(self._applied))
             # To a whole number of plant steps, as Drake times them: t + step could land a
             # rounding error past a step and take it too.
@@ -260,6 +276,68 @@ class SimulatedIiwaDriver:
                 raise DriverAbort(f"the world stopped at t = {self.time:.3f} s: {status.message()}")
         if not np.all(np.isfinite(plant.GetPositionsAndVelocities(context))):
             raise DriverAbort(f"the simulated arm's state is not finite at t = {self.time:.3f} s")
+        return acted
+
+
+def plant_steps_per_period(scenario: Scenario) -> int:
+    """The plant steps in one of the driver's periods (`iiwa_driver.period_s`).
+
+    Parameters
+    ----------
+    scenario : Scenario
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    InputError
+        For a period that is not a whole number of plant steps.
+    """
+    step, period = scenario.plant_config.time_step, scenario.iiwa_driver.period_s
+    if step <= 0 or abs(period / step - round(period / step)) > 1e-9:
+        raise InputError(
+            f"{scenario.name}: iiwa_driver.period_s = {period} s must be a whole number "
+            f"of plant steps (plant_config.time_step = {step} s)"
+        )
+    return int(round(period / step))
+
+
+def _reached(time_s: float, duration: float, period: float) -> bool:
+    """Whether `drive` stops at `time_s` for `duration`: at the whole period nearest it."""
+    return time_s >= duration - period / 2
+
+
+def periods_to(duration: float, period: float, steps_per_period: int, plant_step: float) -> int:
+    """The periods `drive` simulates to `duration` (the whole number nearest it), counted as
+    it counts them, the simulated time a whole number of plant steps.
+
+    Parameters
+    ----------
+    duration : float
+        --duration [s].
+    period : float
+        The driver's period [s].
+    steps_per_period : int
+        Plant steps in a period.
+    plant_step : float
+        The plant's step [s].
+
+    Returns
+    -------
+    int
+    """
+
+    def time_after(periods: int) -> float:
+        return periods * steps_per_period * plant_step
+
+    periods = max(0, math.ceil((duration - period / 2) / period))
+    while periods > 0 and _reached(time_after(periods - 1), duration, period):
+        periods -= 1
+    while not _reached(time_after(periods), duration, period):
+        periods += 1
+    return periods
 
 
 def wait_for_first_command(driver: SimulatedIiwaDriver, lcm: DrakeLcm, timeout_s: float) -> None:
@@ -334,11 +412,11 @@ def drive(
     )
     wait_for_first_command(driver, lcm, first_command_timeout_s)
     start = time.perf_counter()
-    steps = held = late = 0
+    steps = commanded = held = late = 0
     stopped = None
     deadline = start
     while stopped is None:
-        if duration is not None and driver.time >= duration - driver.period / 2:
+        if duration is not None and _reached(driver.time, duration, driver.period):
             stopped = f"reached --duration {duration:g} s"
             break
         if realtime:
@@ -351,20 +429,58 @@ def drive(
             _handle_until(lcm, deadline)
             age = time.perf_counter() - driver.command[2]
             fresh = age <= COMMAND_EXPIRE_S
-            driver.step(driver.command[1] if fresh else None)
+            commanded += driver.step(driver.command[1] if fresh else None)
             held += not fresh
             if age > idle_timeout_s:
                 stopped = f"no command for {idle_timeout_s:g} s (the client stopped)"
         else:
             stopped = _await_answer(driver, lcm, idle_timeout_s)
             if stopped is None:
-                driver.step(driver.command[1])
+                commanded += driver.step(driver.command[1])
         if stopped is None:
             steps += 1
             driver.publish_status()
     return DriverSummary(
-        steps, steps - held, held, late, driver.time, time.perf_counter() - start, stopped
+        steps,
+        commanded,
+        held,
+        late,
+        driver.time,
+        time.perf_counter() - start,
+        stopped,
+        driver.command_delay_s,
     )
+
+
+def check_command_delay(scenario: Scenario, duration: float, command_delay_steps: int) -> None:
+    """Refuse a delay under which no command would act before `duration` ends: as many
+    plant steps as the run takes (to the whole period nearest `duration`, as `drive`
+    stops) or more, counted from the first command (whose status is at t = 0).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        Its plant step and the driver's period.
+    duration : float
+        --duration [s], simulated time from the first command.
+    command_delay_steps : int
+        --command-delay.
+
+    Raises
+    ------
+    InputError
+        Naming --command-delay and the run's length.
+    """
+    step, period = scenario.plant_config.time_step, scenario.iiwa_driver.period_s
+    steps_per_period = plant_steps_per_period(scenario)
+    run_steps = periods_to(duration, period, steps_per_period, step) * steps_per_period
+    if command_delay_steps >= run_steps:  # the first command would act after the end
+        run_s = run_steps * step
+        rounded = "" if math.isclose(run_s, duration) else f" {duration:g} s to whole periods"
+        raise InputError(
+            f"--command-delay {command_delay_steps}: {command_delay_steps * step:g} s of plant "
+            f"steps must be shorter than the run ({run_s:g} s, --duration{rounded})"
+        )
 
 
 def _await_answer(driver: SimulatedIiwaDriver, lcm: DrakeLcm, idle_timeout_s: float) -> str | None:
@@ -422,10 +538,11 @@ def run_sim_driver(
     overrides : sequence of str
         ``dotted.key=value`` overrides of the scenario.
     command_delay_steps : int
-        As for `SimulatedIiwaDriver` (1: Drake's simulated driver's timing); in time,
-        shorter than `duration` when one is given. Without it the driver runs until the
-        client stops, for no length known here (the scenario's `duration_s` is not it), so
-        there is nothing to check the delay against.
+        As for `SimulatedIiwaDriver` (1: Drake's simulated driver's timing); fewer plant
+        steps than the run simulates when `duration` is given (`check_command_delay`).
+        Without it the driver runs until the client stops, for no length known here (the
+        scenario's `duration_s` is not it), so there is nothing to check the delay
+        against: the summary's commanded steps count only those a command acted in.
 
     Returns
     -------
@@ -444,12 +561,8 @@ def run_sim_driver(
             "runs the simulated driver and the client together"
         )
     scenario, _ = load_scenario(name_or_path, overrides)
-    delay_s = command_delay_steps * scenario.plant_config.time_step
-    if duration is not None and delay_s >= duration:  # no command would act before the end
-        raise InputError(
-            f"--command-delay {command_delay_steps}: {delay_s:g} s of plant steps must be "
-            f"shorter than the run ({duration:g} s, --duration)"
-        )
+    if duration is not None and command_delay_steps:
+        check_command_delay(scenario, duration, command_delay_steps)
     lcm = open_lcm(lcm_url)
     driver = SimulatedIiwaDriver(scenario, lcm, command_delay_steps=command_delay_steps)
     return drive(driver, lcm, realtime, duration, idle_timeout_s, reporter=reporter)
