@@ -769,6 +769,9 @@ def cmd_sim_driver(args):
         print(f"hlcmp sim-driver: aborted: {error}", file=sys.stderr)
         return EXIT_DRIVER_ABORT
     print(_driver_summary(summary, args))
+    if summary.interrupted:  # it writes no file: its summary says what it simulated
+        print(f"hlcmp sim-driver: interrupted: {summary.stopped_because}", file=sys.stderr)
+        return EXIT_INTERRUPTED
     return 0
 
 
@@ -815,6 +818,9 @@ def _drake_driver(args):
         f"{summary.commands} commands, {summary.sim_time_s:.3f} s simulated in "
         f"{summary.wall_s:.1f} s; {summary.stopped_because}"
     )
+    if summary.interrupted:
+        print(f"hlcmp sim-driver: interrupted: {summary.stopped_because}", file=sys.stderr)
+        return EXIT_INTERRUPTED
     return 0
 
 

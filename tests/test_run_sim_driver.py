@@ -1,7 +1,10 @@
-"""hlcmp_drake.run.sim_driver (hlcmp sim-driver): the simulated iiwa driver's start guard."""
+"""hlcmp_drake.run.sim_driver (hlcmp sim-driver): the simulated iiwa driver's start guard,
+its --command-delay and --duration, what its summary counts, and Ctrl-C."""
 
 import os
 import random
+import signal
+import threading
 import time
 
 import numpy as np
@@ -184,3 +187,83 @@ def test_the_summary_says_when_no_command_acted(monkeypatch):
     assert acted.startswith("sim-driver: 50 steps (30 commanded, 0 held, 20 waiting out ")
     assert "no command acted" not in acted
     assert run_cli(*args).stdout.startswith("sim-driver: 50 steps (50 commanded, 0 held), ")
+
+
+@pytest.fixture
+def python_sigint():
+    """Python's own SIGINT handler, as in a terminal: a pytest started in the background
+    by a shell without job control inherits SIGINT ignored, and Python then installs
+    none. Put back afterwards; the test checks the driver put back this one."""
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, before)
+
+
+def _client_pressing_ctrl_c(lcm, scenario, at_utime):
+    """A client that answers every status and presses Ctrl-C after answering `at_utime`'s."""
+
+    def press(utime):
+        if utime == at_utime:
+            signal.raise_signal(signal.SIGINT)
+
+    answering_client(lcm, scenario, until_utime=10**12, on_answer=press)
+
+
+def test_ctrl_c_stops_the_driver_between_two_steps_with_its_summary(monkeypatch, python_sigint):
+    """Ctrl-C ended the command at once ("hlcmp: interrupted; nothing was written") and
+    dropped the summary; it now stops the driver between two steps, and the summary says
+    what it simulated up to then."""
+    from hlcmp_drake.run.sim_driver import drive
+
+    monkeypatch.setattr("hlcmp_drake.run.sim_driver.START_COMMAND_GUARD_S", 0.0)
+    scenario, _ = load_scenario("insertion", ["duration_s=1.0"])
+    lcm = DrakeLcm("memq://")
+    driver = SimulatedIiwaDriver(scenario, lcm)
+    _client_pressing_ctrl_c(lcm, scenario, at_utime=30_000)
+    summary = drive(driver, lcm, idle_timeout_s=5.0)
+    # pressed before the answer to t = 30 ms came in: the steps to there, none after
+    assert summary.interrupted and summary.stopped_because == "Ctrl-C at t = 0.030 s"
+    assert summary.steps == summary.commanded_steps == 30
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # put back
+
+
+def test_ctrl_c_before_any_command_stops_both_drivers_alike(python_sigint):
+    from hlcmp_drake.run.drake_driver import DrakeDrivenWorld
+    from hlcmp_drake.run.sim_driver import drive
+
+    scenario, _ = load_scenario("insertion", ["duration_s=1.0"])
+    lcm = DrakeLcm("memq://")
+    threading.Timer(0.2, signal.raise_signal, [signal.SIGINT]).start()
+    summary = drive(SimulatedIiwaDriver(scenario, lcm), lcm, first_command_timeout_s=10)
+    assert summary.interrupted and summary.steps == 0
+    assert summary.stopped_because == "Ctrl-C at t = 0.000 s, before any command"
+    lcm = DrakeLcm("memq://")
+    threading.Timer(0.2, signal.raise_signal, [signal.SIGINT]).start()
+    drake = DrakeDrivenWorld(scenario, lcm, 0.005).run(first_command_timeout_s=10)
+    assert drake.interrupted and drake.commands == 0
+    assert drake.stopped_because.endswith(" s, before any command")
+    assert drake.stopped_because.startswith("Ctrl-C at t = 0.")
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_sim_driver_on_ctrl_c_prints_its_summary_and_exits_130(monkeypatch, python_sigint):
+    """It writes no file, so nothing is said of files: the summary on stdout and one line
+    on stderr."""
+    from conftest import run_cli
+
+    monkeypatch.setattr("hlcmp_drake.run.sim_driver.START_COMMAND_GUARD_S", 0.0)
+    scenario, _ = load_scenario("insertion")
+
+    def open_lcm(url):
+        lcm = DrakeLcm("memq://")
+        _client_pressing_ctrl_c(lcm, scenario, at_utime=30_000)
+        return lcm
+
+    monkeypatch.setattr("hlcmp_drake.run.sim_driver.open_lcm", open_lcm)
+    result = run_cli("sim-driver", "insertion", "--lcm", UDPM, "--quiet")
+    assert result.returncode == 130
+    assert result.stdout.startswith("sim-driver: 30 steps (30 commanded, 0 held), 0.030 s ")
+    assert result.stdout.strip().endswith("; Ctrl-C at t = 0.030 s")
+    assert result.stderr == "hlcmp sim-driver: interrupted: Ctrl-C at t = 0.030 s\n"

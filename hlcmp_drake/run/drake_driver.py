@@ -47,7 +47,7 @@ from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.io.iiwa_lcm import open_lcm
 from hlcmp_drake.present.progress import SILENT, Progress
 from hlcmp_drake.run.serve import TorqueClient, without_garbage_collection
-from hlcmp_drake.run.sim_driver import DriverAbort
+from hlcmp_drake.run.sim_driver import CtrlC, DriverAbort
 from hlcmp_drake.run.simulate import prepared_simulator
 from hlcmp_drake.worlds.build import driven_world_of
 from hlcmp_drake.worlds.models import load_models
@@ -68,6 +68,7 @@ class DrakeDriverSummary:
     sim_time_s: float
     wall_s: float
     stopped_because: str
+    interrupted: bool = False  # by Ctrl-C: `stopped_because` says when
 
 
 def _iiwa_instance(plant: MultibodyPlant):
@@ -212,7 +213,8 @@ class DrakeDrivenWorld:
         first_command_timeout_s: float = 60.0,
         reporter: Progress = SILENT,
     ) -> DrakeDriverSummary:
-        """Simulate in real time until the client stops commanding (or `duration`).
+        """Simulate in real time until the client stops commanding (or `duration`, or
+        Ctrl-C: then after the simulated stretch under way, the summary `interrupted`).
 
         Parameters
         ----------
@@ -240,32 +242,41 @@ class DrakeDrivenWorld:
         simulator = self.simulator
         simulator.Initialize()
         start = time.perf_counter()
-        stopped = None
-        while stopped is None:
-            now = simulator.get_context().get_time()
-            if duration is not None and now >= duration - 1e-9:
-                stopped = f"reached --duration {duration:g} s"
-                break
-            target = now + CHECK_EVERY_S
-            try:
-                simulator.AdvanceTo(target if duration is None else min(target, duration))
-            except RuntimeError as error:
-                message = " ".join(str(error).split())[:200]
-                raise DriverAbort(f"the simulation failed at t = {now:.3f} s: {message}") from None
-            wall = time.perf_counter()
-            if self.last_command_wall is None:
-                if wall - start > first_command_timeout_s:  # as the project's driver aborts
+        stopped, interrupted = None, False
+        with CtrlC() as ctrl_c:
+            while stopped is None:
+                now = simulator.get_context().get_time()
+                if ctrl_c.pressed:
+                    interrupted = True
+                    before = "" if self.commands else ", before any command"
+                    stopped = f"Ctrl-C at t = {now:.3f} s{before}"
+                    break
+                if duration is not None and now >= duration - 1e-9:
+                    stopped = f"reached --duration {duration:g} s"
+                    break
+                target = now + CHECK_EVERY_S
+                try:
+                    simulator.AdvanceTo(target if duration is None else min(target, duration))
+                except RuntimeError as error:
+                    message = " ".join(str(error).split())[:200]
                     raise DriverAbort(
-                        f"no command on {COMMAND_CHANNEL} within {first_command_timeout_s:g} s"
-                    )
-            elif wall - self.last_command_wall > idle_timeout_s:
-                stopped = f"no command for {idle_timeout_s:g} s (the client stopped)"
+                        f"the simulation failed at t = {now:.3f} s: {message}"
+                    ) from None
+                wall = time.perf_counter()
+                if self.last_command_wall is None:
+                    if wall - start > first_command_timeout_s:  # as the project's driver aborts
+                        raise DriverAbort(
+                            f"no command on {COMMAND_CHANNEL} within {first_command_timeout_s:g} s"
+                        )
+                elif wall - self.last_command_wall > idle_timeout_s:
+                    stopped = f"no command for {idle_timeout_s:g} s (the client stopped)"
         return DrakeDriverSummary(
             self.status_period_s,
             self.commands,
             simulator.get_context().get_time(),
             time.perf_counter() - start,
             stopped,
+            interrupted,
         )
 
 

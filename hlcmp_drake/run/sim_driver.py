@@ -24,6 +24,8 @@ from __future__ import annotations
 
 import dataclasses as dc
 import math
+import signal
+import threading
 import time
 from typing import Sequence
 
@@ -79,6 +81,41 @@ class DriverSummary:
     wall_s: float
     stopped_because: str
     command_delay_s: float = 0.0
+    interrupted: bool = False  # by Ctrl-C: `stopped_because` says when
+
+
+class CtrlC:
+    """Ctrl-C (SIGINT) while a simulated driver runs, as a `with` block: the handler only
+    records it (`pressed`), and the driver's loops stop between two steps, so that it can
+    say what it simulated up to then. A second Ctrl-C ends the command at once, as usual.
+    Elsewhere than in the main thread, where Python takes no signal handler, Ctrl-C ends
+    the command as usual; a SIGINT ignored when the process started (one started in the
+    background by a script) stays ignored."""
+
+    def __init__(self) -> None:
+        self.pressed = False
+        self._installed = False
+        self._previous = None
+
+    def __enter__(self) -> CtrlC:
+        if (
+            threading.current_thread() is threading.main_thread()
+            and signal.getsignal(signal.SIGINT) is not signal.SIG_IGN
+        ):
+            self._previous = signal.signal(signal.SIGINT, self._press)
+            self._installed = True
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        if self._installed:
+            previous = signal.SIG_DFL if self._previous is None else self._previous
+            signal.signal(signal.SIGINT, previous)
+            self._installed = False
+
+    def _press(self, signum, frame) -> None:
+        if self.pressed:
+            raise KeyboardInterrupt
+        self.pressed = True
 
 
 class SimulatedIiwaDriver:
@@ -340,9 +377,11 @@ def periods_to(duration: float, period: float, steps_per_period: int, plant_step
     return periods
 
 
-def wait_for_first_command(driver: SimulatedIiwaDriver, lcm: DrakeLcm, timeout_s: float) -> None:
+def wait_for_first_command(
+    driver: SimulatedIiwaDriver, lcm: DrakeLcm, timeout_s: float, ctrl_c: CtrlC | None = None
+) -> None:
     """Publish the t = 0 status every period (the arm held still, time standing) until a
-    first command comes.
+    first command comes (or Ctrl-C).
 
     Parameters
     ----------
@@ -350,6 +389,8 @@ def wait_for_first_command(driver: SimulatedIiwaDriver, lcm: DrakeLcm, timeout_s
     lcm : DrakeLcm
     timeout_s : float
         Give up after this long [s].
+    ctrl_c : CtrlC, optional
+        Stop waiting when it is pressed (`driver.command` then still None).
 
     Raises
     ------
@@ -357,7 +398,7 @@ def wait_for_first_command(driver: SimulatedIiwaDriver, lcm: DrakeLcm, timeout_s
         When no command came within `timeout_s`.
     """
     start = time.perf_counter()
-    while driver.command is None:
+    while driver.command is None and not (ctrl_c is not None and ctrl_c.pressed):
         driver.publish_status()
         # Sleep in LCM's own wait (whole ms) rather than poll to the µs: time stands
         # still, so nothing needs the period kept, and a driver left waiting for a client
@@ -378,7 +419,8 @@ def drive(
     first_command_timeout_s: float = 60.0,
     reporter: Progress = SILENT,
 ) -> DriverSummary:
-    """Run the simulated driver until its client stops commanding (or `duration`).
+    """Run the simulated driver until its client stops commanding (or `duration`, or
+    Ctrl-C: then between two steps, the summary `interrupted`).
 
     Parameters
     ----------
@@ -410,12 +452,47 @@ def drive(
         f"{driver.period * 1000:.0f} ms "
         f"({'real time' if realtime else 'as fast as the client answers'}); waiting for a command"
     )
-    wait_for_first_command(driver, lcm, first_command_timeout_s)
-    start = time.perf_counter()
+    with CtrlC() as ctrl_c:
+        wait_for_first_command(driver, lcm, first_command_timeout_s, ctrl_c)
+        start = time.perf_counter()
+        steps, commanded, held, late, stopped = (
+            _drive(driver, lcm, realtime, duration, idle_timeout_s, ctrl_c)
+            if driver.command is not None
+            else (0, 0, 0, 0, None)
+        )
+    interrupted = stopped is None
+    if stopped is None:
+        before = "" if driver.command is not None else ", before any command"
+        stopped = f"Ctrl-C at t = {driver.time:.3f} s{before}"
+    return DriverSummary(
+        steps,
+        commanded,
+        held,
+        late,
+        driver.time,
+        time.perf_counter() - start,
+        stopped,
+        driver.command_delay_s,
+        interrupted,
+    )
+
+
+def _drive(
+    driver: SimulatedIiwaDriver,
+    lcm: DrakeLcm,
+    realtime: bool,
+    duration: float | None,
+    idle_timeout_s: float,
+    ctrl_c: CtrlC,
+) -> tuple[int, int, int, int, str | None]:
+    """`drive`'s loop from the first command on: (steps, commanded, held, late, why it
+    stopped), the reason None where Ctrl-C stopped it (between two steps)."""
     steps = commanded = held = late = 0
     stopped = None
-    deadline = start
+    deadline = time.perf_counter()
     while stopped is None:
+        if ctrl_c.pressed:
+            break
         if duration is not None and _reached(driver.time, duration, driver.period):
             stopped = f"reached --duration {duration:g} s"
             break
@@ -434,22 +511,15 @@ def drive(
             if age > idle_timeout_s:
                 stopped = f"no command for {idle_timeout_s:g} s (the client stopped)"
         else:
-            stopped = _await_answer(driver, lcm, idle_timeout_s)
+            stopped = _await_answer(driver, lcm, idle_timeout_s, ctrl_c)
+            if stopped is None and ctrl_c.pressed:
+                continue  # the status unanswered: stopped at the loop's top
             if stopped is None:
                 commanded += driver.step(driver.command[1])
         if stopped is None:
             steps += 1
             driver.publish_status()
-    return DriverSummary(
-        steps,
-        commanded,
-        held,
-        late,
-        driver.time,
-        time.perf_counter() - start,
-        stopped,
-        driver.command_delay_s,
-    )
+    return steps, commanded, held, late, stopped
 
 
 def check_command_delay(scenario: Scenario, duration: float, command_delay_steps: int) -> None:
@@ -483,13 +553,15 @@ def check_command_delay(scenario: Scenario, duration: float, command_delay_steps
         )
 
 
-def _await_answer(driver: SimulatedIiwaDriver, lcm: DrakeLcm, idle_timeout_s: float) -> str | None:
+def _await_answer(
+    driver: SimulatedIiwaDriver, lcm: DrakeLcm, idle_timeout_s: float, ctrl_c: CtrlC
+) -> str | None:
     """Wait for the command answering the last status (publishing it again every RESEND_S);
-    None when it came, else why the client counts as gone. It polls without sleeping: a
-    simulator paced by its client has a core to itself, and the client's tick measured
-    faster with the other core kept busy (scripts/serve_latency.py)."""
+    None when it came or Ctrl-C was pressed, else why the client counts as gone. It polls
+    without sleeping: a simulator paced by its client has a core to itself, and the
+    client's tick measured faster with the other core kept busy (scripts/serve_latency.py)."""
     since = sent = time.perf_counter()
-    while driver.command[0] != driver.status_utime:
+    while driver.command[0] != driver.status_utime and not ctrl_c.pressed:
         lcm.HandleSubscriptions(0)
         now = time.perf_counter()
         if now - since > idle_timeout_s:
