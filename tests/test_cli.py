@@ -419,7 +419,7 @@ def test_fit_and_rollout_refuse_to_write_over_their_input(tmp_path):
     assert skill.read_bytes() == kept
 
 
-@pytest.mark.slow  # seven fits and rollouts and a run, with their files (about 1.5 s)
+@pytest.mark.slow  # eight fits and rollouts and a run, with their files (about 1.5 s)
 def test_fit_and_rollout_refuse_an_output_file_of_another_kind(tmp_path):
     import dataclasses as dc
 
