@@ -1,5 +1,5 @@
 """hlcmp_drake.run.sim_driver (hlcmp sim-driver): the simulated iiwa driver's start guard,
-its --command-delay and --duration, what its summary counts, and Ctrl-C."""
+its --command-delay and --duration, what its summary counts, and Ctrl-C or SIGTERM."""
 
 import os
 import random
@@ -189,68 +189,108 @@ def test_the_summary_says_when_no_command_acted(monkeypatch):
     assert run_cli(*args).stdout.startswith("sim-driver: 50 steps (50 commanded, 0 held), ")
 
 
+# Python's own handlers, as in a terminal: a pytest started in the background by a shell
+# without job control inherits SIGINT ignored, and Python then installs none.
+OWN_HANDLERS = {signal.SIGINT: signal.default_int_handler, signal.SIGTERM: signal.SIG_DFL}
+STOPPING = pytest.mark.parametrize(
+    "number, name", [(signal.SIGINT, "Ctrl-C"), (signal.SIGTERM, "SIGTERM")]
+)
+
+
 @pytest.fixture
-def python_sigint():
-    """Python's own SIGINT handler, as in a terminal: a pytest started in the background
-    by a shell without job control inherits SIGINT ignored, and Python then installs
-    none. Put back afterwards; the test checks the driver put back this one."""
-    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+def own_handlers():
+    """`OWN_HANDLERS` in place, put back afterwards; the test checks that the driver put
+    back these ones."""
+    before = {number: signal.signal(number, handler) for number, handler in OWN_HANDLERS.items()}
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, before)
+        for number, handler in before.items():
+            signal.signal(number, handler)
 
 
-def _client_pressing_ctrl_c(lcm, scenario, at_utime):
-    """A client that answers every status and presses Ctrl-C after answering `at_utime`'s."""
+def _handlers():
+    return {number: signal.getsignal(number) for number in OWN_HANDLERS}
 
-    def press(utime):
+
+def _client_signalling(lcm, scenario, at_utime, number):
+    """A client that answers every status and raises signal `number` (Ctrl-C's SIGINT, or
+    SIGTERM) after answering `at_utime`'s."""
+
+    def signal_(utime):
         if utime == at_utime:
-            signal.raise_signal(signal.SIGINT)
+            signal.raise_signal(number)
 
-    answering_client(lcm, scenario, until_utime=10**12, on_answer=press)
+    answering_client(lcm, scenario, until_utime=10**12, on_answer=signal_)
 
 
-def test_ctrl_c_stops_the_driver_between_two_steps_with_its_summary(monkeypatch, python_sigint):
+@STOPPING
+def test_ctrl_c_or_sigterm_stops_the_driver_between_two_steps_with_its_summary(
+    monkeypatch, own_handlers, number, name
+):
     """Ctrl-C ended the command at once ("hlcmp: interrupted; nothing was written") and
-    dropped the summary; it now stops the driver between two steps, and the summary says
-    what it simulated up to then."""
+    dropped the summary, and SIGTERM (`timeout`, `kill`) killed it silently; either now
+    stops the driver between two steps, and the summary says what it simulated up to then."""
     from hlcmp_drake.run.sim_driver import drive
 
     monkeypatch.setattr("hlcmp_drake.run.sim_driver.START_COMMAND_GUARD_S", 0.0)
     scenario, _ = load_scenario("insertion", ["duration_s=1.0"])
     lcm = DrakeLcm("memq://")
     driver = SimulatedIiwaDriver(scenario, lcm)
-    _client_pressing_ctrl_c(lcm, scenario, at_utime=30_000)
+    _client_signalling(lcm, scenario, at_utime=30_000, number=number)
     summary = drive(driver, lcm, idle_timeout_s=5.0)
-    # pressed before the answer to t = 30 ms came in: the steps to there, none after
-    assert summary.interrupted and summary.stopped_because == "Ctrl-C at t = 0.030 s"
+    # signalled before the answer to t = 30 ms came in: the steps to there, none after
+    assert summary.interrupted and summary.stopped_because == f"{name} at t = 0.030 s"
     assert summary.steps == summary.commanded_steps == 30
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # put back
+    assert _handlers() == OWN_HANDLERS  # put back
 
 
-def test_ctrl_c_before_any_command_stops_both_drivers_alike(python_sigint):
+@STOPPING
+def test_ctrl_c_or_sigterm_before_any_command_stops_both_drivers_alike(own_handlers, number, name):
     from hlcmp_drake.run.drake_driver import DrakeDrivenWorld
     from hlcmp_drake.run.sim_driver import drive
 
     scenario, _ = load_scenario("insertion", ["duration_s=1.0"])
     lcm = DrakeLcm("memq://")
-    threading.Timer(0.2, signal.raise_signal, [signal.SIGINT]).start()
+    threading.Timer(0.2, signal.raise_signal, [number]).start()
     summary = drive(SimulatedIiwaDriver(scenario, lcm), lcm, first_command_timeout_s=10)
     assert summary.interrupted and summary.steps == 0
-    assert summary.stopped_because == "Ctrl-C at t = 0.000 s, before any command"
+    assert summary.stopped_because == f"{name} at t = 0.000 s, before any command"
     lcm = DrakeLcm("memq://")
-    threading.Timer(0.2, signal.raise_signal, [signal.SIGINT]).start()
+    threading.Timer(0.2, signal.raise_signal, [number]).start()
     drake = DrakeDrivenWorld(scenario, lcm, 0.005).run(first_command_timeout_s=10)
     assert drake.interrupted and drake.commands == 0
     assert drake.stopped_because.endswith(" s, before any command")
-    assert drake.stopped_because.startswith("Ctrl-C at t = 0.")
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    assert drake.stopped_because.startswith(f"{name} at t = 0.")
+    assert _handlers() == OWN_HANDLERS
 
 
-def test_sim_driver_on_ctrl_c_prints_its_summary_and_exits_130(monkeypatch, python_sigint):
+def test_a_second_ctrl_c_ends_the_driver_at_once(monkeypatch, own_handlers):
+    """The first asks the loop to stop between two steps; a second, come before it did,
+    ends the command as a Ctrl-C does (here, from within the step that took the first)."""
+    from hlcmp_drake.run.sim_driver import drive
+
+    monkeypatch.setattr("hlcmp_drake.run.sim_driver.START_COMMAND_GUARD_S", 0.0)
+    scenario, _ = load_scenario("insertion", ["duration_s=1.0"])
+    lcm = DrakeLcm("memq://")
+
+    def twice(utime):
+        if utime == 30_000:
+            signal.raise_signal(signal.SIGTERM)
+            signal.raise_signal(signal.SIGINT)
+
+    answering_client(lcm, scenario, until_utime=10**12, on_answer=twice)
+    with pytest.raises(KeyboardInterrupt):
+        drive(SimulatedIiwaDriver(scenario, lcm), lcm, idle_timeout_s=5.0)
+    assert _handlers() == OWN_HANDLERS
+
+
+@STOPPING
+def test_sim_driver_on_ctrl_c_or_sigterm_prints_its_summary_and_exits_130(
+    monkeypatch, own_handlers, number, name
+):
     """It writes no file, so nothing is said of files: the summary on stdout and one line
-    on stderr."""
+    on stderr, naming the signal as `hlcmp serve` does."""
     from conftest import run_cli
 
     monkeypatch.setattr("hlcmp_drake.run.sim_driver.START_COMMAND_GUARD_S", 0.0)
@@ -258,12 +298,12 @@ def test_sim_driver_on_ctrl_c_prints_its_summary_and_exits_130(monkeypatch, pyth
 
     def open_lcm(url):
         lcm = DrakeLcm("memq://")
-        _client_pressing_ctrl_c(lcm, scenario, at_utime=30_000)
+        _client_signalling(lcm, scenario, at_utime=30_000, number=number)
         return lcm
 
     monkeypatch.setattr("hlcmp_drake.run.sim_driver.open_lcm", open_lcm)
     result = run_cli("sim-driver", "insertion", "--lcm", UDPM, "--quiet")
     assert result.returncode == 130
     assert result.stdout.startswith("sim-driver: 30 steps (30 commanded, 0 held), 0.030 s ")
-    assert result.stdout.strip().endswith("; Ctrl-C at t = 0.030 s")
-    assert result.stderr == "hlcmp sim-driver: interrupted: Ctrl-C at t = 0.030 s\n"
+    assert result.stdout.strip().endswith(f"; {name} at t = 0.030 s")
+    assert result.stderr == f"hlcmp sim-driver: interrupted: {name} at t = 0.030 s\n"

@@ -46,8 +46,9 @@ from hlcmp_drake.config.scenario import Scenario
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.io.iiwa_lcm import open_lcm
 from hlcmp_drake.present.progress import SILENT, Progress
+from hlcmp_drake.run.interrupts import StopSignals
 from hlcmp_drake.run.serve import TorqueClient, without_garbage_collection
-from hlcmp_drake.run.sim_driver import CtrlC, DriverAbort
+from hlcmp_drake.run.sim_driver import DriverAbort
 from hlcmp_drake.run.simulate import prepared_simulator
 from hlcmp_drake.worlds.build import driven_world_of
 from hlcmp_drake.worlds.models import load_models
@@ -68,7 +69,7 @@ class DrakeDriverSummary:
     sim_time_s: float
     wall_s: float
     stopped_because: str
-    interrupted: bool = False  # by Ctrl-C: `stopped_because` says when
+    interrupted: bool = False  # by Ctrl-C or SIGTERM: `stopped_because` says which and when
 
 
 def _iiwa_instance(plant: MultibodyPlant):
@@ -214,7 +215,8 @@ class DrakeDrivenWorld:
         reporter: Progress = SILENT,
     ) -> DrakeDriverSummary:
         """Simulate in real time until the client stops commanding (or `duration`, or
-        Ctrl-C: then after the simulated stretch under way, the summary `interrupted`).
+        Ctrl-C or SIGTERM: then after the simulated stretch under way, the summary
+        `interrupted`).
 
         Parameters
         ----------
@@ -243,13 +245,13 @@ class DrakeDrivenWorld:
         simulator.Initialize()
         start = time.perf_counter()
         stopped, interrupted = None, False
-        with CtrlC() as ctrl_c:
+        with StopSignals() as stop:
             while stopped is None:
                 now = simulator.get_context().get_time()
-                if ctrl_c.pressed:
+                if stop.received:
                     interrupted = True
                     before = "" if self.commands else ", before any command"
-                    stopped = f"Ctrl-C at t = {now:.3f} s{before}"
+                    stopped = f"{stop.by} at t = {now:.3f} s{before}"
                     break
                 if duration is not None and now >= duration - 1e-9:
                     stopped = f"reached --duration {duration:g} s"

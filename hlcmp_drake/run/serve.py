@@ -27,8 +27,6 @@ import gc
 import math
 import operator
 import os
-import signal
-import threading
 import time
 from collections import Counter, deque
 from pathlib import Path
@@ -54,6 +52,7 @@ from hlcmp_drake.io.iiwa_lcm import (
 from hlcmp_drake.io.runs import RunResult
 from hlcmp_drake.io.skill import Skill
 from hlcmp_drake.present.progress import SILENT, Progress
+from hlcmp_drake.run.interrupts import StopSignals
 from hlcmp_drake.run.learning import learning_scenario, replayed_reference_problem
 from hlcmp_drake.run.runner import evaluate, experiment_worlds, without_claims, write_results
 from hlcmp_drake.run.sim_driver import DriverSummary, SimulatedIiwaDriver
@@ -956,38 +955,26 @@ def without_garbage_collection() -> Iterator[None]:
         gc.unfreeze()
 
 
-@contextlib.contextmanager
-def interruptible(client: TorqueClient) -> Iterator[None]:
+def interruptible(client: TorqueClient) -> StopSignals:
     """Ctrl-C (SIGINT) or SIGTERM (`kill`, `timeout`, a service manager) while serving stops
-    the client (INTERRUPTED) instead of ending the command: on an arm it is how a run is
-    stopped, and what was served up to then is written. The handler only marks the client
-    stopped, so the loop ends between two ticks and no log is left half-appended. Elsewhere
-    than in the main thread, where Python takes no signal handler, either ends the command
-    as usual; a signal ignored when the process started (SIGINT for one started in the
-    background by a script) stays ignored.
+    the client (INTERRUPTED, "SIGTERM at t = ...") instead of ending the command: on an arm
+    it is how a run is stopped, and what was served up to then is written. The handler
+    only marks the client stopped, so the loop ends between two ticks and no log is left
+    half-appended (`StopSignals`).
 
     Parameters
     ----------
     client : TorqueClient
         The client the signals stop.
+
+    Returns
+    -------
+    StopSignals
+        To run the serving loop in, as a `with` block.
     """
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    names = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM"}
-
-    def stop(signum, frame):
-        client.stop(INTERRUPTED, f"{names[signum]} at t = {client.served_time():.3f} s")
-
-    previous = {}
-    for number in names:
-        if signal.getsignal(number) is not signal.SIG_IGN:  # not ours to take
-            previous[number] = signal.signal(number, stop)
-    try:
-        yield
-    finally:
-        for number, handler in previous.items():
-            signal.signal(number, handler)
+    return StopSignals(
+        lambda by: client.stop(INTERRUPTED, f"{by} at t = {client.served_time():.3f} s")
+    )
 
 
 def write_served(

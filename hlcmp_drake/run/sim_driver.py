@@ -24,8 +24,6 @@ from __future__ import annotations
 
 import dataclasses as dc
 import math
-import signal
-import threading
 import time
 from typing import Sequence
 
@@ -45,6 +43,7 @@ from hlcmp_drake.io.iiwa_lcm import (
     open_lcm,
 )
 from hlcmp_drake.present.progress import SILENT, Progress
+from hlcmp_drake.run.interrupts import StopSignals
 from hlcmp_drake.run.simulate import prepared_simulator
 from hlcmp_drake.worlds.arm import ArmSetup
 from hlcmp_drake.worlds.build import driven_world_of
@@ -81,41 +80,7 @@ class DriverSummary:
     wall_s: float
     stopped_because: str
     command_delay_s: float = 0.0
-    interrupted: bool = False  # by Ctrl-C: `stopped_because` says when
-
-
-class CtrlC:
-    """Ctrl-C (SIGINT) while a simulated driver runs, as a `with` block: the handler only
-    records it (`pressed`), and the driver's loops stop between two steps, so that it can
-    say what it simulated up to then. A second Ctrl-C ends the command at once, as usual.
-    Elsewhere than in the main thread, where Python takes no signal handler, Ctrl-C ends
-    the command as usual; a SIGINT ignored when the process started (one started in the
-    background by a script) stays ignored."""
-
-    def __init__(self) -> None:
-        self.pressed = False
-        self._installed = False
-        self._previous = None
-
-    def __enter__(self) -> CtrlC:
-        if (
-            threading.current_thread() is threading.main_thread()
-            and signal.getsignal(signal.SIGINT) is not signal.SIG_IGN
-        ):
-            self._previous = signal.signal(signal.SIGINT, self._press)
-            self._installed = True
-        return self
-
-    def __exit__(self, *exc_info) -> None:
-        if self._installed:
-            previous = signal.SIG_DFL if self._previous is None else self._previous
-            signal.signal(signal.SIGINT, previous)
-            self._installed = False
-
-    def _press(self, signum, frame) -> None:
-        if self.pressed:
-            raise KeyboardInterrupt
-        self.pressed = True
+    interrupted: bool = False  # by Ctrl-C or SIGTERM: `stopped_because` says which and when
 
 
 class SimulatedIiwaDriver:
@@ -378,10 +343,10 @@ def periods_to(duration: float, period: float, steps_per_period: int, plant_step
 
 
 def wait_for_first_command(
-    driver: SimulatedIiwaDriver, lcm: DrakeLcm, timeout_s: float, ctrl_c: CtrlC | None = None
+    driver: SimulatedIiwaDriver, lcm: DrakeLcm, timeout_s: float, stop: StopSignals | None = None
 ) -> None:
     """Publish the t = 0 status every period (the arm held still, time standing) until a
-    first command comes (or Ctrl-C).
+    first command comes (or Ctrl-C or SIGTERM).
 
     Parameters
     ----------
@@ -389,8 +354,8 @@ def wait_for_first_command(
     lcm : DrakeLcm
     timeout_s : float
         Give up after this long [s].
-    ctrl_c : CtrlC, optional
-        Stop waiting when it is pressed (`driver.command` then still None).
+    stop : StopSignals, optional
+        Stop waiting when it received one (`driver.command` then still None).
 
     Raises
     ------
@@ -398,7 +363,7 @@ def wait_for_first_command(
         When no command came within `timeout_s`.
     """
     start = time.perf_counter()
-    while driver.command is None and not (ctrl_c is not None and ctrl_c.pressed):
+    while driver.command is None and not (stop is not None and stop.received):
         driver.publish_status()
         # Sleep in LCM's own wait (whole ms) rather than poll to the µs: time stands
         # still, so nothing needs the period kept, and a driver left waiting for a client
@@ -420,7 +385,7 @@ def drive(
     reporter: Progress = SILENT,
 ) -> DriverSummary:
     """Run the simulated driver until its client stops commanding (or `duration`, or
-    Ctrl-C: then between two steps, the summary `interrupted`).
+    Ctrl-C or SIGTERM: then between two steps, the summary `interrupted`).
 
     Parameters
     ----------
@@ -452,18 +417,18 @@ def drive(
         f"{driver.period * 1000:.0f} ms "
         f"({'real time' if realtime else 'as fast as the client answers'}); waiting for a command"
     )
-    with CtrlC() as ctrl_c:
-        wait_for_first_command(driver, lcm, first_command_timeout_s, ctrl_c)
+    with StopSignals() as stop:
+        wait_for_first_command(driver, lcm, first_command_timeout_s, stop)
         start = time.perf_counter()
         steps, commanded, held, late, stopped = (
-            _drive(driver, lcm, realtime, duration, idle_timeout_s, ctrl_c)
+            _drive(driver, lcm, realtime, duration, idle_timeout_s, stop)
             if driver.command is not None
             else (0, 0, 0, 0, None)
         )
     interrupted = stopped is None
     if stopped is None:
         before = "" if driver.command is not None else ", before any command"
-        stopped = f"Ctrl-C at t = {driver.time:.3f} s{before}"
+        stopped = f"{stop.by} at t = {driver.time:.3f} s{before}"
     return DriverSummary(
         steps,
         commanded,
@@ -483,15 +448,15 @@ def _drive(
     realtime: bool,
     duration: float | None,
     idle_timeout_s: float,
-    ctrl_c: CtrlC,
+    stop: StopSignals,
 ) -> tuple[int, int, int, int, str | None]:
     """`drive`'s loop from the first command on: (steps, commanded, held, late, why it
-    stopped), the reason None where Ctrl-C stopped it (between two steps)."""
+    stopped), the reason None where Ctrl-C or SIGTERM stopped it (between two steps)."""
     steps = commanded = held = late = 0
     stopped = None
     deadline = time.perf_counter()
     while stopped is None:
-        if ctrl_c.pressed:
+        if stop.received:
             break
         if duration is not None and _reached(driver.time, duration, driver.period):
             stopped = f"reached --duration {duration:g} s"
@@ -511,8 +476,8 @@ def _drive(
             if age > idle_timeout_s:
                 stopped = f"no command for {idle_timeout_s:g} s (the client stopped)"
         else:
-            stopped = _await_answer(driver, lcm, idle_timeout_s, ctrl_c)
-            if stopped is None and ctrl_c.pressed:
+            stopped = _await_answer(driver, lcm, idle_timeout_s, stop)
+            if stopped is None and stop.received:
                 continue  # the status unanswered: stopped at the loop's top
             if stopped is None:
                 commanded += driver.step(driver.command[1])
@@ -554,14 +519,14 @@ def check_command_delay(scenario: Scenario, duration: float, command_delay_steps
 
 
 def _await_answer(
-    driver: SimulatedIiwaDriver, lcm: DrakeLcm, idle_timeout_s: float, ctrl_c: CtrlC
+    driver: SimulatedIiwaDriver, lcm: DrakeLcm, idle_timeout_s: float, stop: StopSignals
 ) -> str | None:
     """Wait for the command answering the last status (publishing it again every RESEND_S);
-    None when it came or Ctrl-C was pressed, else why the client counts as gone. It polls
+    None when it came or a signal asked to stop, else why the client counts as gone. It polls
     without sleeping: a simulator paced by its client has a core to itself, and the
     client's tick measured faster with the other core kept busy (scripts/serve_latency.py)."""
     since = sent = time.perf_counter()
-    while driver.command[0] != driver.status_utime and not ctrl_c.pressed:
+    while driver.command[0] != driver.status_utime and not stop.received:
         lcm.HandleSubscriptions(0)
         now = time.perf_counter()
         if now - since > idle_timeout_s:
