@@ -879,9 +879,10 @@ def _not_learned_because(entry: dict) -> str:
 
 
 def _query(items):
-    """--query KEY=VALUE ... as {key: number}; a malformed or repeated one is bad input.
-    A value that is not one finite number (11mm, 0.011,0.012, nan) is named as the library
-    names a value it refuses: `--query KEY=VALUE: ...`."""
+    """--query KEY=VALUE ... as {key: number}, each number keeping its text as typed (for
+    the library's messages); a malformed or repeated one is bad input. A value that is not
+    one finite number (11mm, 0.011,0.012, nan) is named as the library names a value it
+    refuses: `--query KEY=VALUE: ...`."""
     query = {}
     for item in items:
         key, sep, text = item.partition("=")
@@ -898,7 +899,8 @@ def _query(items):
             value = math.nan
         if not math.isfinite(value):
             raise InputError(f"--query {key}={text}: expected one finite number")
-        query[key] = value
+        query[key] = _Typed(value)
+        query[key].text = text
     return query
 
 

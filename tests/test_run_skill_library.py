@@ -6,6 +6,7 @@ records the world of the query, so `learn --skill` with those --set values accep
 
 import dataclasses
 import json
+import pickle
 import re
 import shlex
 from pathlib import Path
@@ -309,14 +310,28 @@ def test_a_query_value_that_is_not_one_number_is_refused_in_one_form(tmp_path, t
         SkillLibrary.load(folder).query_vector({DEPTH: float("nan"), FRICTION: 90.0})
 
 
-def test_a_query_the_world_refuses_is_named_as_the_query(tmp_path):
+@pytest.mark.parametrize("text", ["1", "1e0", "1.000"])
+def test_a_query_the_world_refuses_is_named_as_the_query(tmp_path, text):
+    """The value as typed (the message named 1e0 and 1.000 as 1, by rewriting the override's
+    text), and a query given from Python by its shortest repr; never as an override the
+    user did not type."""
     folder = write_library(tmp_path, *GRID)
-    args = ("--query", f"{DEPTH}=1", "--query", f"{FRICTION}=90", "--extrapolate")
+    args = ("--query", f"{DEPTH}={text}", "--query", f"{FRICTION}=90", "--extrapolate")
     result = run_cli("generalize", folder, *args, "--out", tmp_path / "s.npz")
     assert one_line_error(result).startswith(
-        f"hlcmp: error: --query {DEPTH}=1: puncture: depth_m must be in (0, thickness_m"
+        f"hlcmp: error: --query {DEPTH}={text}: puncture: depth_m must be in (0, thickness_m"
     )
+    assert "override" not in result.stderr
     assert not (tmp_path / "s.npz").exists()
+    library = SkillLibrary.load(folder)
+    with pytest.raises(InputError, match=rf"^--query {DEPTH}=1\.0: puncture: depth_m "):
+        library.generalize({DEPTH: 1.0, FRICTION: 90.0}, extrapolate=True)
+    # so named also where a worker loads the world (pickled as they are)
+    overrides = pickle.loads(pickle.dumps(library.overrides({DEPTH: 1.0, FRICTION: 90.0})))
+    assert [(o, o.typed) for o in overrides] == [
+        (f"{DEPTH}=1.0", f"--query {DEPTH}=1.0"),
+        (f"{FRICTION}=90.0", f"--query {FRICTION}=90.0"),
+    ]
 
 
 def test_extrapolate_allows_a_query_beyond_the_margin_with_a_warning(tmp_path):

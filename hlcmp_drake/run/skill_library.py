@@ -40,7 +40,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from hlcmp_drake.config.library import AS_DEMONSTRATED_AT_0, SKILLS_DIR
-from hlcmp_drake.config.loading import load_scenario, override_read_from
+from hlcmp_drake.config.loading import OptionOverride, load_scenario, override_read_from
 from hlcmp_drake.config.world import world_of_scenario
 from hlcmp_drake.io.errors import InputError
 from hlcmp_drake.io.paths import DIAGRAMS_DIR
@@ -383,6 +383,7 @@ class SkillLibrary:
         Parameters
         ----------
         query : mapping of str to float
+            A value the world refuses is named `--query KEY=VALUE` (`overrides`).
         method : str
             "regression" or "nearest".
         extrapolate : bool
@@ -408,15 +409,8 @@ class SkillLibrary:
         if AS_DEMONSTRATED_AT_0 in self.parameters:
             dmp_arrays["tau"] = float(query[AS_DEMONSTRATED_AT_0])
         dmp = dc.replace(base.dmp, **dmp_arrays) if dmp_arrays else base.dmp
-        try:
-            scenario, _ = load_scenario(self.scenario_argument(), self.overrides(query))
-        except InputError as error:  # the query's values are overrides: say --query
-            message = str(error)
-            for key in self.parameters:
-                label = f"override '{key}={float(query[key])!r}'"
-                if message.startswith(label):
-                    message = f"--query {key}={query[key]:.15g}{message[len(label) :]}"
-            raise InputError(message) from None
+        # A query's value the world refuses is named as the query (`overrides`).
+        scenario, _ = load_scenario(self.scenario_argument(), self.overrides(query))
         skill = Skill(
             dmp,
             prediction.mean["theta_k"],
@@ -439,11 +433,14 @@ class SkillLibrary:
     def overrides(self, query: Mapping[str, float]) -> list[str]:
         """The --set overrides of the world at a query: the library's fixed ones (a relative
         path in them read beside the library file, as `hlcmp library` read it), then one
-        per task parameter.
+        per task parameter, each an `OptionOverride` that a message names as the query
+        (`--query KEY=VALUE`, the value as typed: `_as_typed`).
 
         Parameters
         ----------
         query : mapping of str to float
+            A value with a `text` (the command line's) is named as that text, any other
+            by its shortest repr.
 
         Returns
         -------
@@ -457,7 +454,10 @@ class SkillLibrary:
             folder, name = Path(library_file).parent, Path(library_file).name
             why = f"a relative path in {name} is read beside it"
             fixed = [override_read_from(override, folder, why) for override in fixed]
-        return fixed + [f"{key}={float(query[key])!r}" for key in self.parameters]
+        return fixed + [
+            OptionOverride(f"{key}={float(query[key])!r}", f"--query {key}={_as_typed(query[key])}")
+            for key in self.parameters
+        ]
 
     def scenario_argument(self) -> str:
         """The library's scenario as the commands take it: its bundled name for a bundled
@@ -471,6 +471,12 @@ class SkillLibrary:
         if not path.is_file() or path.resolve() == (DIAGRAMS_DIR / f"{path.stem}.yaml").resolve():
             return self.record["scenario"]
         return str(path)
+
+
+def _as_typed(value: float) -> str:
+    """A query's value as the user typed it (the command line's keeps its text, `text`),
+    else its shortest repr."""
+    return getattr(value, "text", None) or repr(float(value))
 
 
 def owned_by_library(folder: str | Path, path: str | Path) -> bool:
