@@ -789,9 +789,13 @@ def _driver_summary(summary, args):
         f"simulated in {summary.wall_s:.1f} s; {summary.stopped_because}"
     )
     if waiting and not summary.commanded_steps:
+        delay = (
+            f"--command-delay {args.command_delay} ({summary.command_delay_s:g} s of plant steps)"
+        )
         line += (
-            f"; no command acted: --command-delay {args.command_delay} "
-            f"({summary.command_delay_s:g} s of plant steps) is longer than the run"
+            f"; no command acted: stopped within {delay}"
+            if summary.interrupted
+            else f"; no command acted: {delay} is longer than the run"
         )
     return line
 

@@ -94,7 +94,10 @@ def test_drakes_driver_is_the_project_driver_with_a_command_one_plant_step_late(
             lockstep_drake(DrakeDrivenWorld(scenario, lcm, period), client, lcm)
         else:
             driver = SimulatedIiwaDriver(scenario, lcm, setup, command_delay_steps=delay)
-            lockstep(driver, client, lcm)
+            summary = lockstep(driver, client, lcm)
+            # the periods whose every plant step was still waiting out the delay
+            waiting = delay // round(period / scenario.plant_config.time_step)
+            assert summary.steps - summary.commanded_steps == waiting
         assert client.status == "ok" and client.missed_ticks == 0, client.stopped_because
         runs[name] = client.run_result()
     for series in ("x", "plant_state", "Ks", "v"):

@@ -61,7 +61,7 @@ def copy_of(tiny_library, folder):
     return spec, folder / "L"
 
 
-@pytest.mark.slow  # five library tasks learned in pools, after the shared library's two (about 7.5 s)
+@pytest.mark.slow  # five library tasks in pools, after the shared library's two (about 7.5 s)
 def test_a_tiny_library_is_learned_indexed_and_resumed(tiny_library, tmp_path):
     spec, out = copy_of(tiny_library, tmp_path)
     record = json.loads((out / "library.json").read_text())

@@ -156,6 +156,23 @@ def test_only_the_steps_a_command_acted_in_count_as_commanded(monkeypatch, delay
     assert summary.command_delay_s == pytest.approx(delay * 0.001)
 
 
+def test_a_realtime_run_counts_every_step_it_simulated(monkeypatch):
+    """In real time the step that finds the client gone (a hold) was simulated but not
+    counted, one short of the simulated time, and the summary then read "-1 waiting"."""
+    from hlcmp_drake.run.sim_driver import drive
+
+    monkeypatch.setattr("hlcmp_drake.run.sim_driver.START_COMMAND_GUARD_S", 0.0)
+    scenario, _ = load_scenario("insertion", ["duration_s=1.0"])
+    lcm = DrakeLcm("memq://")
+    driver = SimulatedIiwaDriver(scenario, lcm)
+    answering_client(lcm, scenario, until_utime=20_000)
+    summary = drive(driver, lcm, realtime=True, idle_timeout_s=0.05)
+    assert summary.stopped_because == "no command for 0.05 s (the client stopped)"
+    assert summary.held_steps > 0  # its commands expired before the idle timeout
+    assert summary.steps == summary.commanded_steps + summary.held_steps
+    assert summary.steps == round(summary.sim_time_s / driver.period)
+
+
 def test_the_summary_says_when_no_command_acted(monkeypatch):
     """Without --duration the run's length is the client's, unknown up front: a delay
     longer than it is taken, and the summary says that no command acted (it said every
@@ -251,14 +268,18 @@ def test_ctrl_c_or_sigterm_before_any_command_stops_both_drivers_alike(own_handl
     from hlcmp_drake.run.sim_driver import drive
 
     scenario, _ = load_scenario("insertion", ["duration_s=1.0"])
+    # Each driver built before the timer starts: a signal before `drive` took it would end
+    # the test session.
     lcm = DrakeLcm("memq://")
+    driver = SimulatedIiwaDriver(scenario, lcm)
     threading.Timer(0.2, signal.raise_signal, [number]).start()
-    summary = drive(SimulatedIiwaDriver(scenario, lcm), lcm, first_command_timeout_s=10)
+    summary = drive(driver, lcm, first_command_timeout_s=10)
     assert summary.interrupted and summary.steps == 0
     assert summary.stopped_because == f"{name} at t = 0.000 s, before any command"
     lcm = DrakeLcm("memq://")
+    world = DrakeDrivenWorld(scenario, lcm, 0.005)
     threading.Timer(0.2, signal.raise_signal, [number]).start()
-    drake = DrakeDrivenWorld(scenario, lcm, 0.005).run(first_command_timeout_s=10)
+    drake = world.run(first_command_timeout_s=10)
     assert drake.interrupted and drake.commands == 0
     assert drake.stopped_because.endswith(" s, before any command")
     assert drake.stopped_because.startswith(f"{name} at t = 0.")
@@ -307,3 +328,11 @@ def test_sim_driver_on_ctrl_c_or_sigterm_prints_its_summary_and_exits_130(
     assert result.stdout.startswith("sim-driver: 30 steps (30 commanded, 0 held), 0.030 s ")
     assert result.stdout.strip().endswith(f"; {name} at t = 0.030 s")
     assert result.stderr == f"hlcmp sim-driver: interrupted: {name} at t = 0.030 s\n"
+    delayed = run_cli("sim-driver", "insertion", "--lcm", UDPM, "--quiet", "--command-delay", "100")
+    assert delayed.returncode == 130
+    assert delayed.stdout.startswith("sim-driver: 30 steps (0 commanded, 0 held, 30 waiting ")
+    # stopped by the user, not by the run's end: the delay is not said to be too long
+    assert delayed.stdout.strip().endswith(
+        f"; {name} at t = 0.030 s; no command acted: stopped within --command-delay 100 "
+        "(0.1 s of plant steps)"
+    )

@@ -1037,7 +1037,7 @@ def lockstep(driver: SimulatedIiwaDriver, client: TorqueClient, lcm: DrakeLcm) -
     DriverSummary
     """
     start = time.perf_counter()
-    steps = 0
+    steps = commanded = 0
     with without_garbage_collection(), interruptible(client):
         while not client.done:
             driver.publish_status()
@@ -1045,13 +1045,20 @@ def lockstep(driver: SimulatedIiwaDriver, client: TorqueClient, lcm: DrakeLcm) -
             client.poll()
             lcm.HandleSubscriptions(0)  # its command reaches the driver
             if driver.command is not None and driver.command[0] == driver.status_utime:
-                driver.step(driver.command[1])
+                commanded += driver.step(driver.command[1])
                 steps += 1
             elif not client.done:
                 time.sleep(driver.period)  # the start guards count wall time
     client.assess()
     return DriverSummary(
-        steps, steps, 0, 0, driver.time, time.perf_counter() - start, client.stopped_because
+        steps,
+        commanded,
+        0,
+        0,
+        driver.time,
+        time.perf_counter() - start,
+        client.stopped_because,
+        driver.command_delay_s,
     )
 
 

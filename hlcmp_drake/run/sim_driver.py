@@ -473,6 +473,7 @@ def _drive(
             fresh = age <= COMMAND_EXPIRE_S
             commanded += driver.step(driver.command[1] if fresh else None)
             held += not fresh
+            steps += 1
             if age > idle_timeout_s:
                 stopped = f"no command for {idle_timeout_s:g} s (the client stopped)"
         else:
@@ -481,8 +482,8 @@ def _drive(
                 continue  # the status unanswered: stopped at the loop's top
             if stopped is None:
                 commanded += driver.step(driver.command[1])
+                steps += 1
         if stopped is None:
-            steps += 1
             driver.publish_status()
     return steps, commanded, held, late, stopped
 
