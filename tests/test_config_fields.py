@@ -141,7 +141,7 @@ BREAKS = [
     ("simulator_config.target_realtime_rate", _number(">= 0")),
     # the slider's task
     ("task.body", lambda v, s: [_misspelt(v), ""]),
-    ("task.axis", lambda v, s: [3, -1]),
+    ("task.axis", lambda v, s: [3, -1, 1, 2]),  # the slider's joint moves along x alone
     ("task.environment_stiffness_N_per_m", _number(">= 0")),
     ("task.surface_position_m", _number("any")),
     # the arm's task

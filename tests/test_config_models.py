@@ -240,3 +240,22 @@ def test_what_is_not_a_bundled_model_weld_or_own_filter_is_left_to_drake():
     plant = MultibodyPlant(0.0)
     process_directives(plant, with_model())
     assert bundled_model_texts(plant, with_model()) is None  # already in the plant
+
+
+def test_a_slider_axis_its_joint_does_not_move_along_is_refused_at_load():
+    """The slider's prismatic joint moves its body along x: task.axis 1 or 2 loaded, then
+    failed after the diagram was built, in a traceback (a singular task-space mass)."""
+    from hlcmp_drake.config.models import translation_axes
+    from hlcmp_drake.config.validation import scenario_plant
+    from hlcmp_drake.io.errors import InputError
+
+    scenario, _ = load_scenario("one_dof")
+
+    def fail(key, problem):
+        raise AssertionError((key, problem))
+
+    assert translation_axes(scenario_plant(scenario, fail), scenario.task.body) == [0]
+    with pytest.raises(
+        InputError, match=r"axis: the joints move 'body' along x \(0\), not along z \(2\)$"
+    ):
+        load_scenario("one_dof", ["task.axis=2"])

@@ -116,7 +116,8 @@ def test_the_task_counts_by_what_differs_from_its_defaults():
     # The slider's task as bundled is all defaults: a field added later at its default
     # would leave every digest as it is.
     assert world_definition(scenario)["task"] == {}
-    assert world_definition(load_scenario("one_dof", ["task.axis=1"])[0])["task"] == {"axis": 1}
+    stiffer = load_scenario("one_dof", ["task.environment_stiffness_N_per_m=20"])[0]
+    assert world_definition(stiffer)["task"] == {"environment_stiffness_N_per_m": 20.0}
 
 
 def test_the_world_records_only_the_overrides_that_change_it():

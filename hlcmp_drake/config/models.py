@@ -8,6 +8,7 @@ import re
 from stat import S_ISREG
 from typing import TYPE_CHECKING, Sequence
 
+import numpy as np
 from pydrake.geometry import CollisionFilterDeclaration, GeometrySet
 from pydrake.math import RigidTransform
 from pydrake.multibody.parsing import (
@@ -19,6 +20,7 @@ from pydrake.multibody.parsing import (
 from pydrake.multibody.tree import (
     BodyIndex,
     FrameIndex,
+    JacobianWrtVariable,
     ModelInstanceIndex,
 )
 
@@ -506,6 +508,35 @@ def body_problem(plant: MultibodyPlant, name: str) -> str | None:
         return f"{count} bodies are named '{name}': GetBodyByName needs a unique name"
     names = sorted({b.name() for b in bodies if b.name() != "world"})
     return f"no body '{name}' (the scenario's bodies: {', '.join(names)})"
+
+
+def translation_axes(plant: MultibodyPlant, name: str) -> list[int]:
+    """The world axes (0 x, 1 y, 2 z) along which the plant's joints can move the origin of
+    the body `name`: the nonzero rows of its translational Jacobian at the default state.
+
+    Parameters
+    ----------
+    plant : MultibodyPlant
+        Finalized.
+    name : str
+        A body's unique name (`body_problem` says None).
+
+    Returns
+    -------
+    list of int
+    """
+    context = plant.CreateDefaultContext()
+    frame, world = plant.GetBodyByName(name).body_frame(), plant.world_frame()
+    origin = np.zeros(3)
+    jacobian = plant.CalcJacobianTranslationalVelocity(
+        context,
+        JacobianWrtVariable.kV,
+        frame,
+        origin,  # type: ignore[arg-type]  # pydrake's stub wants a 2-D array type
+        world,
+        world,
+    )
+    return [axis for axis in range(3) if np.any(np.abs(jacobian[axis]) > 1e-12)]
 
 
 def tool_mount(directives: Sequence[ModelDirective], arm: str) -> str | None:

@@ -20,7 +20,7 @@ from pydrake.multibody.parsing import ModelDirective
 from pydrake.multibody.plant import MultibodyPlant, MultibodyPlantConfig
 from pydrake.systems.analysis import SimulatorConfig
 
-from hlcmp_drake.config.models import body_problem, frame_problem
+from hlcmp_drake.config.models import body_problem, frame_problem, translation_axes
 from hlcmp_drake.core.dmp import DmpSettings
 
 # fail(key, problem): raises the InputError that names where `key` -- a dotted path such as
@@ -563,7 +563,8 @@ class SliderTask:
             )
 
     def check_models(self, plant: MultibodyPlant, fail: Fail) -> None:
-        """The body the joint moves is one of the models'.
+        """The body the joint moves is one of the models', and the joints move it along
+        `axis`.
 
         Parameters
         ----------
@@ -575,6 +576,14 @@ class SliderTask:
         problem = body_problem(plant, self.body)
         if problem:
             fail("task.body", problem)
+        moving = translation_axes(plant, self.body)
+        if self.axis not in moving:
+            names = " or ".join(f"{'xyz'[axis]} ({axis})" for axis in moving) or "no axis"
+            fail(
+                "task.axis",
+                f"the joints move '{self.body}' along {names}, not along "
+                f"{'xyz'[self.axis]} ({self.axis})",
+            )
 
 
 @dc.dataclass
