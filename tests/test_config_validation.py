@@ -221,8 +221,15 @@ def test_a_directives_line_is_its_items_in_the_list():
     [
         (
             ["controllers.vic_fd_0.5.sample_period_s=0.002"],
-            "sample_period_s: the slider's fast path updates Φ once per plant step: it must "
-            "equal plant_config.time_step (0.001 s), got 0.002, or task.control_path: modular",
+            "sample_period_s: the slider's fast path updates Φ once per plant step: "
+            "vic_fd_0.5's must equal plant_config.time_step (0.001 s) (or task.control_path: "
+            "modular), got 0.002",
+        ),
+        (  # the controller named, its value's line last: not read as control_path's line
+            ["plant_config.time_step=0.1"],
+            "sample_period_s: the slider's fast path updates Φ once per plant step: vic_fd_0.5's "
+            "must equal plant_config.time_step (0.1 s) (or task.control_path: modular), got "
+            "0.001 (as ",
         ),
         (["task.control_path=fastest"], "control_path: must be one of fast, modular"),
     ],

@@ -99,7 +99,11 @@ def test_a_scenario_without_a_probe_is_one_clear_line(capsys):
     "speed, expected",
     [
         ("30", "--speed: must be at most 0.5 m/s, got 30: the 50 mm push needs 100 or more"),
-        ("1e-9", "--speed: must be at least 0.0001 m/s, got 1e-09: the 100 mm path would take"),
+        (
+            "1e-9",
+            "--speed: must be at least 0.0001 m/s, got 1e-09: the 100 mm path (approach_m's 0 "
+            "mm, then push_m's 50 mm in and out) would take",
+        ),
     ],
 )
 def test_a_probe_too_fast_to_resolve_its_push_or_too_slow_to_end_is_refused(
@@ -111,6 +115,10 @@ def test_a_probe_too_fast_to_resolve_its_push_or_too_slow_to_end_is_refused(
     over = "probe.speed_m_per_s=0.6"
     assert main(["probe", "insertion", "--out", str(tmp_path), "--set", over]) == 2
     assert "insertion: probe.speed_m_per_s: must be at most 0.5" in capsys.readouterr().err
+    # a push typed in mm: the path's parts are named, not the speed alone
+    pushed = ["probe", "insertion", "--out", str(tmp_path), "--set", "probe.push_m=[0,0,-50]"]
+    assert main(pushed) == 2
+    assert "(approach_m's 0 mm, then push_m's 50000 mm in and out)" in capsys.readouterr().err
     # a run, which moves no carriage, takes a time step at which the probe could not run
     load_scenario("insertion", ["plant_config.time_step=0.02"])
 

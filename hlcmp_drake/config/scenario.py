@@ -551,9 +551,9 @@ class SliderTask:
                 if not math.isclose(period, step, rel_tol=1e-12):
                     fail(
                         f"controllers.{name}.sample_period_s",
-                        f"the slider's fast path updates Φ once per plant step: it must "
-                        f"equal plant_config.time_step ({step:g} s), got {period:g}, or "
-                        "task.control_path: modular",
+                        f"the slider's fast path updates Φ once per plant step: {name}'s "
+                        f"must equal plant_config.time_step ({step:g} s) (or "
+                        f"task.control_path: modular), got {period:g}",
                     )
         if any(len(row) != 1 for row in scenario.reference.positions_m):
             fail(
@@ -1067,7 +1067,8 @@ class ProbeConfig:
         if speed < slowest:
             return (
                 f"must be at least {slowest:.3g} m/s, got {speed:g}: the {1000 * path:g} mm "
-                f"path would take more than {PROBE_PATH_STEPS:.0e} plant steps"
+                f"path (approach_m's {1000 * approach:g} mm, then push_m's {1000 * push:g} mm "
+                f"in and out) would take more than {PROBE_PATH_STEPS:.0e} plant steps"
             )
         return None
 
