@@ -220,7 +220,10 @@ BREAKS = [
     # a robot that is not its model
     # a fraction of the mass: -1 leaves none, 3 is 3 % typed as a percentage
     ("robot_imperfection.*_mass_error", lambda v, s: [NAN, -1.0, 3.0]),
-    ("robot_imperfection.tool_com_error_m", lambda v, s: [[0.0, 0.0], _with_nan(v)]),
+    (
+        "robot_imperfection.tool_com_error_m",
+        lambda v, s: [[0.0, 0.0], _with_nan(v), [5.0, 0.0, -5.0]],  # the last in mm
+    ),
     (
         "robot_imperfection.*_friction_*",  # one per joint of the plant (7 or 1), >= 0
         lambda v, s: [[0.1] * 3, [NAN] * 7, [-1.0] * 7],

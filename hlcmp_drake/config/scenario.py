@@ -1314,6 +1314,10 @@ class IiwaDriverConfig:
 # tool_mass_error), either way: a model of this arm is a few percent off, and a value of 1
 # or more is most likely a percentage typed where the fraction goes.
 MAX_MASS_ERROR = 0.5
+# The largest error of the model's tool centre of mass along each axis [m]: a tool's is
+# known to millimetres (`real_arm`: 5 mm), and 0.1 m or more is most likely millimetres
+# typed where metres go.
+MAX_COM_ERROR_M = 0.1
 
 
 @dc.dataclass
@@ -1361,7 +1365,8 @@ class RobotImperfection:
         Default 0.
     tool_com_error_m : list of float
         Where the controller's model puts the tool's centre of mass, minus where it is,
-        in the tool body's frame (3 finite values) [m]. Default zeros.
+        in the tool body's frame (3 finite values, each from -0.1 to 0.1 m:
+        `MAX_COM_ERROR_M`) [m]. Default zeros.
     viscous_friction_Nms_per_rad : list of float
         F_v per arm joint [N m s/rad], finite and >= 0; empty (the default) or one per
         joint of the plant.
@@ -1441,6 +1446,12 @@ class RobotImperfection:
                     f"{MAX_MASS_ERROR:g} (0.03 for 3 %), got {value:g}",
                 )
         check_vector(self.tool_com_error_m, key + "tool_com_error_m", fail, (3,), " (x, y, z) [m]")
+        if any(abs(value) > MAX_COM_ERROR_M for value in self.tool_com_error_m):
+            fail(
+                key + "tool_com_error_m",
+                f"each value must be from -{MAX_COM_ERROR_M:g} to {MAX_COM_ERROR_M:g} m "
+                f"(0.005 for 5 mm), got {self.tool_com_error_m}",
+            )
         for name in ("viscous_friction_Nms_per_rad", "coulomb_friction_Nm"):
             for value in getattr(self, name):
                 check_number(value, key + name, fail, ">= 0")
