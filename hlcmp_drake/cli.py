@@ -95,11 +95,14 @@ class _Typed(float):
 
     text: str
 
+    def __new__(cls, value: float, text: str) -> "_Typed":
+        typed = super().__new__(cls, value)
+        typed.text = text
+        return typed
+
 
 def _positive_as_typed(text):
-    value = _Typed(_positive(text))
-    value.text = text
-    return value
+    return _Typed(_positive(text), text)
 
 
 def _non_negative(text):
@@ -769,7 +772,13 @@ def cmd_sim_driver(args):
         print(f"hlcmp sim-driver: aborted: {error}", file=sys.stderr)
         return EXIT_DRIVER_ABORT
     print(_driver_summary(summary, args))
-    if summary.interrupted:  # it writes no file: its summary says what it simulated
+    return _driver_status(summary)
+
+
+def _driver_status(summary):
+    """sim-driver's exit status after its summary: interrupted (one line on stderr; it
+    writes no file, so its summary says what it simulated) or 0."""
+    if summary.interrupted:
         print(f"hlcmp sim-driver: interrupted: {summary.stopped_because}", file=sys.stderr)
         return EXIT_INTERRUPTED
     return 0
@@ -822,10 +831,7 @@ def _drake_driver(args):
         f"{summary.commands} commands, {summary.sim_time_s:.3f} s simulated in "
         f"{summary.wall_s:.1f} s; {summary.stopped_because}"
     )
-    if summary.interrupted:
-        print(f"hlcmp sim-driver: interrupted: {summary.stopped_because}", file=sys.stderr)
-        return EXIT_INTERRUPTED
-    return 0
+    return _driver_status(summary)
 
 
 def cmd_library(args):
@@ -903,8 +909,7 @@ def _query(items):
             value = math.nan
         if not math.isfinite(value):
             raise InputError(f"--query {key}={text}: expected one finite number")
-        query[key] = _Typed(value)
-        query[key].text = text
+        query[key] = _Typed(value, text)
     return query
 
 

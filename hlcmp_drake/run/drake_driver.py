@@ -250,8 +250,7 @@ class DrakeDrivenWorld:
                 now = simulator.get_context().get_time()
                 if stop.received:
                     interrupted = True
-                    before = "" if self.commands else ", before any command"
-                    stopped = f"{stop.by} at t = {now:.3f} s{before}"
+                    stopped = stop.stopped_at(now, bool(self.commands))
                     break
                 if duration is not None and now >= duration - 1e-9:
                     stopped = f"reached --duration {duration:g} s"

@@ -37,6 +37,24 @@ class StopSignals:
         """Whether a signal asked to stop."""
         return self.by is not None
 
+    def stopped_at(self, time_s: float, commanded: bool) -> str:
+        """A driver's reason for stopping, e.g. "Ctrl-C at t = 4.277 s" (", before any
+        command" where no command had come).
+
+        Parameters
+        ----------
+        time_s : float
+            The simulated time it stopped at [s].
+        commanded : bool
+            Whether a command had come.
+
+        Returns
+        -------
+        str
+        """
+        before = "" if commanded else ", before any command"
+        return f"{self.by} at t = {time_s:.3f} s{before}"
+
     def __enter__(self) -> StopSignals:
         if threading.current_thread() is threading.main_thread():
             for number in STOP_SIGNALS:

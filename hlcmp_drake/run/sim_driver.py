@@ -427,8 +427,7 @@ def drive(
         )
     interrupted = stopped is None
     if stopped is None:
-        before = "" if driver.command is not None else ", before any command"
-        stopped = f"{stop.by} at t = {driver.time:.3f} s{before}"
+        stopped = stop.stopped_at(driver.time, driver.command is not None)
     return DriverSummary(
         steps,
         commanded,
